@@ -1,0 +1,162 @@
+"""Factor families of the belief graph, as named tables over discrete variables.
+
+Variables are named, never bare ints: ``L[mug]`` is the site where the mug stood when the episode
+began (cardinality K = number of sites); ``kettle.contains_water`` is a Bernoulli task state
+(index 0 = false, 1 = true). A :class:`Factor` is a non-negative table whose axes follow its
+variable tuple (C order, first variable most significant — gtsam's convention too).
+
+Constructors, with the blueprint equations they realise:
+
+- :func:`location_prior` — q0(L_o = i) ∝ max(a_ic, eps)                                     [2]
+- :func:`miss_factor` — P(not seen at j | L_o = i) = mu if i = j else 1                    [5, 6]
+- :func:`detection_factor` — P(seen at j | L_o = i) = 1 - mu if i = j else fp
+- :func:`collapse_factor` — soft evidence whose posterior marginal is eq. [4] exactly
+- :func:`state_prior`, :func:`state_observation` — Bernoulli prior, noisy sensor          [23, 24]
+- :func:`effect_factor` — one effect of P(z' | z, a), or the direct form q'(z) = rho  [27; 25, 26]
+- :func:`capacity_factor`, :func:`pair_factor` — relational factors of joint models
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class Factor:
+    """A non-negative table over named discrete variables.
+
+    Args:
+        variables: variable names, one per axis of `table`.
+        table: array of shape (card(v) for v in variables), values >= 0.
+        label: what the factor represents, for logs and inspection.
+    """
+
+    variables: tuple[str, ...]
+    table: np.ndarray
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        if self.table.ndim != len(self.variables):
+            raise ValueError(f"factor {self.label!r}: table has {self.table.ndim} axes for "
+                             f"{len(self.variables)} variables")
+        if len(set(self.variables)) != len(self.variables):
+            raise ValueError(f"factor {self.label!r}: repeated variable in {self.variables}")
+        if not np.all(np.isfinite(self.table)) or np.any(self.table < 0):
+            raise ValueError(f"factor {self.label!r}: table must be finite and non-negative")
+
+
+def location_var(obj: str) -> str:
+    """The name of object `obj`'s location variable."""
+    return f"L[{obj}]"
+
+
+def location_prior(obj: str, weights: np.ndarray, floor: float) -> Factor:
+    """Eq. 2: q0(L_o = i) = max(a_i, eps) / sum_k max(a_k, eps)."""
+    table = np.maximum(np.asarray(weights, dtype=float), floor)
+    return Factor((location_var(obj),), table / table.sum(), f"prior {location_var(obj)}")
+
+
+def miss_factor(obj: str, site_index: int, n_sites: int, mu: float) -> Factor:
+    """Eq. 5: the likelihood of 'looked at site j and did not see o'."""
+    table = np.ones(n_sites)
+    table[site_index] = mu
+    return Factor((location_var(obj),), table, f"miss {location_var(obj)}@{site_index}")
+
+
+def detection_factor(obj: str, site_index: int, n_sites: int, mu: float, fp: float) -> Factor:
+    """The likelihood of 'seen at site j': 1 - mu at j, false-positive rate fp elsewhere."""
+    table = np.full(n_sites, fp)
+    table[site_index] = 1.0 - mu
+    return Factor((location_var(obj),), table, f"detect {location_var(obj)}@{site_index}")
+
+
+def collapse_target(site_index: int, n_sites: int, floor: float) -> np.ndarray:
+    """Eq. 4: q+(L_o = i) ∝ 1 if i = j else eps."""
+    target = np.full(n_sites, floor)
+    target[site_index] = 1.0
+    return target / target.sum()
+
+
+def collapse_factor(obj: str, site_index: int, current: np.ndarray, floor: float) -> Factor:
+    """Soft evidence that sets q(L_o) to eq. 4 exactly (Jeffrey's rule as a factor).
+
+    Multiplying the graph by lambda(i) = t(i) / q(L_o = i) makes the posterior marginal of L_o
+    equal t (the blueprint's collapse) and moves every correlated variable by P(x | L_o = i)
+    weighted with t — the exact joint counterpart of eq. 4.
+    """
+    current = np.asarray(current, dtype=float)
+    target = collapse_target(site_index, len(current), floor)
+    if np.any(current <= 0):
+        raise ValueError("collapse needs a strictly positive current marginal")
+    return Factor((location_var(obj),), target / current, f"collapse {location_var(obj)}@{site_index}")
+
+
+def state_prior(state: str, p_true: float) -> Factor:
+    """Bernoulli prior q(z = 1) = p (eq. 21)."""
+    return Factor((state,), np.array([1.0 - p_true, p_true]), f"prior {state}")
+
+
+def state_observation(state: str, value: bool, sensitivity: float, specificity: float) -> Factor:
+    """Eqs. 23-24: P(o | z) with sensitivity alpha = P(o=1|z=1), specificity beta = P(o=0|z=0)."""
+    if value:
+        table = np.array([1.0 - specificity, sensitivity])
+    else:
+        table = np.array([specificity, 1.0 - sensitivity])
+    return Factor((state,), table, f"observe {state}={int(value)}")
+
+
+def effect_factor(target_new: str, target_old: str, requires_old: tuple[str, ...], value: bool,
+                  success: float, direct: bool) -> Factor:
+    """One effect of an action as a conditional table P(z'_t | z_t, requires).
+
+    Full form (eq. 27): if every required state holds, z'_t = value with probability `success`
+    and keeps its previous value otherwise; if a requirement fails, z'_t = z_t.
+    Direct form (eqs. 25-26): q'(z_t = value) = success whatever the previous state.
+    """
+    v = int(value)
+    if direct:
+        table = np.empty(2)
+        table[v], table[1 - v] = success, 1.0 - success
+        return Factor((target_new,), table, f"effect {target_new} (direct)")
+    parents = (target_old,) + tuple(r for r in requires_old if r != target_old)
+    table = np.zeros((2,) * len(parents) + (2,))
+    for assignment in itertools.product((0, 1), repeat=len(parents)):
+        old = assignment[0]
+        if all(assignment[1:]) and (target_old not in requires_old or old == 1):
+            table[assignment + (v,)] += success
+            table[assignment + (old,)] += 1.0 - success
+        else:
+            table[assignment + (old,)] = 1.0
+    return Factor(parents + (target_new,), table, f"effect {target_new}")
+
+
+def pair_factor(obj_a: str, obj_b: str, same_site: float, same_room: float,
+                rooms: list[str], label: str) -> Factor:
+    """psi(L_a, L_b): x`same_site` on one site, x`same_room` on two sites of one room, else 1."""
+    k = len(rooms)
+    room = np.array([[rooms[i] == rooms[j] for j in range(k)] for i in range(k)])
+    table = np.where(room, same_room, 1.0)
+    np.fill_diagonal(table, same_site)
+    return Factor((location_var(obj_a), location_var(obj_b)), table, label)
+
+
+def capacity_factor(objects: list[str], capacities: list[int | None], penalty: float) -> Factor | None:
+    """Site capacity: each object beyond a site's capacity multiplies by `penalty`.
+
+    A factor over every location variable (one table of K^N entries); None when no site has a
+    capacity that N objects could exceed.
+    """
+    n, k = len(objects), len(capacities)
+    limited = [(j, c) for j, c in enumerate(capacities) if c is not None and c < n]
+    if not limited:
+        return None
+    grids = np.indices((k,) * n).reshape(n, -1)
+    log_table = np.zeros(grids.shape[1])
+    for j, c in limited:
+        excess = np.maximum((grids == j).sum(axis=0) - c, 0)
+        log_table += excess * np.log(penalty) if penalty > 0 else np.where(excess > 0, -np.inf, 0)
+    table = np.exp(log_table).reshape((k,) * n)
+    return Factor(tuple(location_var(o) for o in objects), table, "capacity")

@@ -1,0 +1,542 @@
+"""Hidden truth: which tea states really hold, where each object really is, and how actions change them.
+
+This module answers *what is actually the case* behind the agent's beliefs (blueprint section 7.4,
+section 10). It holds the simulator-side counterpart of the Bernoulli task states of eq. (21)
+(``kettle.contains_water`` ...), the object relations of section 10.1 (site, held, contained in),
+the deterministic truth effects of section 10.2 (fill, boil, pour, steep, serve), and the noisy
+binary sensor of eqs. (23, 24) from which the agent's state observations are drawn:
+
+    P(o = 1 | z = 1) = alpha (sensitivity),    P(o = 0 | z = 0) = beta (specificity).
+
+It also holds :class:`TruthBackedAdapter`, the verb semantics shared by every environment adapter
+(which action needs what, which failure reason it reports, the seeded failure injection), so the
+PyBullet house and the fake house behave identically at the interface and differ only in geometry
+and perception. Nothing here imports a simulator.
+
+Truth is environment-only: agent-side code must never read a :class:`TeaTruth`.
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from fg_tea.env.base import (ActionRequest, ActionResult, EnvAdapter, EnvConfig, InspectionResult,
+                             Pose, StateReading)
+from fg_tea.scenario import ObjectSpec, Scenario
+
+EFFECTS = ("fill", "boil", "pour", "steep", "serve")
+
+#: Truth effect a verb applies when the request names none.
+DEFAULT_EFFECT = {"FILL": "fill", "POUR": "pour"}
+
+#: Horizontal reach (m) of the kinematic gripper: an object closer than this to the agent can be
+#: used, filled or poured into without moving. Vantage points stand 1.0-1.3 m from their surface.
+REACH_M = 1.6
+
+#: Lateral spacing (m) of the deterministic slots on a surface, perpendicular to the view direction.
+SLOT_SPACING_M = 0.16
+
+#: Edge margin (m) kept between a slot and the edge of its furniture top.
+SLOT_MARGIN_M = 0.06
+
+#: Where a held object rides, in the agent frame: metres forward and metres below the body centre.
+#: Low enough to stay below the egocentric camera's field of view.
+HELD_FORWARD_M = 0.16
+HELD_BELOW_M = 0.46
+
+
+class TeaTruth:
+    """The true hidden task states and object relations of one episode.
+
+    Args:
+        objects: the scenario's object specs. Each ``hidden_state_truth`` entry becomes the state
+            ``"<object>.<state>"``; a state no spec mentions reads False until an effect sets it.
+    """
+
+    def __init__(self, objects: Iterable[ObjectSpec]) -> None:
+        specs = tuple(objects)
+        self.states: dict[str, bool] = {}
+        for spec in specs:
+            for key, value in spec.hidden_state_truth.items():
+                self.states[f"{spec.name}.{key}"] = bool(value)
+        self.site_of: dict[str, str | None] = {spec.name: spec.true_site for spec in specs}
+        self.held: str | None = None
+        self.contained_in: dict[str, str] = {}
+
+    # --- hidden states -------------------------------------------------------------------
+
+    def get(self, obj: str, state: str) -> bool:
+        """True value of ``obj.state``; states never set read False (objects can gain states)."""
+        return self.states.get(f"{obj}.{state}", False)
+
+    def set(self, obj: str, state: str, value: bool) -> None:
+        """Set ``obj.state``, creating the state if the object did not have it yet."""
+        self.states[f"{obj}.{state}"] = bool(value)
+
+    def apply_effect(self, effect: str, obj: str, destination: str | None = None,
+                     rng: np.random.Generator | None = None) -> None:
+        """Apply a deterministic truth effect (blueprint section 10.2).
+
+        Args:
+            effect: one of ``fill`` (obj gains water), ``boil`` (obj's water becomes hot if it has
+                water), ``pour`` (obj's water, hot or not, moves into `destination`; obj is left
+                empty and cold), ``steep`` (obj = teabag, destination = mug: the mug's tea brews
+                iff the mug holds hot water; the teabag is steeped iff the mug holds water) and
+                ``serve`` (obj is served).
+            obj: the acted-on object.
+            destination: the receiving object for ``pour`` and ``steep``. For ``steep`` it may be
+                omitted when the teabag is contained in the mug (or obj is the mug holding it).
+            rng: accepted for adapters whose effects are stochastic; the effects here are
+                deterministic, and action failure is injected by the adapter, so it is not drawn.
+
+        Raises:
+            ValueError: unknown effect, or a ``pour`` without a destination (caller errors).
+        """
+        del rng  # deterministic effects; see Args
+        if effect == "fill":
+            self.set(obj, "contains_water", True)
+        elif effect == "boil":
+            self.set(obj, "water_hot", self.get(obj, "contains_water"))
+        elif effect == "pour":
+            if destination is None:
+                raise ValueError("the pour effect needs a destination object")
+            if self.get(obj, "contains_water"):
+                self.set(destination, "contains_water", True)
+                self.set(destination, "water_hot", self.get(obj, "water_hot"))
+            self.set(obj, "contains_water", False)
+            self.set(obj, "water_hot", False)
+        elif effect == "steep":
+            bag, cup = self._steep_pair(obj, destination)
+            self.set(cup, "tea_brewed", self.get(cup, "contains_water") and self.get(cup, "water_hot"))
+            if bag is not None:
+                self.set(bag, "steeped", self.get(cup, "contains_water"))
+        elif effect == "serve":
+            self.set(obj, "served", True)
+        else:
+            raise ValueError(f"unknown truth effect {effect!r} (known: {', '.join(EFFECTS)})")
+
+    def _steep_pair(self, obj: str, destination: str | None) -> tuple[str | None, str]:
+        if destination is not None:
+            return obj, destination
+        if obj in self.contained_in:
+            return obj, self.contained_in[obj]
+        inside = sorted(o for o, c in self.contained_in.items() if c == obj)
+        return (inside[0] if inside else None), obj
+
+    def read_state(self, name: str, sensitivity: float, specificity: float,
+                   rng: np.random.Generator) -> bool:
+        """Draw a noisy binary reading of hidden state `name` [23, 24].
+
+        Args:
+            name: ``"<object>.<state>"``.
+            sensitivity: alpha = P(reading True | state True), in [0, 1].
+            specificity: beta = P(reading False | state False), in [0, 1].
+            rng: the episode's generator; exactly one uniform draw per reading.
+
+        Returns:
+            The reading.
+        """
+        if not (0.0 <= sensitivity <= 1.0 and 0.0 <= specificity <= 1.0):
+            raise ValueError(f"sensitivity and specificity must lie in [0, 1], got "
+                             f"{sensitivity}, {specificity}")
+        u = float(rng.random())
+        if self.states.get(name, False):
+            return u < sensitivity
+        return u >= specificity
+
+    # --- relations (section 10.1) --------------------------------------------------------
+
+    def contents_of(self, container: str) -> list[str]:
+        """Objects directly contained in `container`, sorted by name."""
+        return sorted(o for o, c in self.contained_in.items() if c == container)
+
+    def pick(self, obj: str) -> None:
+        """`obj` is now held; it leaves its site and any container; its contents travel with it."""
+        self.held = obj
+        self.contained_in.pop(obj, None)
+        self._move_with_contents(obj, None)
+
+    def place(self, obj: str, site: str) -> None:
+        """The held `obj` now stands on `site`."""
+        if self.held == obj:
+            self.held = None
+        self._move_with_contents(obj, site)
+
+    def insert(self, obj: str, container: str) -> None:
+        """The held `obj` is now inside `container` and shares its site."""
+        if self.held == obj:
+            self.held = None
+        self.contained_in[obj] = container
+        self._move_with_contents(obj, self.site_of.get(container))
+
+    def _move_with_contents(self, obj: str, site: str | None) -> None:
+        self.site_of[obj] = site
+        for inner in self.contents_of(obj):
+            self._move_with_contents(inner, site)
+
+
+class TruthBackedAdapter(EnvAdapter):
+    """Verb semantics shared by every adapter: truth, relations, failures, reasons.
+
+    A subclass supplies geometry and perception through five hooks: :meth:`_build` (reset the
+    world), :meth:`_travel_to` (move to a floor point, returning the frames), :meth:`_distance`
+    (travel distance for the planner), :meth:`_pixel_counts` (segmentation pixels per object,
+    eq. 28) and :meth:`_sync` (mirror object positions into the simulator after they change).
+
+    Failure reasons (``ActionResult.reason``): ``injected_failure`` (seeded fault injection,
+    ``config.failure_rates[verb]``), ``unreachable``, ``object_not_at_site``, ``not_graspable``,
+    ``hands_full``, ``not_held``, ``not_a_container``, ``destination_not_at_site``,
+    ``destination_out_of_reach``, ``object_out_of_reach``, ``site_full``. A failed action has no
+    truth effect. A malformed request (unknown verb, object, site or effect, or a missing field the
+    verb needs) raises ``ValueError``: that is a caller bug, not a world event.
+
+    Randomness: one ``numpy.random.Generator`` seeded in :meth:`reset`; a state reading draws once,
+    and an action draws once for fault injection only when its verb has a non-zero failure rate.
+    """
+
+    def __init__(self, scenario: Scenario, config: EnvConfig = EnvConfig()) -> None:
+        if config.distance not in ("geodesic", "euclidean"):
+            raise ValueError(f"EnvConfig.distance must be 'geodesic' or 'euclidean', got {config.distance!r}")
+        self.scenario = scenario
+        self.config = config
+        self._specs = {spec.name: spec for spec in scenario.objects}
+        self._rng: np.random.Generator | None = None
+        self._truth: TeaTruth | None = None
+        self._pose: Pose | None = None
+        self._positions: dict[str, tuple[float, float, float]] = {}
+
+    # --- hooks -----------------------------------------------------------------------------
+
+    @abc.abstractmethod
+    def _build(self) -> None:
+        """Rebuild the world for a new episode (called by reset after truth and RNG exist)."""
+
+    @abc.abstractmethod
+    def _travel_to(self, goal: tuple[float, float]) -> tuple[list[Pose], bool]:
+        """Move the agent to floor point `goal`; return its per-frame poses and whether it arrived."""
+
+    @abc.abstractmethod
+    def _distance(self, goal_site: int) -> float:
+        """Planner travel distance (m) from the agent to site `goal_site`'s vantage; inf if none."""
+
+    @abc.abstractmethod
+    def _pixel_counts(self, objects: Sequence[str]) -> dict[str, int]:
+        """Segmentation pixels n_o of each object in the egocentric view from the current pose."""
+
+    def _sync(self) -> None:
+        """Mirror `_positions` and the agent pose into the simulator (no-op without one)."""
+
+    # --- EnvAdapter ------------------------------------------------------------------------
+
+    def reset(self, seed: int) -> Pose:
+        self._rng = np.random.default_rng(seed)
+        self._truth = TeaTruth(self.scenario.objects)
+        self._pose = Pose(float(self.scenario.start_position[0]), float(self.scenario.start_position[1]),
+                          float(self.scenario.start_yaw_deg))
+        self._build()
+        self._positions = {}
+        by_site: dict[str, list[str]] = {}
+        for spec in self.scenario.objects:
+            by_site.setdefault(spec.true_site, []).append(spec.name)
+        for site, names in by_site.items():
+            for slot, name in enumerate(names):
+                self._positions[name] = self._slot_position(site, slot)
+        self._sync()
+        return self._pose
+
+    def agent_pose(self) -> Pose:
+        self._require_reset()
+        return self._pose
+
+    def distance_to_site(self, site: str) -> float:
+        self._require_reset()
+        k = self._site_index(site)
+        if self.config.distance == "euclidean":
+            vx, vy = self.scenario.sites[k].vantage
+            return math.hypot(vx - self._pose.x, vy - self._pose.y)
+        return self._distance(k)
+
+    def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
+        self._require_reset()
+        k = self._site_index(site)
+        considered = tuple(dict.fromkeys(objects))
+        for name in considered:
+            self._spec(name)
+        size = (self.config.ego_width, self.config.ego_height)
+        frames, arrived = self._go_to_site(k)
+        if not arrived:
+            return InspectionResult(site, {}, {}, reachable=False, distance=_travelled(frames),
+                                    frames=len(frames), motion=_motion(frames), image_size=size)
+        frames += self._face(self.scenario.sites[k].position)
+        counts = self._pixel_counts(considered)
+        detections = {name: bool(counts[name] >= self.config.min_visible_pixels
+                                 and self._associated(name, k)) for name in considered}
+        return InspectionResult(site, detections, {n: int(counts[n]) for n in considered},
+                                reachable=True, distance=_travelled(frames), frames=len(frames),
+                                motion=_motion(frames), image_size=size)
+
+    def observe_state(self, obj: str, state: str, site: str | None,
+                      sensitivity: float, specificity: float) -> StateReading:
+        self._require_reset()
+        self._spec(obj)
+        name = state if state.startswith(f"{obj}.") else f"{obj}.{state}"
+        frames: list[Pose] = []
+        if site is not None:
+            k = self._site_index(site)
+            frames, arrived = self._go_to_site(k)
+            if not arrived:
+                raise RuntimeError(f"site {site!r} became unreachable after the load-time check")
+            frames += self._face(self.scenario.sites[k].position)
+        value = self._truth.read_state(name, sensitivity, specificity, self._rng)
+        return StateReading(name, value, sensitivity, specificity, distance=_travelled(frames),
+                            frames=len(frames), motion=_motion(frames))
+
+    def execute(self, request: ActionRequest) -> ActionResult:
+        self._require_reset()
+        verb = request.verb.upper()
+        handler = {"NAVIGATE": self._navigate, "PICK": self._pick, "PLACE": self._place,
+                   "INSERT": self._insert, "FILL": self._effect_action, "USE": self._effect_action,
+                   "POUR": self._pour, "WAIT": self._wait}.get(verb)
+        if handler is None:
+            raise ValueError(f"verb {request.verb!r} is not an executable action here "
+                             "(SEARCH and INSPECT go through inspect_site and observe_state)")
+        self._spec(request.object)
+        if request.site is not None:
+            self._site_index(request.site)
+        if request.destination is not None:
+            self._spec(request.destination)
+        effect = request.effect if request.effect is not None else DEFAULT_EFFECT.get(verb)
+        if effect is not None and effect not in EFFECTS:
+            raise ValueError(f"unknown truth effect {effect!r} (known: {', '.join(EFFECTS)})")
+        rate = float(self.config.failure_rates.get(verb, 0.0))
+        if rate > 0.0 and float(self._rng.random()) < rate:
+            return self._result(False, "injected_failure", [])
+        return handler(request, effect)
+
+    def placements(self) -> Mapping[str, tuple[float, float, float]]:
+        self._require_reset()
+        return {name: tuple(round(c, 4) for c in xyz) for name, xyz in sorted(self._positions.items())}
+
+    # --- verbs -----------------------------------------------------------------------------
+
+    def _navigate(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        frames, arrived = self._go_to_site(self._needs_site(request))
+        if not arrived:
+            return self._result(False, "unreachable", frames)
+        return self._finish(effect, request, frames)
+
+    def _pick(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        k = self._needs_site(request)
+        site = self.scenario.sites[k]
+        if "graspable" not in self._spec(request.object).affordances:
+            return self._result(False, "not_graspable", [])
+        if self._truth.held is not None:
+            return self._result(False, "hands_full", [])
+        frames, arrived = self._go_to_site(k)
+        if not arrived:
+            return self._result(False, "unreachable", frames)
+        frames += self._face(site.position)
+        if self._truth.site_of.get(request.object) != site.name:
+            return self._result(False, "object_not_at_site", frames)
+        self._truth.pick(request.object)
+        self._carry()
+        return self._finish(effect, request, frames)
+
+    def _place(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        k = self._needs_site(request)
+        site = self.scenario.sites[k]
+        if self._truth.held != request.object:
+            return self._result(False, "not_held", [])
+        frames, arrived = self._go_to_site(k)
+        if not arrived:
+            return self._result(False, "unreachable", frames)
+        frames += self._face(site.position)
+        occupants = self._occupants(site.name)
+        if site.capacity is not None and len(occupants) >= site.capacity:
+            return self._result(False, "site_full", frames)
+        taken = {self._positions[o][:2] for o in occupants}
+        slot = 0
+        while self._slot_position(site.name, slot)[:2] in taken:
+            slot += 1
+        self._truth.place(request.object, site.name)
+        self._positions[request.object] = self._slot_position(site.name, slot)
+        self._carry()
+        return self._finish(effect, request, frames)
+
+    def _insert(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        dest = request.destination
+        if dest is None:
+            raise ValueError("INSERT needs a destination object")
+        if self._truth.held != request.object:
+            return self._result(False, "not_held", [])
+        if "container" not in self._spec(dest).affordances:
+            return self._result(False, "not_a_container", [])
+        frames, ok, reason = self._approach(request.site, dest, "destination")
+        if not ok:
+            return self._result(False, reason, frames)
+        self._truth.insert(request.object, dest)
+        self._positions[request.object] = self._inside_position(request.object, dest)
+        self._carry()
+        return self._finish(effect, request, frames)
+
+    def _pour(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        dest = request.destination
+        if dest is None:
+            raise ValueError("POUR needs a destination object")
+        if self._truth.held != request.object:
+            return self._result(False, "not_held", [])
+        if "container" not in self._spec(dest).affordances:
+            return self._result(False, "not_a_container", [])
+        frames, ok, reason = self._approach(request.site, dest, "destination")
+        if not ok:
+            return self._result(False, reason, frames)
+        return self._finish(effect, request, frames)
+
+    def _effect_action(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        frames, ok, reason = self._approach(request.site, request.object, "object")
+        if not ok:
+            return self._result(False, reason, frames)
+        return self._finish(effect, request, frames)
+
+    def _wait(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        return self._finish(effect, request, [])
+
+    # --- helpers ---------------------------------------------------------------------------
+
+    def _approach(self, site: str | None, obj: str, role: str) -> tuple[list[Pose], bool, str]:
+        """Go to `site` if given, then check `obj` is held, at that site, or within reach."""
+        frames: list[Pose] = []
+        if self._truth.held == obj:
+            return frames, True, ""
+        if site is not None:
+            k = self._site_index(site)
+            frames, arrived = self._go_to_site(k)
+            if not arrived:
+                return frames, False, "unreachable"
+            frames += self._face(self.scenario.sites[k].position)
+            if self._truth.site_of.get(obj) != site:
+                return frames, False, f"{role}_not_at_site"
+            return frames, True, ""
+        x, y, _ = self._positions[obj]
+        if math.hypot(x - self._pose.x, y - self._pose.y) > REACH_M:
+            return frames, False, f"{role}_out_of_reach"
+        return frames, True, ""
+
+    def _finish(self, effect: str | None, request: ActionRequest, frames: list[Pose]) -> ActionResult:
+        if effect is not None:
+            self._truth.apply_effect(effect, request.object, request.destination, self._rng)
+        return self._result(True, "", frames)
+
+    def _result(self, ok: bool, reason: str, frames: list[Pose]) -> ActionResult:
+        self._sync()
+        return ActionResult(ok, reason, distance=_travelled(frames), frames=len(frames),
+                            motion=_motion(frames), placements=self.placements())
+
+    def _go_to_site(self, k: int) -> tuple[list[Pose], bool]:
+        vx, vy = self.scenario.sites[k].vantage
+        if math.hypot(vx - self._pose.x, vy - self._pose.y) < 1e-9:
+            return [], True
+        frames, arrived = self._travel_to((float(vx), float(vy)))
+        self._carry()
+        return frames, arrived
+
+    def _face(self, target: Sequence[float]) -> list[Pose]:
+        from fg_tea.env.navigation import turn_frames
+
+        yaw = math.degrees(math.atan2(target[1] - self._pose.y, target[0] - self._pose.x))
+        frames = turn_frames(self._pose, yaw, self.config)
+        if frames:
+            self._pose = frames[-1]
+            self._carry()
+            self._on_frames(frames)
+        return frames
+
+    def _on_frames(self, frames: list[Pose]) -> None:
+        """Called with the frames of a turn or a move after they happened (renderers hook here)."""
+
+    def _carry(self) -> None:
+        """Move the held object (and its contents) to its riding position in front of the agent."""
+        held = self._truth.held
+        if held is not None:
+            self._positions[held] = held_position(self._pose)
+            for inner in self._truth.contents_of(held):
+                self._positions[inner] = self._inside_position(inner, held)
+
+    def _inside_position(self, obj: str, container: str) -> tuple[float, float, float]:
+        x, y, z = self._positions[container]
+        return (x, y, z + 0.035)
+
+    def _occupants(self, site: str) -> list[str]:
+        return sorted(o for o, s in self._truth.site_of.items()
+                      if s == site and o not in self._truth.contained_in)
+
+    def _slot_position(self, site: str, slot: int) -> tuple[float, float, float]:
+        """Deterministic stand point of the `slot`-th object on a site's surface (x, y, z in m).
+
+        Slot 0 is the site position; further slots alternate right and left of it, perpendicular
+        to the vantage's view direction, SLOT_SPACING_M apart, clipped to the furniture top.
+        """
+        s = self.scenario.site(site)
+        px, py, pz = s.position
+        dx, dy = px - s.vantage[0], py - s.vantage[1]
+        norm = math.hypot(dx, dy) or 1.0
+        ux, uy = -dy / norm, dx / norm
+        offset = SLOT_SPACING_M * ((slot + 1) // 2) * (1 if slot % 2 else -1)
+        x, y = px + ux * offset, py + uy * offset
+        if s.furniture is not None:
+            box = self.scenario.house.furniture_named(s.furniture)
+            hx = max(box.size[0] / 2 - SLOT_MARGIN_M, 0.0)
+            hy = max(box.size[1] / 2 - SLOT_MARGIN_M, 0.0)
+            x = min(max(x, box.center[0] - hx), box.center[0] + hx)
+            y = min(max(y, box.center[1] - hy), box.center[1] + hy)
+        return (float(x), float(y), float(pz))
+
+    def _associated(self, obj: str, k: int) -> bool:
+        """Spatial association of eq. (29): the object stands within the radius of site k."""
+        if not self.config.site_association:
+            return True
+        x, y, z = self._positions[obj]
+        px, py, pz = self.scenario.sites[k].position
+        return math.dist((x, y, z), (px, py, pz)) <= self.config.site_association_radius
+
+    def _needs_site(self, request: ActionRequest) -> int:
+        if request.site is None:
+            raise ValueError(f"{request.verb} needs a site")
+        return self._site_index(request.site)
+
+    def _site_index(self, site: str) -> int:
+        try:
+            return self.scenario.site_index(site)
+        except KeyError as exc:
+            raise ValueError(str(exc.args[0])) from None
+
+    def _spec(self, name: str) -> ObjectSpec:
+        try:
+            return self._specs[name]
+        except KeyError:
+            raise ValueError(f"no object named {name!r} in scenario {self.scenario.name!r}") from None
+
+    def _require_reset(self) -> None:
+        if self._truth is None:
+            raise RuntimeError("call reset(seed) before using the environment")
+
+
+def held_position(pose: Pose) -> tuple[float, float, float]:
+    """Where a held object's base rides for agent pose `pose` (x, y, z in m; z from the floor)."""
+    from fg_tea.env.navigation import BODY_HEIGHT_M
+
+    yaw = math.radians(pose.yaw_deg)
+    return (pose.x + HELD_FORWARD_M * math.cos(yaw), pose.y + HELD_FORWARD_M * math.sin(yaw),
+            BODY_HEIGHT_M - HELD_BELOW_M)
+
+
+def _travelled(frames: Sequence[Pose]) -> float:
+    return float(sum(math.hypot(b.x - a.x, b.y - a.y) for a, b in zip(frames, frames[1:]))) if frames else 0.0
+
+
+def _motion(frames: Sequence[Pose]) -> tuple[tuple[float, float, float], ...]:
+    return tuple(tuple(p.as_list()) for p in frames)

@@ -1,0 +1,260 @@
+"""Generative model: what the agent assumes — likelihoods, transitions, relations, policy weights.
+
+A model is a TOML file in ``models/`` (one file per variant). It is separate from the scenario:
+the scenario says what the house *is*; the model says what the agent *believes about how
+observations and actions work*. A model may ``extends = "other"`` and override keys (ablations are
+a few lines each). Parsed once into frozen dataclasses; faults are
+:class:`~fg_tea.errors.InputError` naming the file, the key path and what is wrong.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping
+
+from fg_tea.errors import InputError, Reader
+
+STRUCTURES = ("factorised", "joint")
+RELATION_KINDS = ("capacity", "co_location", "exclusivity")
+
+
+@dataclass(frozen=True)
+class Effect:
+    """Sets `state` to `value` with probability `success` if all `requires` hold (eq. 27)."""
+
+    state: str
+    value: bool
+    success: float
+    requires: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Condition:
+    """A belief goal or precondition: q(state = true) >= at_least (eqs. 19, 20)."""
+
+    state: str
+    at_least: float
+
+
+@dataclass(frozen=True)
+class TransitionSpec:
+    """An action's declared belief effects, goals and preconditions, with role templates."""
+
+    name: str
+    effects: tuple[Effect, ...]
+    goals: tuple[Condition, ...] = ()
+    preconditions: tuple[Condition, ...] = ()
+
+
+@dataclass(frozen=True)
+class Relation:
+    """A relational factor between object locations (joint models only).
+
+    kinds: ``capacity`` (penalty per object beyond a site's capacity), ``co_location`` (weights for
+    two categories sharing a site or a room), ``exclusivity`` (weight for any two objects sharing a
+    site).
+    """
+
+    kind: str
+    penalty: float = 0.05
+    categories: tuple[str, str] = ("", "")
+    same_site: float = 1.0
+    same_room: float = 1.0
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class PlanningWeights:
+    """Weights of the EFE-style score G(o, j), eqs. 12-16 (lower is better)."""
+
+    distance_weight: float = 0.20
+    probability_weight: float = 3.00
+    information_weight: float = 1.50
+    repeat_penalty: float = 1.00
+    relevance_weight: float = 0.75
+    distance: str = "geodesic"
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """A noisy binary sensor: sensitivity P(o=1|z=1), specificity P(o=0|z=0)."""
+
+    sensitivity: float
+    specificity: float
+
+
+@dataclass(frozen=True)
+class Model:
+    """The agent's generative model."""
+
+    name: str
+    description: str
+    structure: str
+    prior_floor: float
+    miss_likelihood: float
+    false_positive_rate: float
+    positive_update: str
+    min_visible_pixels: int
+    site_association: bool
+    sensors: Mapping[str, Sensor]
+    transition_form: str
+    transitions: Mapping[str, TransitionSpec]
+    relations: tuple[Relation, ...] = ()
+    planning: PlanningWeights = field(default_factory=PlanningWeights)
+    source: str = ""
+
+    def sensor(self, name: str = "state") -> Sensor:
+        return self.sensors[name]
+
+    def transition(self, name: str) -> TransitionSpec:
+        try:
+            return self.transitions[name]
+        except KeyError:
+            raise KeyError(f"model {self.name!r} declares no transition {name!r} "
+                           f"(known: {', '.join(sorted(self.transitions))})") from None
+
+    def with_overrides(self, **changes: Any) -> "Model":
+        return replace(self, **changes)
+
+
+def _merge(base: dict, override: dict) -> dict:
+    out = dict(base)
+    for key, value in override.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = _merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _read_conditions(r: Reader, key: str) -> tuple[Condition, ...]:
+    out = []
+    for c in r.items(key, required=False):
+        out.append(Condition(c.req("state", str), c.probability("at_least")))
+    return tuple(out)
+
+
+def _read_transition(name: str, r: Reader, override: float | None) -> TransitionSpec:
+    effects = []
+    for e in r.items("effects"):
+        requires = e.opt("requires", list, [])
+        for i, req in enumerate(requires):
+            if not isinstance(req, str):
+                raise InputError(e.file, f"{e.path}.requires[{i}]", "expected a state name")
+        success = e.probability("success") if override is None else override
+        effects.append(Effect(e.req("state", str), e.req("value", bool), success, tuple(requires)))
+    if not effects:
+        raise r.fail("a transition needs at least one effect", "effects")
+    return TransitionSpec(name, tuple(effects), _read_conditions(r, "goals"),
+                          _read_conditions(r, "preconditions"))
+
+
+def _read_relation(r: Reader) -> Relation:
+    kind = r.choice("kind", RELATION_KINDS)
+    if kind == "capacity":
+        return Relation(kind, penalty=r.probability("penalty"))
+    if kind == "exclusivity":
+        return Relation(kind, weight=r.positive("weight", allow_zero=False))
+    cats = r.req("categories", list)
+    if len(cats) != 2 or not all(isinstance(c, str) for c in cats) or cats[0] == cats[1]:
+        raise r.fail("expected two different category names", "categories")
+    return Relation(kind, categories=(cats[0], cats[1]), same_site=r.positive("same_site"),
+                    same_room=r.positive("same_room", 1.0))
+
+
+def parse_model(data: dict, file: str | Path = "<model>") -> Model:
+    """Validate a parsed model document (after `extends` merging) and build a :class:`Model`."""
+    r = Reader(data, file)
+    beliefs = r.child("beliefs")
+    detection = r.child("detection")
+    perception = r.child("perception", required=False) or Reader({}, file, "$.perception")
+    sensors = {}
+    sensors_r = r.child("sensors")
+    for name in sensors_r.data:
+        s = sensors_r.child(name)
+        sensors[name] = Sensor(s.probability("sensitivity"), s.probability("specificity"))
+        if sensors[name].sensitivity + sensors[name].specificity <= 1.0:
+            raise s.fail("sensitivity + specificity must exceed 1, or a reading carries no "
+                         "information (or the wrong sign)")
+    trans_r = r.child("transitions")
+    override = trans_r.opt("success_override", float, None)
+    if override is not None and not 0.0 <= override <= 1.0:
+        raise trans_r.fail(f"probability {override} is outside [0, 1]", "success_override")
+    transitions = {}
+    for name, value in trans_r.data.items():
+        if isinstance(value, dict):
+            transitions[name] = _read_transition(name, trans_r.child(name), override)
+    planning_r = r.child("planning", required=False) or Reader({}, file, "$.planning")
+    d = PlanningWeights()
+    planning = PlanningWeights(
+        distance_weight=planning_r.positive("distance_weight", d.distance_weight, allow_zero=True),
+        probability_weight=planning_r.positive("probability_weight", d.probability_weight, allow_zero=True),
+        information_weight=planning_r.positive("information_weight", d.information_weight, allow_zero=True),
+        repeat_penalty=planning_r.positive("repeat_penalty", d.repeat_penalty, allow_zero=True),
+        relevance_weight=planning_r.positive("relevance_weight", d.relevance_weight, allow_zero=True),
+        distance=planning_r.choice("distance", ("geodesic", "euclidean"), d.distance),
+    )
+    structure = beliefs.choice("structure", STRUCTURES)
+    relations = tuple(_read_relation(x) for x in r.items("relations", required=False))
+    if structure == "factorised" and relations:
+        raise r.fail("relational factors need structure = \"joint\"", "relations")
+    miss = detection.probability("miss_likelihood")
+    if miss <= 0:
+        raise detection.fail("a miss likelihood of 0 makes a missed detection impossible; "
+                             "use a small positive value", "miss_likelihood")
+    floor = beliefs.probability("prior_floor")
+    if floor <= 0:
+        raise beliefs.fail("the prior floor must be positive (eq. 2)", "prior_floor")
+    return Model(
+        name=r.req("name", str),
+        description=r.opt("description", str, ""),
+        structure=structure,
+        prior_floor=floor,
+        miss_likelihood=miss,
+        false_positive_rate=detection.probability("false_positive_rate", 1e-4),
+        positive_update=detection.choice("positive_update", ("blueprint", "likelihood"), "blueprint"),
+        min_visible_pixels=perception.opt("min_visible_pixels", int, 25),
+        site_association=perception.opt("site_association", bool, True),
+        sensors=MappingProxyType(sensors),
+        transition_form=trans_r.choice("form", ("full", "direct"), "full"),
+        transitions=MappingProxyType(transitions),
+        relations=relations,
+        planning=planning,
+        source=str(file),
+    )
+
+
+def _load_document(path: Path, seen: tuple[Path, ...]) -> dict:
+    from fg_tea.resources import resolve_model
+
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(path, "$", "file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, "$", f"invalid TOML: {exc}") from None
+    parent = data.pop("extends", None)
+    if parent is None:
+        return data
+    if not isinstance(parent, str):
+        raise InputError(path, "$.extends", "expected the name or path of another model")
+    candidate = path.parent / f"{parent}.toml"
+    parent_path = candidate if candidate.exists() else resolve_model(parent)
+    if not parent_path.exists():
+        raise InputError(path, "$.extends", f"model {parent!r} is referenced but not found")
+    if parent_path.resolve() in seen:
+        raise InputError(path, "$.extends", f"models extend each other in a cycle through {parent!r}")
+    base = _load_document(parent_path, seen + (parent_path.resolve(),))
+    # Lists of tables (relations) replace rather than merge.
+    return _merge(base, data)
+
+
+def load_model(path: str | Path) -> Model:
+    """Load and validate a model TOML file (a path, or the name of a bundled model)."""
+    from fg_tea.resources import resolve_model
+
+    path = Path(resolve_model(path))
+    return parse_model(_load_document(path, (path.resolve(),)), path)

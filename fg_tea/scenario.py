@@ -1,0 +1,322 @@
+"""Scenario: what is this house — geometry, semantic sites, objects, priors and hidden truth.
+
+A scenario is a JSON file (schema version 2, blueprint section 3.3; version 1 with one target
+object still loads). It is parsed once, at the boundary, into frozen dataclasses; every fault is an
+:class:`~fg_tea.errors.InputError` naming the file, the JSON path and what is wrong.
+
+Coordinates are metres, z up. A site's ``position`` is the point on its surface where objects
+stand (z = surface height); its ``vantage_position`` is the floor point from which the agent
+inspects it. Hidden truth (``true_site``, ``hidden_state_truth``) is read only by the environment.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Mapping
+
+from fg_tea.errors import InputError, Reader
+
+SCHEMA_VERSIONS = (1, 2)
+
+
+@dataclass(frozen=True)
+class Doorway:
+    """A gap in a wall, `at` metres from the wall's start along it, `width` metres wide."""
+
+    at: float
+    width: float
+
+
+@dataclass(frozen=True)
+class Wall:
+    """A straight wall from `start` to `end` (x, y), with doorways cut into it."""
+
+    start: tuple[float, float]
+    end: tuple[float, float]
+    doorways: tuple[Doorway, ...] = ()
+
+
+@dataclass(frozen=True)
+class Furniture:
+    """An axis-aligned box standing on the floor; its top can carry a semantic site."""
+
+    name: str
+    center: tuple[float, float]
+    size: tuple[float, float, float]
+    color: tuple[float, float, float, float] = (0.55, 0.42, 0.3, 1.0)
+
+    @property
+    def height(self) -> float:
+        return self.size[2]
+
+
+@dataclass(frozen=True)
+class House:
+    """The floor plan: outer bounds, walls with doorways and furniture boxes."""
+
+    floor_min: tuple[float, float]
+    floor_max: tuple[float, float]
+    wall_height: float
+    wall_thickness: float
+    walls: tuple[Wall, ...]
+    furniture: tuple[Furniture, ...]
+
+    def furniture_named(self, name: str) -> Furniture:
+        for item in self.furniture:
+            if item.name == name:
+                return item
+        raise KeyError(name)
+
+
+@dataclass(frozen=True)
+class Site:
+    """A semantic site: a surface where objects may be, and where to stand to inspect it.
+
+    `affordances` maps object category -> non-negative plausibility weight a_ic (blueprint eq. 2).
+    """
+
+    name: str
+    room: str
+    position: tuple[float, float, float]
+    vantage: tuple[float, float]
+    affordances: Mapping[str, float]
+    capacity: int | None = None
+    furniture: str | None = None
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """A task object. `true_site` and `hidden_state_truth` are environment truth, never beliefs."""
+
+    name: str
+    category: str
+    true_site: str
+    semantic_id: int
+    affordances: frozenset[str]
+    asset: str
+    state_priors: Mapping[str, float]
+    hidden_state_truth: Mapping[str, bool]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated house and its objects. Site order is the order of belief vectors."""
+
+    name: str
+    schema_version: int
+    description: str
+    sites: tuple[Site, ...]
+    objects: tuple[ObjectSpec, ...]
+    house: House
+    start_position: tuple[float, float]
+    start_yaw_deg: float
+    preparation_site: str
+    source: str = ""
+    _site_index: Mapping[str, int] = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_site_index",
+                           MappingProxyType({s.name: i for i, s in enumerate(self.sites)}))
+
+    @property
+    def site_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.sites)
+
+    @property
+    def object_names(self) -> tuple[str, ...]:
+        return tuple(o.name for o in self.objects)
+
+    @property
+    def rooms(self) -> tuple[str, ...]:
+        return tuple(dict.fromkeys(s.room for s in self.sites))
+
+    def site(self, name: str) -> Site:
+        return self.sites[self.site_index(name)]
+
+    def site_index(self, name: str) -> int:
+        try:
+            return self._site_index[name]
+        except KeyError:
+            raise KeyError(f"no site named {name!r} in scenario {self.name!r}") from None
+
+    def object(self, name: str) -> ObjectSpec:
+        for spec in self.objects:
+            if spec.name == name:
+                return spec
+        raise KeyError(f"no object named {name!r} in scenario {self.name!r}")
+
+
+def _frozen(mapping: dict) -> Mapping:
+    return MappingProxyType(dict(mapping))
+
+
+def _read_house(r: Reader) -> House:
+    floor = r.child("floor")
+    floor_min = floor.vector("min", 2)
+    floor_max = floor.vector("max", 2)
+    if not (floor_max[0] > floor_min[0] and floor_max[1] > floor_min[1]):
+        raise floor.fail("max must exceed min in x and y")
+    walls = []
+    for w in r.items("walls"):
+        start, end = w.vector("from", 2), w.vector("to", 2)
+        length = ((end[0] - start[0]) ** 2 + (end[1] - start[1]) ** 2) ** 0.5
+        if length <= 0:
+            raise w.fail("wall has zero length")
+        doors = []
+        for d in w.items("doorways", required=False):
+            at, width = d.positive("at", allow_zero=True), d.positive("width")
+            if at - width / 2 < -1e-9 or at + width / 2 > length + 1e-9:
+                raise d.fail(f"doorway [{at - width / 2:.2f}, {at + width / 2:.2f}] m lies outside "
+                             f"the wall (length {length:.2f} m)")
+            doors.append(Doorway(at, width))
+        walls.append(Wall(start, end, tuple(doors)))
+    furniture, seen = [], set()
+    for f in r.items("furniture"):
+        name = f.req("name", str)
+        if name in seen:
+            raise f.fail(f"duplicate furniture name {name!r}", "name")
+        seen.add(name)
+        size = f.vector("size", 3)
+        if min(size) <= 0:
+            raise f.fail("sizes must be positive", "size")
+        color = f.vector("color", 4, required=False, default=None) or \
+            tuple(list(f.vector("color", 3, required=False, default=(0.55, 0.42, 0.3))) + [1.0])
+        furniture.append(Furniture(name, f.vector("center", 2), size, color))
+    return House(floor_min, floor_max, r.positive("wall_height", 2.5),
+                 r.positive("wall_thickness", 0.1), tuple(walls), tuple(furniture))
+
+
+def _read_site(s: Reader, house: House) -> Site:
+    name = s.req("name", str)
+    weights = s.mapping("affordances", float, required=True)
+    for category, w in weights.items():
+        if w < 0:
+            raise InputError(s.file, f"{s.path}.affordances.{category}", f"negative weight {w}")
+    capacity = s.opt("capacity", int, None)
+    if capacity is not None and capacity < 1:
+        raise s.fail(f"capacity must be at least 1, got {capacity}", "capacity")
+    furniture = s.opt("furniture", str, None)
+    position = s.vector("position", 3)
+    if furniture is not None:
+        try:
+            box = house.furniture_named(furniture)
+        except KeyError:
+            raise s.fail(f"furniture {furniture!r} is referenced but not defined in house.furniture",
+                         "furniture") from None
+        half = (box.size[0] / 2, box.size[1] / 2)
+        if abs(position[0] - box.center[0]) > half[0] + 1e-6 or abs(position[1] - box.center[1]) > half[1] + 1e-6:
+            raise s.fail(f"position lies off the top of furniture {furniture!r}", "position")
+    vantage = s.vector("vantage_position", 3, required=False, default=None)
+    vantage = vantage[:2] if vantage is not None else s.vector("vantage_position", 2)
+    return Site(name, s.req("room", str), position, vantage, _frozen(weights), capacity, furniture)
+
+
+def _read_object(o: Reader, site_names: set[str]) -> ObjectSpec:
+    name = o.req("name", str)
+    true_site = o.req("true_site", str)
+    if true_site not in site_names:
+        raise o.fail(f"site {true_site!r} is referenced but not defined in sites", "true_site")
+    affordances = o.opt("affordances", list, [])
+    for i, a in enumerate(affordances):
+        if not isinstance(a, str):
+            raise InputError(o.file, f"{o.path}.affordances[{i}]", "expected a string")
+    priors_r = o.child("state_priors", required=False)
+    priors = {}
+    if priors_r is not None:
+        for key in priors_r.data:
+            priors[key] = priors_r.probability(key)
+    truth = o.mapping("hidden_state_truth", bool)
+    for key in truth:
+        if key not in priors:
+            raise InputError(o.file, f"{o.path}.hidden_state_truth.{key}",
+                             f"state {key!r} has hidden truth but no entry in state_priors")
+    return ObjectSpec(
+        name=name,
+        category=o.opt("category", str, name),
+        true_site=true_site,
+        semantic_id=o.req("semantic_id", int),
+        affordances=frozenset(affordances),
+        asset=o.opt("asset", str, o.opt("category", str, name)),
+        state_priors=_frozen(priors),
+        hidden_state_truth=_frozen(truth),
+    )
+
+
+def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
+    """Validate a parsed scenario document and build a :class:`Scenario`.
+
+    Raises:
+        InputError: naming the file, the JSON path and the fault.
+    """
+    r = Reader(data, file)
+    if not isinstance(data, dict):
+        raise r.fail("a scenario must be a JSON object")
+    version = r.req("schema_version", int)
+    if version not in SCHEMA_VERSIONS:
+        raise r.fail(f"unknown schema version {version} (known: {', '.join(map(str, SCHEMA_VERSIONS))})",
+                     "schema_version")
+    house = _read_house(r.child("house"))
+
+    sites, names = [], set()
+    for s in r.items("sites"):
+        site = _read_site(s, house)
+        if site.name in names:
+            raise s.fail(f"duplicate site name {site.name!r}", "name")
+        names.add(site.name)
+        sites.append(site)
+    if not sites:
+        raise r.fail("a scenario needs at least one site", "sites")
+
+    if version == 1:
+        objects_r = [r.child("target")]
+    else:
+        objects_r = list(r.items("objects"))
+    objects, obj_names, ids = [], set(), set()
+    for o in objects_r:
+        spec = _read_object(o, names)
+        if spec.name in obj_names:
+            raise o.fail(f"duplicate object name {spec.name!r}", "name")
+        if spec.semantic_id in ids:
+            raise o.fail(f"duplicate semantic id {spec.semantic_id}", "semantic_id")
+        obj_names.add(spec.name)
+        ids.add(spec.semantic_id)
+        objects.append(spec)
+    for spec, o in zip(objects, objects_r):
+        total = sum(site.affordances.get(spec.category, 0.0) for site in sites)
+        if total <= 0:
+            raise o.fail(f"every site's affordance weight for category {spec.category!r} is zero "
+                         "or missing, so the location prior has no information", "category")
+
+    start = r.child("start_pose")
+    prep = r.opt("preparation_site", str, sites[0].name)
+    if prep not in names:
+        raise r.fail(f"site {prep!r} is referenced but not defined in sites", "preparation_site")
+    return Scenario(
+        name=r.req("name", str),
+        schema_version=version,
+        description=r.opt("description", str, ""),
+        sites=tuple(sites),
+        objects=tuple(objects),
+        house=house,
+        start_position=start.vector("position", 2),
+        start_yaw_deg=start.opt("yaw_deg", float, 0.0),
+        preparation_site=prep,
+        source=str(file),
+    )
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Load and validate a scenario JSON file (a path, or the name of a bundled scenario)."""
+    from fg_tea.resources import resolve_scenario
+
+    path = resolve_scenario(path)
+    try:
+        data = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise InputError(path, "$", "file not found") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(path, f"line {exc.lineno} column {exc.colno}", f"invalid JSON: {exc.msg}") from None
+    return parse_scenario(data, path)
