@@ -182,10 +182,11 @@ class TeaTruth:
 class TruthBackedAdapter(EnvAdapter):
     """Verb semantics shared by every adapter: truth, relations, failures, reasons.
 
-    A subclass supplies geometry and perception through five hooks: :meth:`_build` (reset the
-    world), :meth:`_travel_to` (move to a floor point, returning the frames), :meth:`_distance`
-    (travel distance for the planner), :meth:`_pixel_counts` (segmentation pixels per object,
-    eq. 28) and :meth:`_sync` (mirror object positions into the simulator after they change).
+    A subclass supplies geometry and perception through hooks: :meth:`_build` (reset the world),
+    :meth:`_route` (the per-frame poses of a move to a floor point), :meth:`_distance` (travel
+    distance for the planner), :meth:`_pixel_counts` (segmentation pixels per object, eq. 28),
+    :meth:`_sync` (mirror object positions into the simulator after they change) and
+    :meth:`_on_frames` (see every frame of motion, e.g. to render it).
 
     Failure reasons (``ActionResult.reason``): ``injected_failure`` (seeded fault injection,
     ``config.failure_rates[verb]``), ``unreachable``, ``object_not_at_site``, ``not_graspable``,
@@ -207,6 +208,7 @@ class TruthBackedAdapter(EnvAdapter):
         self._rng: np.random.Generator | None = None
         self._truth: TeaTruth | None = None
         self._pose: Pose | None = None
+        self._start: Pose | None = None  # agent pose when the current call began
         self._positions: dict[str, tuple[float, float, float]] = {}
 
     # --- hooks -----------------------------------------------------------------------------
@@ -216,8 +218,11 @@ class TruthBackedAdapter(EnvAdapter):
         """Rebuild the world for a new episode (called by reset after truth and RNG exist)."""
 
     @abc.abstractmethod
-    def _travel_to(self, goal: tuple[float, float]) -> tuple[list[Pose], bool]:
-        """Move the agent to floor point `goal`; return its per-frame poses and whether it arrived."""
+    def _route(self, k: int) -> list[Pose] | None:
+        """Per-frame poses from the current pose to site k's vantage point; None if unreachable.
+
+        Must not change state: the caller moves the agent along the returned frames.
+        """
 
     @abc.abstractmethod
     def _distance(self, goal_site: int) -> float:
@@ -229,6 +234,9 @@ class TruthBackedAdapter(EnvAdapter):
 
     def _sync(self) -> None:
         """Mirror `_positions` and the agent pose into the simulator (no-op without one)."""
+
+    def _on_frames(self, frames: Sequence[Pose], start: Pose) -> None:
+        """See the frames of a move or turn that started at `start` (renderers hook here)."""
 
     # --- EnvAdapter ------------------------------------------------------------------------
 
@@ -262,6 +270,7 @@ class TruthBackedAdapter(EnvAdapter):
 
     def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
         self._require_reset()
+        self._start = self._pose
         k = self._site_index(site)
         considered = tuple(dict.fromkeys(objects))
         for name in considered:
@@ -269,19 +278,20 @@ class TruthBackedAdapter(EnvAdapter):
         size = (self.config.ego_width, self.config.ego_height)
         frames, arrived = self._go_to_site(k)
         if not arrived:
-            return InspectionResult(site, {}, {}, reachable=False, distance=_travelled(frames),
+            return InspectionResult(site, {}, {}, reachable=False, distance=self._travelled(frames),
                                     frames=len(frames), motion=_motion(frames), image_size=size)
         frames += self._face(self.scenario.sites[k].position)
         counts = self._pixel_counts(considered)
         detections = {name: bool(counts[name] >= self.config.min_visible_pixels
                                  and self._associated(name, k)) for name in considered}
         return InspectionResult(site, detections, {n: int(counts[n]) for n in considered},
-                                reachable=True, distance=_travelled(frames), frames=len(frames),
+                                reachable=True, distance=self._travelled(frames), frames=len(frames),
                                 motion=_motion(frames), image_size=size)
 
     def observe_state(self, obj: str, state: str, site: str | None,
                       sensitivity: float, specificity: float) -> StateReading:
         self._require_reset()
+        self._start = self._pose
         self._spec(obj)
         name = state if state.startswith(f"{obj}.") else f"{obj}.{state}"
         frames: list[Pose] = []
@@ -292,11 +302,12 @@ class TruthBackedAdapter(EnvAdapter):
                 raise RuntimeError(f"site {site!r} became unreachable after the load-time check")
             frames += self._face(self.scenario.sites[k].position)
         value = self._truth.read_state(name, sensitivity, specificity, self._rng)
-        return StateReading(name, value, sensitivity, specificity, distance=_travelled(frames),
+        return StateReading(name, value, sensitivity, specificity, distance=self._travelled(frames),
                             frames=len(frames), motion=_motion(frames))
 
     def execute(self, request: ActionRequest) -> ActionResult:
         self._require_reset()
+        self._start = self._pose
         verb = request.verb.upper()
         handler = {"NAVIGATE": self._navigate, "PICK": self._pick, "PLACE": self._place,
                    "INSERT": self._insert, "FILL": self._effect_action, "USE": self._effect_action,
@@ -359,9 +370,8 @@ class TruthBackedAdapter(EnvAdapter):
         if site.capacity is not None and len(occupants) >= site.capacity:
             return self._result(False, "site_full", frames)
         taken = {self._positions[o][:2] for o in occupants}
-        slot = 0
-        while self._slot_position(site.name, slot)[:2] in taken:
-            slot += 1
+        slot = next((i for i in range(2 * len(occupants) + 1)
+                     if self._slot_position(site.name, i)[:2] not in taken), len(occupants))
         self._truth.place(request.object, site.name)
         self._positions[request.object] = self._slot_position(site.name, slot)
         self._carry()
@@ -433,36 +443,47 @@ class TruthBackedAdapter(EnvAdapter):
 
     def _result(self, ok: bool, reason: str, frames: list[Pose]) -> ActionResult:
         self._sync()
-        return ActionResult(ok, reason, distance=_travelled(frames), frames=len(frames),
+        return ActionResult(ok, reason, distance=self._travelled(frames), frames=len(frames),
                             motion=_motion(frames), placements=self.placements())
 
     def _go_to_site(self, k: int) -> tuple[list[Pose], bool]:
         vx, vy = self.scenario.sites[k].vantage
         if math.hypot(vx - self._pose.x, vy - self._pose.y) < 1e-9:
             return [], True
-        frames, arrived = self._travel_to((float(vx), float(vy)))
-        self._carry()
-        return frames, arrived
+        frames = self._route(k)
+        if frames is None:
+            return [], False
+        self._advance(frames)
+        return frames, True
+
+    def _advance(self, frames: list[Pose]) -> None:
+        if frames:
+            start = self._pose
+            self._pose = frames[-1]
+            self._carry()
+            self._on_frames(frames, start)
+
+    def _travelled(self, frames: Sequence[Pose]) -> float:
+        """Path length (m) of `frames`, starting from the pose the current call began at."""
+        total, prev = 0.0, self._start
+        for pose in frames:
+            total += math.hypot(pose.x - prev.x, pose.y - prev.y)
+            prev = pose
+        return float(total)
 
     def _face(self, target: Sequence[float]) -> list[Pose]:
         from fg_tea.env.navigation import turn_frames
 
         yaw = math.degrees(math.atan2(target[1] - self._pose.y, target[0] - self._pose.x))
         frames = turn_frames(self._pose, yaw, self.config)
-        if frames:
-            self._pose = frames[-1]
-            self._carry()
-            self._on_frames(frames)
+        self._advance(frames)
         return frames
-
-    def _on_frames(self, frames: list[Pose]) -> None:
-        """Called with the frames of a turn or a move after they happened (renderers hook here)."""
 
     def _carry(self) -> None:
         """Move the held object (and its contents) to its riding position in front of the agent."""
         held = self._truth.held
         if held is not None:
-            self._positions[held] = held_position(self._pose)
+            self._positions[held] = held_position(self._pose, self.config)
             for inner in self._truth.contents_of(held):
                 self._positions[inner] = self._inside_position(inner, held)
 
@@ -525,17 +546,15 @@ class TruthBackedAdapter(EnvAdapter):
             raise RuntimeError("call reset(seed) before using the environment")
 
 
-def held_position(pose: Pose) -> tuple[float, float, float]:
-    """Where a held object's base rides for agent pose `pose` (x, y, z in m; z from the floor)."""
-    from fg_tea.env.navigation import BODY_HEIGHT_M
+def held_position(pose: Pose, config: EnvConfig) -> tuple[float, float, float]:
+    """Where a held object's base rides for agent pose `pose` (x, y, z in m; z from the floor).
 
+    The agent's body hovers at ``config.sensor_height``; the object hangs HELD_BELOW_M under it
+    and HELD_FORWARD_M ahead of it, below the egocentric camera's field of view.
+    """
     yaw = math.radians(pose.yaw_deg)
     return (pose.x + HELD_FORWARD_M * math.cos(yaw), pose.y + HELD_FORWARD_M * math.sin(yaw),
-            BODY_HEIGHT_M - HELD_BELOW_M)
-
-
-def _travelled(frames: Sequence[Pose]) -> float:
-    return float(sum(math.hypot(b.x - a.x, b.y - a.y) for a, b in zip(frames, frames[1:]))) if frames else 0.0
+            config.sensor_height - HELD_BELOW_M)
 
 
 def _motion(frames: Sequence[Pose]) -> tuple[tuple[float, float, float], ...]:

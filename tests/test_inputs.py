@@ -1,0 +1,169 @@
+"""Bad scenario and model files: one line naming file, path and fault; exit status 2."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import pytest
+
+from fg_tea.cli import main
+from fg_tea.errors import InputError
+from fg_tea.model import load_model
+from fg_tea.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+DEFAULT = json.loads((ROOT / "scenarios" / "default_apartment.json").read_text())
+
+
+def _mutated(edit):
+    data = copy.deepcopy(DEFAULT)
+    edit(data)
+    return data
+
+
+def _set(path, value):
+    def edit(data):
+        node = data
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = value
+    return edit
+
+
+def _delete(path):
+    def edit(data):
+        node = data
+        for key in path[:-1]:
+            node = node[key]
+        del node[path[-1]]
+    return edit
+
+
+SCENARIO_FAULTS = [
+    # (id, edit, expected JSON path, expected words in the fault)
+    ("missing field", _delete(["objects", 0, "semantic_id"]), "$.objects[0].semantic_id", "missing required field"),
+    ("mistyped field", _set(["sites", 1, "room"], 7), "$.sites[1].room", "expected a string"),
+    ("mistyped vector", _set(["sites", 0, "position"], [1.0, 2.0]), "$.sites[0].position", "expected 3 numbers"),
+    ("unknown schema version", _set(["schema_version"], 3), "$.schema_version", "unknown schema version 3"),
+    ("undefined true site", _set(["objects", 0, "true_site"], "attic"), "$.objects[0].true_site",
+     "'attic' is referenced but not defined"),
+    ("undefined preparation site", _set(["preparation_site"], "garage"), "$.preparation_site",
+     "'garage' is referenced but not defined"),
+    ("undefined furniture", _set(["sites", 2, "furniture"], "piano"), "$.sites[2].furniture",
+     "'piano' is referenced but not defined"),
+    ("duplicate site name", _set(["sites", 1, "name"], "kitchen_counter"), "$.sites[1].name",
+     "duplicate site name"),
+    ("duplicate object name", _set(["objects", 1, "name"], "mug"), "$.objects[1].name", "duplicate object name"),
+    ("duplicate semantic id", _set(["objects", 2, "semantic_id"], 9001), "$.objects[2].semantic_id",
+     "duplicate semantic id 9001"),
+    ("negative affordance", _set(["sites", 3, "affordances", "mug"], -0.2), "$.sites[3].affordances.mug",
+     "negative weight"),
+    ("all-zero affordances", lambda d: [s["affordances"].__setitem__("kettle", 0.0) for s in d["sites"]],
+     "$.objects[1].category", "zero"),
+    ("probability above 1", _set(["objects", 1, "state_priors", "contains_water"], 1.4),
+     "$.objects[1].state_priors.contains_water", "outside [0, 1]"),
+    ("probability below 0", _set(["objects", 0, "state_priors", "water_hot"], -0.1),
+     "$.objects[0].state_priors.water_hot", "outside [0, 1]"),
+    ("truth without prior", _set(["objects", 2, "hidden_state_truth", "soggy"], True),
+     "$.objects[2].hidden_state_truth.soggy", "no entry in state_priors"),
+    ("doorway off the wall", _set(["house", "walls", 4, "doorways", 0, "at"], 3.9),
+     "$.house.walls[4].doorways[0]", "outside the wall"),
+]
+
+
+@pytest.mark.parametrize("edit,path,words", [f[1:] for f in SCENARIO_FAULTS], ids=[f[0] for f in SCENARIO_FAULTS])
+def test_scenario_fault_is_one_line_with_exit_2(tmp_path, capsys, edit, path, words):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(_mutated(edit)))
+    with pytest.raises(InputError) as info:
+        load_scenario(bad)
+    assert info.value.path == path
+    assert words in info.value.fault
+    assert main(["beliefs", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith(f"fg-tea: error: {bad}: {path}: ")
+    assert words in err
+
+
+def test_invalid_json_names_line_and_column(tmp_path, capsys):
+    bad = tmp_path / "broken.json"
+    bad.write_text('{"schema_version": 2,\n "name": }')
+    assert main(["beliefs", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "broken.json: line 2 column" in err and "invalid JSON" in err
+
+
+def test_schema_version_1_single_target_loads(tmp_path):
+    data = copy.deepcopy(DEFAULT)
+    data["schema_version"] = 1
+    data["target"] = data.pop("objects")[0]
+    path = tmp_path / "v1.json"
+    path.write_text(json.dumps(data))
+    scenario = load_scenario(path)
+    assert scenario.object_names == ("mug",)
+    assert scenario.object("mug").true_site == "sideboard"
+
+
+MODEL = (ROOT / "models" / "factorised.toml").read_text()
+
+MODEL_FAULTS = [
+    ("missing section", MODEL.replace("[detection]", "[detection_typo]"), "$.detection", "missing required field"),
+    ("mistyped", MODEL.replace("miss_likelihood = 0.05", 'miss_likelihood = "low"'),
+     "$.detection.miss_likelihood", "expected a number"),
+    ("probability outside", MODEL.replace("sensitivity = 0.95", "sensitivity = 1.5"),
+     "$.sensors.state.sensitivity", "outside [0, 1]"),
+    ("unknown structure", MODEL.replace('structure = "factorised"', 'structure = "tree"'),
+     "$.beliefs.structure", "must be one of factorised, joint"),
+    ("uninformative sensor", MODEL.replace("specificity = 0.95", "specificity = 0.05"),
+     "$.sensors.state", "must exceed 1"),
+    ("relations in factorised", MODEL + '\n[[relations]]\nkind = "capacity"\npenalty = 0.1\n',
+     "$.relations", "need structure"),
+    ("effect success outside", MODEL.replace("success = 0.995 }]\ngoals", "success = 1.995 }]\ngoals", 1),
+     "$.transitions.fill.effects[0].success", "outside [0, 1]"),
+    ("zero miss likelihood", MODEL.replace("miss_likelihood = 0.05", "miss_likelihood = 0.0"),
+     "$.detection.miss_likelihood", "miss likelihood of 0"),
+    ("missing parent", 'extends = "nowhere"\nname = "x"\n', "$.extends", "'nowhere' is referenced but not found"),
+]
+
+
+@pytest.mark.parametrize("text,path,words", [f[1:] for f in MODEL_FAULTS], ids=[f[0] for f in MODEL_FAULTS])
+def test_model_fault_is_one_line_with_exit_2(tmp_path, capsys, text, path, words):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    with pytest.raises(InputError) as info:
+        load_model(bad)
+    assert info.value.path == path
+    assert words in info.value.fault
+    assert main(["beliefs", "--model", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{bad}: {path}: " in err
+
+
+def test_invalid_toml(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("name = \n")
+    assert main(["validate", str(bad)]) == 2
+    assert "invalid TOML" in capsys.readouterr().err
+
+
+def test_every_bundled_file_validates(capsys):
+    files = sorted((ROOT / "scenarios").glob("*.json")) + sorted((ROOT / "models").rglob("*.toml"))
+    assert main(["validate", *map(str, files)]) == 0
+    assert capsys.readouterr().out.count(": ok") == len(files)
+
+
+def test_ablation_models_change_only_their_switch():
+    base = load_model("factorised")
+    assert load_model(ROOT / "models/ablations/no_epistemic.toml").planning.information_weight == 0.0
+    assert load_model(ROOT / "models/ablations/no_relevance.toml").planning.relevance_weight == 0.0
+    assert load_model(ROOT / "models/ablations/weak_negative.toml").miss_likelihood == 0.95
+    assert load_model(ROOT / "models/ablations/euclidean.toml").planning.distance == "euclidean"
+    assert load_model(ROOT / "models/ablations/no_repeat_penalty.toml").planning.repeat_penalty == 0.0
+    assert load_model(ROOT / "models/ablations/no_site_association.toml").site_association is False
+    certain = load_model(ROOT / "models/ablations/certain_effects.toml")
+    assert all(e.success == 1.0 for t in certain.transitions.values() for e in t.effects)
+    assert load_model(ROOT / "models/ablations/direct_effects.toml").transition_form == "direct"
+    assert base.planning.information_weight == 1.5 and base.miss_likelihood == 0.05
