@@ -209,8 +209,8 @@ def _read_site(s: Reader, house: House) -> Site:
         half = (box.size[0] / 2, box.size[1] / 2)
         if abs(position[0] - box.center[0]) > half[0] + 1e-6 or abs(position[1] - box.center[1]) > half[1] + 1e-6:
             raise s.fail(f"position lies off the top of furniture {furniture!r}", "position")
-    vantage = s.vector("vantage_position", 3, required=False, default=None)
-    vantage = vantage[:2] if vantage is not None else s.vector("vantage_position", 2)
+    raw = s.req("vantage_position", list)
+    vantage = s.vector("vantage_position", 3 if len(raw) == 3 else 2)[:2]
     return Site(name, s.req("room", str), position, vantage, _frozen(weights), capacity, furniture)
 
 

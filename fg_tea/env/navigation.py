@@ -287,7 +287,9 @@ class Navigator:
         if not math.isfinite(d):
             return math.inf
         v = self.vantages[k]
-        _, cv = self._node_at(v)
+        v_node, cv = self._node_at(v)
+        if node == v_node:
+            return math.hypot(xy[0] - v[0], xy[1] - v[1])
         return d + math.hypot(xy[0] - c[0], xy[1] - c[1]) + math.hypot(v[0] - cv[0], v[1] - cv[1])
 
     def path(self, k: int, xy: Sequence[float]) -> list[Point] | None:

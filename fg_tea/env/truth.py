@@ -229,8 +229,8 @@ class TruthBackedAdapter(EnvAdapter):
         """Planner travel distance (m) from the agent to site `goal_site`'s vantage; inf if none."""
 
     @abc.abstractmethod
-    def _pixel_counts(self, objects: Sequence[str]) -> dict[str, int]:
-        """Segmentation pixels n_o of each object in the egocentric view from the current pose."""
+    def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
+        """Segmentation pixels n_o [28] of each object, looking at site k from the current pose."""
 
     def _sync(self) -> None:
         """Mirror `_positions` and the agent pose into the simulator (no-op without one)."""
@@ -281,7 +281,7 @@ class TruthBackedAdapter(EnvAdapter):
             return InspectionResult(site, {}, {}, reachable=False, distance=self._travelled(frames),
                                     frames=len(frames), motion=_motion(frames), image_size=size)
         frames += self._face(self.scenario.sites[k].position)
-        counts = self._pixel_counts(considered)
+        counts = self._pixel_counts(k, considered)
         detections = {name: bool(counts[name] >= self.config.min_visible_pixels
                                  and self._associated(name, k)) for name in considered}
         return InspectionResult(site, detections, {n: int(counts[n]) for n in considered},
@@ -332,6 +332,23 @@ class TruthBackedAdapter(EnvAdapter):
         self._require_reset()
         return {name: tuple(round(c, 4) for c in xyz) for name, xyz in sorted(self._positions.items())}
 
+    def move_object(self, name: str, site: str) -> None:
+        """Environment-side setup: put object `name` (truth and body) on `site` at a free slot.
+
+        For tests and counterfactual set-ups only; the agent side never calls it.
+        """
+        self._require_reset()
+        self._spec(name)
+        self._site_index(site)
+        self._truth.contained_in.pop(name, None)
+        if self._truth.held == name:
+            self._truth.held = None
+        self._truth.site_of[name] = None
+        position = self._free_slot(site)
+        self._truth.place(name, site)
+        self._positions[name] = position
+        self._sync()
+
     # --- verbs -----------------------------------------------------------------------------
 
     def _navigate(self, request: ActionRequest, effect: str | None) -> ActionResult:
@@ -369,11 +386,9 @@ class TruthBackedAdapter(EnvAdapter):
         occupants = self._occupants(site.name)
         if site.capacity is not None and len(occupants) >= site.capacity:
             return self._result(False, "site_full", frames)
-        taken = {self._positions[o][:2] for o in occupants}
-        slot = next((i for i in range(2 * len(occupants) + 1)
-                     if self._slot_position(site.name, i)[:2] not in taken), len(occupants))
+        position = self._free_slot(site.name)
         self._truth.place(request.object, site.name)
-        self._positions[request.object] = self._slot_position(site.name, slot)
+        self._positions[request.object] = position
         self._carry()
         return self._finish(effect, request, frames)
 
@@ -494,6 +509,16 @@ class TruthBackedAdapter(EnvAdapter):
     def _occupants(self, site: str) -> list[str]:
         return sorted(o for o, s in self._truth.site_of.items()
                       if s == site and o not in self._truth.contained_in)
+
+    def _free_slot(self, site: str) -> tuple[float, float, float]:
+        """The first slot of `site` that no object standing there occupies."""
+        occupants = self._occupants(site)
+        taken = {self._positions[o][:2] for o in occupants}
+        for slot in range(2 * len(occupants) + 1):
+            position = self._slot_position(site, slot)
+            if position[:2] not in taken:
+                return position
+        return self._slot_position(site, len(occupants))
 
     def _slot_position(self, site: str, slot: int) -> tuple[float, float, float]:
         """Deterministic stand point of the `slot`-th object on a site's surface (x, y, z in m).

@@ -1,0 +1,49 @@
+"""A fake house: the environment contract without a simulator, for fast tests of the agent side.
+
+This module answers *how do the task and episode layers behave, given a world that obeys the
+adapter contract*, without PyBullet. It shares all verb semantics, hidden truth, failure reasons
+and fault injection with the PyBullet house (:class:`~fg_tea.env.truth.TruthBackedAdapter`) and
+replaces geometry and perception by the simplest stand-ins:
+
+* distance d_j (eq. 12): Euclidean, from the agent to the site's vantage point;
+* motion: a straight line to the vantage point, followed frame by frame with the same follower
+  (at most ``movement_step`` per frame, turning at most ``turn_step_deg``);
+* perception [28, 29]: n_o = 100 pixels if object o truly stands at the inspected site, else 0;
+  no occlusion and no field of view.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+from fg_tea.env.base import Pose
+from fg_tea.env.navigation import follow_path
+from fg_tea.env.truth import TruthBackedAdapter
+
+#: Pixel count reported for an object that truly stands at the inspected site.
+FAKE_PIXELS = 100
+
+
+class FakeHouse(TruthBackedAdapter):
+    """A truth-backed adapter with straight-line motion and oracle perception (no simulator).
+
+    Args:
+        scenario: the house, sites and objects.
+        config: embodiment parameters (Table 3); ``distance`` is always Euclidean here.
+    """
+
+    def _build(self) -> None:
+        """Nothing to build: the fake world is the truth plus object positions."""
+
+    def _route(self, k: int) -> list[Pose] | None:
+        vantage = tuple(map(float, self.scenario.sites[k].vantage))
+        return follow_path(self._pose, [vantage], self.config)
+
+    def _distance(self, k: int) -> float:
+        vx, vy = self.scenario.sites[k].vantage
+        return math.hypot(vx - self._pose.x, vy - self._pose.y)
+
+    def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
+        site = self.scenario.sites[k].name
+        return {name: FAKE_PIXELS if self._truth.site_of.get(name) == site else 0 for name in objects}

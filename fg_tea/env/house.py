@@ -1,0 +1,369 @@
+"""The PyBullet house: how an action happens in the house, and what the camera sees.
+
+This module answers the environment question of the architecture (blueprint sections 8-10,
+Table 3) with PyBullet in DIRECT mode (CPU, no window, no GPU) in place of Habitat-Sim:
+
+* the scene: floor, walls with doorway gaps, furniture boxes whose tops are the semantic sites,
+  distinct mug, kettle and teabag bodies on their true sites, and a drone body for the agent;
+* navigation on the occupancy grid of :mod:`fg_tea.env.navigation` (geodesic distance d_j of
+  eq. 12 as a lookup; Euclidean as the ablation);
+* perception: at a site's vantage the agent turns to face the surface and renders one
+  egocentric segmentation image; n_o counts the pixels of object o [28]; o is detected iff
+  n_o >= ``min_visible_pixels`` and o lies within ``site_association_radius`` of the site [29].
+  Occlusion is real: the image is rendered, so a body in front of an object hides it;
+* kinematic manipulation and hidden truth through :class:`~fg_tea.env.truth.TruthBackedAdapter`
+  (section 10); cameras for people: the egocentric view and a chase camera (Table 3 defaults).
+
+Headless use renders exactly one egocentric image per inspection; with ``render_motion`` every
+frame of motion is mirrored into the scene and handed to a frame sink (or rendered). This is the
+only fg_tea module that imports pybullet besides :mod:`fg_tea.env.assets`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+import pybullet
+
+from fg_tea.env import assets
+from fg_tea.env.base import EnvConfig, Pose
+from fg_tea.env.navigation import Navigator, follow_path, wall_boxes
+from fg_tea.env.truth import TruthBackedAdapter, held_position
+from fg_tea.scenario import Scenario
+
+#: Fixed downward tilt (deg) of the egocentric camera, so surfaces from 0.45 m to 1.05 m high are
+#: all in view from their vantage points.
+EGO_PITCH_DEG = -20.0
+#: Near and far clipping planes (m) of both cameras.
+NEAR_M, FAR_M = 0.03, 30.0
+#: The chase camera is pulled in front of any wall between it and the agent, keeping this gap (m).
+CHASE_WALL_GAP_M = 0.15
+#: Half width (m) of the corridor behind the agent that must be free of walls for the chase camera
+#: (three parallel rays), so it does not peer through a doorway past its frame.
+CHASE_SIDE_CLEARANCE_M = 0.35
+#: Shortest chase-camera distance (m) after the pull-in.
+CHASE_MIN_DISTANCE_M = 0.6
+
+FLOOR_COLOR = (0.56, 0.60, 0.66, 1.0)
+WALL_COLOR = (0.97, 0.94, 0.86, 1.0)
+LIGHT_DIRECTION = (0.4, -0.6, 1.0)
+#: TinyRenderer lighting: ambient, diffuse and specular coefficients.
+LIGHT_COEFFS = (0.6, 0.45, 0.05)
+
+FrameSink = Callable[["PyBulletHouse", Pose], None]
+
+
+class PyBulletHouse(TruthBackedAdapter):
+    """The scenario's house in PyBullet, as an :class:`~fg_tea.env.base.EnvAdapter`.
+
+    Args:
+        scenario: the house, sites and objects (truth is read only inside the environment).
+        config: embodiment parameters (Table 3).
+        render_motion: mirror every frame of motion into the scene and hand it to `frame_sink`
+            (or, without a sink, render the egocentric camera each frame). Off for headless runs.
+        frame_sink: called as ``frame_sink(house, pose)`` once per frame of motion when
+            `render_motion` is on, after the scene shows that frame; it may call
+            :meth:`render_ego` / :meth:`render_chase`.
+        roi: count pixels [28] by rendering only the window of the egocentric image that can
+            contain a considered object (the union of their projected bounding boxes, on the same
+            pixel grid as the full image). Pixels outside that window cannot hold those objects,
+            so the counts equal the full image's; ``roi=False`` renders the whole image.
+
+    Raises:
+        InputError: a vantage point (or the start) is off the free floor or unreachable; raised at
+            construction, naming the site and the nearest free cell.
+    """
+
+    def __init__(self, scenario: Scenario, config: EnvConfig = EnvConfig(), render_motion: bool = False,
+                 *, frame_sink: FrameSink | None = None, roi: bool = True) -> None:
+        super().__init__(scenario, config)
+        if config.agent_radius < assets.DRONE_RADIUS_M:
+            raise ValueError(f"agent_radius {config.agent_radius} m is smaller than the drone body "
+                             f"({assets.DRONE_RADIUS_M} m)")
+        self.render_motion = render_motion
+        self.frame_sink = frame_sink
+        self.roi = roi
+        self.navigator = Navigator(scenario, config)
+        self.frames_rendered = 0
+        self._client = pybullet.connect(pybullet.DIRECT)
+        self._bodies: dict[str, int] = {}
+        self._static: list[int] = []
+        self._obstacles: list[int] = []
+        self._drone = -1
+        self._built = False
+
+    # --- scene -----------------------------------------------------------------------------
+
+    def _build(self) -> None:
+        if not self._built:
+            self._build_static()
+            self._built = True
+        for body in self._obstacles:
+            pybullet.removeBody(body, physicsClientId=self._client)
+        self._obstacles = []
+        self.frames_rendered = 0
+
+    def _build_static(self) -> None:
+        c, house = self._client, self.scenario.house
+        (x0, y0), (x1, y1) = house.floor_min, house.floor_max
+        self._static.append(assets.box(c, ((x0 + x1) / 2, (y0 + y1) / 2, -0.025),
+                                       ((x1 - x0) / 2 + 0.3, (y1 - y0) / 2 + 0.3, 0.025), FLOOR_COLOR))
+        h = house.wall_height
+        for wall in wall_boxes(house):
+            self._static.append(assets.box(c, (wall.center[0], wall.center[1], h / 2),
+                                           (wall.half[0], wall.half[1], h / 2), WALL_COLOR,
+                                           yaw=math.atan2(wall.axis[1], wall.axis[0])))
+        for f in house.furniture:
+            self._static.append(assets.box(c, (f.center[0], f.center[1], f.size[2] / 2),
+                                           (f.size[0] / 2, f.size[1] / 2, f.size[2] / 2), tuple(f.color)))
+        self._bounds: dict[str, np.ndarray] = {}
+        for spec in self.scenario.objects:
+            parts = assets.object_parts(spec.asset, spec.category)
+            self._bodies[spec.name] = assets.create_compound(c, parts)
+            lo, hi = assets.local_bounds(parts)
+            self._bounds[spec.name] = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0])
+                                                for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]).T
+        self._drone = assets.create_compound(c, assets.drone_parts())
+        self._body_to_object = {body: name for name, body in self._bodies.items()}
+        self._semantic = {self._bodies[s.name]: s.semantic_id for s in self.scenario.objects}
+
+    def add_obstacle(self, center: Sequence[float], size: Sequence[float],
+                     rgba: Sequence[float] = (0.5, 0.5, 0.55, 1.0)) -> int:
+        """Add a box that occludes the cameras (not the navigation grid); removed on reset.
+
+        Args:
+            center: box centre (x, y, z) in metres.
+            size: full box size (x, y, z) in metres.
+
+        Returns:
+            The body id.
+        """
+        self._require_reset()
+        body = assets.box(self._client, tuple(center), tuple(s / 2 for s in size), tuple(rgba))
+        self._obstacles.append(body)
+        return body
+
+    def close(self) -> None:
+        if self._client >= 0:
+            pybullet.disconnect(self._client)
+            self._client = -1
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: pybullet may already be gone
+            pass
+
+    # --- hooks -----------------------------------------------------------------------------
+
+    def _route(self, k: int) -> list[Pose] | None:
+        corners = self.navigator.path(k, (self._pose.x, self._pose.y))
+        if corners is None:
+            return None
+        return follow_path(self._pose, corners, self.config)
+
+    def _distance(self, k: int) -> float:
+        return self.navigator.distance(k, (self._pose.x, self._pose.y))
+
+    def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
+        self._sync()
+        width, height = self.config.ego_width, self.config.ego_height
+        view, proj = self._ego_camera(width, height)
+        if not objects:
+            return {}
+        if self.roi:
+            window = self._window(view, proj, width, height, objects)
+            if window is None:
+                return {name: 0 for name in objects}
+            c0, r0, c1, r1 = window
+            proj = _sub_projection(proj, width, height, window)
+            width, height = c1 - c0, r1 - r0
+        seg = self._render((view, proj), width, height, segmentation=True)[2]
+        return {name: int(np.count_nonzero(seg == self._bodies[name])) for name in objects}
+
+    def _window(self, view: Sequence[float], proj: Sequence[float], width: int, height: int,
+                objects: Sequence[str]) -> tuple[int, int, int, int] | None:
+        """Pixel window (col0, row0, col1, row1) covering every object's projected bounds.
+
+        None if no object can be in view; the whole image if a bound reaches behind the camera.
+        """
+        clip_from_world = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T
+        boxes = []
+        for name in objects:
+            pos, orn = pybullet.getBasePositionAndOrientation(self._bodies[name], physicsClientId=self._client)
+            rot = np.reshape(pybullet.getMatrixFromQuaternion(orn), (3, 3))
+            world = np.eye(4)
+            world[:3, :3], world[:3, 3] = rot, pos
+            clip = clip_from_world @ world @ self._bounds[name]
+            if (clip[3] <= NEAR_M).any():
+                return (0, 0, width, height)
+            ndc = clip[:2] / clip[3]
+            boxes.append((ndc[0].min(), ndc[1].min(), ndc[0].max(), ndc[1].max()))
+        b = np.array(boxes)
+        x0, y0, x1, y1 = b[:, 0].min(), b[:, 1].min(), b[:, 2].max(), b[:, 3].max()
+        c0 = max(0, int(math.floor((x0 + 1) / 2 * width)) - 2)
+        c1 = min(width, int(math.ceil((x1 + 1) / 2 * width)) + 2)
+        r0 = max(0, int(math.floor((1 - y1) / 2 * height)) - 2)
+        r1 = min(height, int(math.ceil((1 - y0) / 2 * height)) + 2)
+        if c1 <= c0 or r1 <= r0:
+            return None
+        return (c0, r0, c1, r1)
+
+    def _sync(self) -> None:
+        held = self._truth.held if self._truth is not None else None
+        moving = {held, *self._truth.contents_of(held)} if held is not None else set()
+        for name, body in self._bodies.items():
+            yaw = self._pose.yaw_deg if name in moving else 0.0
+            self._place_body(body, self._positions[name], yaw)
+        self._place_drone(self._pose)
+
+    def _on_frames(self, frames: Sequence[Pose], start: Pose) -> None:
+        if not self.render_motion:
+            return
+        held = self._truth.held
+        inner = self._truth.contents_of(held) if held is not None else []
+        for pose in frames:
+            self._place_drone(pose)
+            if held is not None:
+                spot = held_position(pose, self.config)
+                self._place_body(self._bodies[held], spot, pose.yaw_deg)
+                for name in inner:
+                    self._place_body(self._bodies[name], (spot[0], spot[1], spot[2] + 0.035), pose.yaw_deg)
+            if self.frame_sink is not None:
+                self.frame_sink(self, pose)
+            else:
+                self.render_ego(self.config.ego_width, self.config.ego_height)
+            self.frames_rendered += 1
+
+    def _place_body(self, body: int, xyz: Sequence[float], yaw_deg: float) -> None:
+        pybullet.resetBasePositionAndOrientation(
+            body, list(xyz), pybullet.getQuaternionFromEuler((0.0, 0.0, math.radians(yaw_deg))),
+            physicsClientId=self._client)
+
+    def _place_drone(self, pose: Pose) -> None:
+        self._place_body(self._drone, (pose.x, pose.y, self.config.sensor_height), pose.yaw_deg)
+
+    # --- replay ----------------------------------------------------------------------------
+
+    def set_scene_state(self, agent_pose: Pose | Sequence[float],
+                        placements: Mapping[str, Sequence[float]], held: str | None = None) -> None:
+        """Show a logged state without running the agent (for re-rendering from a log).
+
+        Args:
+            agent_pose: a Pose or (x, y, yaw_deg).
+            placements: object name -> (x, y, z) base position (m); missing objects stay put.
+            held: the object riding in front of the agent, placed from `agent_pose` (overrides
+                its entry in `placements`).
+        """
+        self._require_reset()
+        pose = agent_pose if isinstance(agent_pose, Pose) else Pose(*map(float, agent_pose))
+        self._pose = pose
+        for name, xyz in placements.items():
+            self._place_body(self._bodies[name], xyz, 0.0)
+        if held is not None:
+            self._place_body(self._bodies[held], held_position(pose, self.config), pose.yaw_deg)
+        self._place_drone(pose)
+
+    # --- cameras ---------------------------------------------------------------------------
+
+    def _ego_camera(self, width: int, height: int) -> tuple[list, list]:
+        cfg, pose = self.config, self._pose
+        yaw = math.radians(pose.yaw_deg)
+        eye = (pose.x + assets.CAMERA_FORWARD_M * math.cos(yaw), pose.y + assets.CAMERA_FORWARD_M * math.sin(yaw),
+               cfg.sensor_height)
+        vfov = 2 * math.degrees(math.atan(math.tan(math.radians(cfg.ego_hfov_deg) / 2) * height / width))
+        return _view(eye, yaw, math.radians(EGO_PITCH_DEG)), _projection(vfov, width, height)
+
+    def _chase_camera(self, width: int, height: int, distance: float, height_m: float, pitch_deg: float,
+                      hfov_deg: float) -> tuple[list, list]:
+        pose = self._pose
+        yaw = math.radians(pose.yaw_deg)
+        back = (pose.x - distance * math.cos(yaw), pose.y - distance * math.sin(yaw))
+        grid = self.navigator.grid
+        side = (-math.sin(yaw) * CHASE_SIDE_CLEARANCE_M, math.cos(yaw) * CHASE_SIDE_CLEARANCE_M)
+        frac = min(grid.clear_fraction((pose.x + s * side[0], pose.y + s * side[1]),
+                                       (back[0] + s * side[0], back[1] + s * side[1]), grid.walls)
+                   for s in (-1.0, 0.0, 1.0))
+        if frac < 1.0:
+            distance = max(CHASE_MIN_DISTANCE_M, frac * distance - CHASE_WALL_GAP_M)
+            back = (pose.x - distance * math.cos(yaw), pose.y - distance * math.sin(yaw))
+        vfov = 2 * math.degrees(math.atan(math.tan(math.radians(hfov_deg) / 2) * height / width))
+        return (_view((back[0], back[1], height_m), yaw, math.radians(pitch_deg)),
+                _projection(vfov, width, height))
+
+    def _render(self, camera: tuple[list, list], width: int, height: int, segmentation: bool
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        view, proj = camera
+        flags = 0 if segmentation else pybullet.ER_NO_SEGMENTATION_MASK
+        _, _, rgba, depth, seg = pybullet.getCameraImage(
+            width, height, viewMatrix=view, projectionMatrix=proj, renderer=pybullet.ER_TINY_RENDERER,
+            lightDirection=list(LIGHT_DIRECTION), shadow=0, lightAmbientCoeff=LIGHT_COEFFS[0],
+            lightDiffuseCoeff=LIGHT_COEFFS[1], lightSpecularCoeff=LIGHT_COEFFS[2], flags=flags,
+            physicsClientId=self._client)
+        rgb = np.reshape(np.asarray(rgba, dtype=np.uint8), (height, width, 4))[:, :, :3]
+        depth = np.reshape(np.asarray(depth, dtype=np.float32), (height, width))
+        seg_img = np.reshape(np.asarray(seg, dtype=np.int32), (height, width)) if segmentation else None
+        return rgb, depth, seg_img
+
+    def render_ego(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The egocentric camera at the current pose (what the agent sees).
+
+        Returns:
+            rgb: uint8 (height, width, 3).
+            depth: float32 (height, width), metres along the optical axis.
+            seg: int32 (height, width): the object's semantic id where a task object is visible,
+                0 elsewhere.
+        """
+        self._require_reset()
+        rgb, depth_buffer, seg = self._render(self._ego_camera(width, height), width, height, segmentation=True)
+        depth = (FAR_M * NEAR_M / (FAR_M - (FAR_M - NEAR_M) * depth_buffer)).astype(np.float32)
+        semantic = np.zeros(seg.shape, dtype=np.int32)
+        for body, sid in self._semantic.items():
+            semantic[seg == body] = sid
+        return rgb, depth, semantic
+
+    def render_chase(self, width: int, height: int, distance: float = 3.2, height_m: float = 2.2,
+                     pitch_deg: float = -22.0, hfov_deg: float = 78.0) -> np.ndarray:
+        """The third-person chase camera (Table 3 defaults): for people, never for the agent.
+
+        Args:
+            width, height: image size in pixels.
+            distance: metres behind the agent (pulled in front of a wall in between).
+            height_m: camera height above the floor (m).
+            pitch_deg: camera pitch (deg, negative looks down).
+            hfov_deg: horizontal field of view (deg).
+
+        Returns:
+            rgb, uint8 (height, width, 3).
+        """
+        self._require_reset()
+        camera = self._chase_camera(width, height, distance, height_m, pitch_deg, hfov_deg)
+        return self._render(camera, width, height, segmentation=False)[0]
+
+
+def _view(eye: Sequence[float], yaw: float, pitch: float) -> list:
+    direction = (math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch))
+    target = [eye[i] + direction[i] for i in range(3)]
+    return pybullet.computeViewMatrix(list(eye), target, [0.0, 0.0, 1.0])
+
+
+def _sub_projection(proj: Sequence[float], width: int, height: int, window: tuple[int, int, int, int]) -> list:
+    """Projection matrix that renders pixel window (col0, row0, col1, row1) of the full image.
+
+    Clip coordinates are scaled and shifted so the window's NDC range maps to [-1, 1]; integer
+    pixel positions of the window coincide with those of the full image.
+    """
+    c0, r0, c1, r1 = window
+    x0, x1 = 2 * c0 / width - 1, 2 * c1 / width - 1
+    y0, y1 = 1 - 2 * r1 / height, 1 - 2 * r0 / height
+    m = np.array([[2 / (x1 - x0), 0, 0, -(x1 + x0) / (x1 - x0)],
+                  [0, 2 / (y1 - y0), 0, -(y1 + y0) / (y1 - y0)],
+                  [0, 0, 1, 0],
+                  [0, 0, 0, 1]])
+    return list((m @ np.reshape(proj, (4, 4)).T).T.flatten())
+
+
+def _projection(vfov_deg: float, width: int, height: int) -> list:
+    return pybullet.computeProjectionMatrixFOV(vfov_deg, width / height, NEAR_M, FAR_M)
