@@ -1,0 +1,90 @@
+"""Episode metrics as pure functions of the event log (blueprint sections 11.2 and 15.4).
+
+Because they read only logged events, an old log can be re-scored with new metrics:
+``score(read_log(path))``.
+"""
+
+from __future__ import annotations
+
+from typing import Iterable
+
+from fg_tea.episode.log import iter_events
+
+MOVING_EVENTS = ("observation", "state_reading", "action", "action_failed")
+
+
+def total_distance(events: list[dict]) -> float:
+    """Metres travelled by the agent (geodesic paths actually followed)."""
+    return float(sum(e.get("distance", 0.0) for e in events if e.get("event") in MOVING_EVENTS))
+
+
+def inspections(events: list[dict]) -> int:
+    """Number of site inspections (search observations)."""
+    return sum(1 for _ in iter_events(events, "observation"))
+
+
+def inspections_until_resolved(events: list[dict]) -> dict[str, int | None]:
+    """For each searched object, the number of inspections up to and including its detection."""
+    start = next(iter_events(events, "episode_start"), {})
+    out: dict[str, int | None] = {o: None for o in start.get("searched", start.get("objects", []))}
+    for n, e in enumerate(iter_events(events, "observation"), start=1):
+        for obj in e.get("resolved", []):
+            if out.get(obj) is None:
+                out[obj] = n
+    return out
+
+
+def entropy_reductions(events: list[dict]) -> list[float]:
+    """Per inspection: total entropy (nats) removed from the considered objects' location beliefs."""
+    out = []
+    for e in iter_events(events, "observation"):
+        before, after = e.get("entropy_before", {}), e.get("entropy_after", {})
+        out.append(float(sum(before[o] - after[o] for o in before if o in after)))
+    return out
+
+
+def repeated_sites(events: list[dict]) -> int:
+    """Inspections of a site that had been inspected before in the episode."""
+    seen, repeats = set(), 0
+    for e in iter_events(events, "observation"):
+        repeats += e["site"] in seen
+        seen.add(e["site"])
+    return repeats
+
+
+def skipped_actions(events: list[dict]) -> list[str]:
+    return [e["action"] for e in iter_events(events, "skip")]
+
+
+def frames(events: list[dict]) -> int:
+    return max((int(e.get("frame", 0)) for e in events), default=0)
+
+
+def _mean(values: Iterable[float]) -> float | None:
+    values = list(values)
+    return sum(values) / len(values) if values else None
+
+
+def score(events: list[dict]) -> dict:
+    """Every metric of one episode, from its events alone."""
+    end = next(iter_events(events, "episode_end"), None)
+    reductions = entropy_reductions(events)
+    graph = end.get("graph", {}) if end else {}
+    statuses = list(graph.values())
+    return {
+        "success": bool(end and end.get("reason") == "complete"),
+        "reason": end.get("reason") if end else "incomplete_log",
+        "actions_total": len(statuses),
+        "actions_complete": statuses.count("complete"),
+        "actions_skipped": statuses.count("skipped"),
+        "goal_conditions": end.get("goal_conditions", {}) if end else {},
+        "total_distance": round(total_distance(events), 6),
+        "inspections": inspections(events),
+        "inspections_until_resolved": inspections_until_resolved(events),
+        "entropy_reduction_per_inspection": None if not reductions else round(_mean(reductions), 9),
+        "repeated_sites": repeated_sites(events),
+        "skipped_actions": skipped_actions(events),
+        "state_readings": sum(1 for _ in iter_events(events, "state_reading")),
+        "failures": sum(1 for _ in iter_events(events, "action_failed")),
+        "frames": frames(events),
+    }
