@@ -127,6 +127,10 @@ class EnvAdapter(abc.ABC):
         """Travel distance (metres) from the agent to the site's vantage point; inf if unreachable."""
 
     @abc.abstractmethod
+    def distance_between_sites(self, a: str, b: str) -> float:
+        """Travel distance (metres) from site a's vantage point to site b's; inf if unreachable."""
+
+    @abc.abstractmethod
     def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
         """Go to the site's vantage point, face it, look once, report on `objects` only."""
 

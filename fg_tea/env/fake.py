@@ -40,9 +40,9 @@ class FakeHouse(TruthBackedAdapter):
         vantage = tuple(map(float, self.scenario.sites[k].vantage))
         return follow_path(self._pose, [vantage], self.config)
 
-    def _distance(self, k: int) -> float:
+    def _distance_from(self, k: int, xy: Sequence[float]) -> float:
         vx, vy = self.scenario.sites[k].vantage
-        return math.hypot(vx - self._pose.x, vy - self._pose.y)
+        return math.hypot(vx - xy[0], vy - xy[1])
 
     def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
         site = self.scenario.sites[k].name

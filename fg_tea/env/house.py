@@ -164,8 +164,8 @@ class PyBulletHouse(TruthBackedAdapter):
             return None
         return follow_path(self._pose, corners, self.config)
 
-    def _distance(self, k: int) -> float:
-        return self.navigator.distance(k, (self._pose.x, self._pose.y))
+    def _distance_from(self, k: int, xy: Sequence[float]) -> float:
+        return self.navigator.distance(k, xy)
 
     def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
         self._sync()

@@ -225,8 +225,8 @@ class TruthBackedAdapter(EnvAdapter):
         """
 
     @abc.abstractmethod
-    def _distance(self, goal_site: int) -> float:
-        """Planner travel distance (m) from the agent to site `goal_site`'s vantage; inf if none."""
+    def _distance_from(self, goal_site: int, xy: Sequence[float]) -> float:
+        """Planner travel distance (m) from floor point `xy` to site `goal_site`'s vantage; inf if none."""
 
     @abc.abstractmethod
     def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
@@ -266,7 +266,16 @@ class TruthBackedAdapter(EnvAdapter):
         if self.config.distance == "euclidean":
             vx, vy = self.scenario.sites[k].vantage
             return math.hypot(vx - self._pose.x, vy - self._pose.y)
-        return self._distance(k)
+        return self._distance_from(k, (self._pose.x, self._pose.y))
+
+    def distance_between_sites(self, a: str, b: str) -> float:
+        self._require_reset()
+        ka, kb = self._site_index(a), self._site_index(b)
+        start = self.scenario.sites[ka].vantage
+        if self.config.distance == "euclidean":
+            vx, vy = self.scenario.sites[kb].vantage
+            return math.hypot(vx - start[0], vy - start[1])
+        return self._distance_from(kb, start)
 
     def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
         self._require_reset()
