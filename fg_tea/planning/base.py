@@ -1,0 +1,265 @@
+"""Planning interface: which object-site inspection is worth doing next? (blueprint section 5)
+
+A search policy is "inspect semantic site j for object o" (eqs. 8, 9). Every planner answers the
+same question through one pure function,
+
+    Planner.choose(belief, objects, relevance, distances, inspected, excluded_sites) -> Decision
+
+and never writes the belief: only inference does (``BeliefEngine.observe_site``). Randomness comes
+only from a ``numpy.random.Generator`` handed to a planner at construction.
+
+The pieces defined here:
+
+- :class:`DistanceModel` — travel distance in metres from the agent to a site's vantage point
+  (d_j of eq. 12) and between two vantage points. The environment supplies geodesic distances on
+  its occupancy grid; :func:`euclidean_distances` builds straight-line ones from the scenario's
+  vantage coordinates (the Euclidean ablation of section 15.4).
+- :class:`Candidate` — one scored (object, site) pair with every term of eqs. 12 and 16.
+- :class:`Decision` — the argmin of eq. 17 with all candidates, ready for the episode log.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping, Protocol, Sequence, runtime_checkable
+
+import numpy as np
+
+from fg_tea.scenario import Scenario
+
+
+# ---------------------------------------------------------------------------------- distances
+@runtime_checkable
+class DistanceModel(Protocol):
+    """Travel distances in metres between the agent, and between sites' vantage points."""
+
+    def from_agent(self, site: str) -> float:
+        """Metres from the agent's current position to `site`'s vantage point (d_j, eq. 12)."""
+        ...
+
+    def between(self, a: str, b: str) -> float:
+        """Metres from the vantage point of site `a` to that of site `b`."""
+        ...
+
+
+@dataclass(frozen=True)
+class DistanceTable:
+    """A :class:`DistanceModel` held as numbers: one row from the agent, one matrix between sites.
+
+    Attributes:
+        sites: site names, the order of `agent` and of both axes of `matrix`.
+        agent: shape (K,), metres from the agent to each site's vantage point.
+        matrix: shape (K, K), metres between vantage points (zero diagonal).
+        kind: how the numbers were made, ``"euclidean"`` or ``"geodesic"`` (for the log).
+    """
+
+    sites: tuple[str, ...]
+    agent: tuple[float, ...]
+    matrix: tuple[tuple[float, ...], ...]
+    kind: str = "euclidean"
+    _index: Mapping[str, int] = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        k = len(self.sites)
+        if len(self.agent) != k or len(self.matrix) != k or any(len(r) != k for r in self.matrix):
+            raise ValueError(f"distance table for {k} sites needs {k} agent distances and a "
+                             f"{k} x {k} matrix")
+        values = list(self.agent) + [x for r in self.matrix for x in r]
+        if any(not math.isfinite(x) or x < 0 for x in values):
+            raise ValueError("distances must be finite and non-negative (metres)")
+        object.__setattr__(self, "_index", {s: i for i, s in enumerate(self.sites)})
+
+    def _i(self, site: str) -> int:
+        try:
+            return self._index[site]
+        except KeyError:
+            raise KeyError(f"no distances for site {site!r} (known: {', '.join(self.sites)})") from None
+
+    def from_agent(self, site: str) -> float:
+        return self.agent[self._i(site)]
+
+    def between(self, a: str, b: str) -> float:
+        return self.matrix[self._i(a)][self._i(b)]
+
+    def moved_to(self, site: str) -> "DistanceTable":
+        """The same house with the agent standing at `site`'s vantage point."""
+        return DistanceTable(self.sites, self.matrix[self._i(site)], self.matrix, self.kind)
+
+
+def euclidean_distances(scenario: Scenario, agent_xy: Sequence[float]) -> DistanceTable:
+    """Straight-line distances between the agent and the sites' vantage points (ablation, 15.4).
+
+    Args:
+        scenario: the house; only site vantage coordinates are read.
+        agent_xy: the agent's floor position (x, y) in metres.
+
+    Returns:
+        A :class:`DistanceTable` of kind ``"euclidean"``.
+    """
+    pts = np.array([s.vantage for s in scenario.sites], dtype=float)  # (K, 2)
+    agent = np.asarray(agent_xy, dtype=float).reshape(2)
+    to_agent = np.linalg.norm(pts - agent[None, :], axis=1)
+    matrix = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+    return DistanceTable(scenario.site_names, tuple(float(x) for x in to_agent),
+                         tuple(tuple(float(x) for x in row) for row in matrix), "euclidean")
+
+
+def distance_vector(distances: DistanceModel, sites: Sequence[str]) -> np.ndarray:
+    """d_j for each site in `sites`, shape (K,), metres."""
+    return np.array([float(distances.from_agent(s)) for s in sites])
+
+
+def distance_matrix(distances: DistanceModel, sites: Sequence[str]) -> np.ndarray:
+    """Vantage-to-vantage distances, shape (K, K), metres."""
+    return np.array([[float(distances.between(a, b)) for b in sites] for a in sites])
+
+
+# ---------------------------------------------------------------------------------- decisions
+@dataclass(frozen=True)
+class Candidate:
+    """One scored inspection "look at `site` for `object`" (eqs. 12, 16).
+
+    Attributes:
+        object: the object whose belief and relevance are scored.
+        site: the site to inspect.
+        distance: d_j, metres from the agent to the site's vantage point.
+        probability: q(L_o = j) in [0, 1].
+        information_gain: I(o, j) in nats (eq. 11, or the joint form of :mod:`.efe`).
+        repeat: how many times `site` was already inspected with negative evidence in this search.
+        relevance: r_o in [0, 1] (eq. 15).
+        base: G_base(o, j) of eq. 12 (planners that are not EFE put their own score here).
+        total: the score the planner minimises (eq. 16 for EFE); lower is better.
+    """
+
+    object: str
+    site: str
+    distance: float
+    probability: float
+    information_gain: float
+    repeat: int
+    relevance: float
+    base: float
+    total: float
+
+    def to_json(self) -> dict:
+        return {"object": self.object, "site": self.site, "distance": float(self.distance),
+                "probability": float(self.probability),
+                "information_gain": float(self.information_gain), "repeat": int(self.repeat),
+                "relevance": float(self.relevance), "base": float(self.base),
+                "total": float(self.total)}
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The chosen inspection (eq. 17) and every candidate that competed for it.
+
+    Attributes:
+        object: the chosen object o*.
+        site: the chosen site j*.
+        total: the chosen candidate's score.
+        candidates: every candidate, objects in the caller's order, then sites in belief order.
+        planner: the planner's registry name.
+        info: planner-specific scalars for the log (weights, expected cost...).
+    """
+
+    object: str
+    site: str
+    total: float
+    candidates: tuple[Candidate, ...]
+    planner: str
+    info: Mapping[str, float | str] = field(default_factory=dict)
+
+    @property
+    def chosen(self) -> Candidate:
+        for c in self.candidates:
+            if c.object == self.object and c.site == self.site:
+                return c
+        raise LookupError(f"decision ({self.object}, {self.site}) is not among its candidates")
+
+    def to_json(self) -> dict:
+        """A JSON-serialisable record: the choice, planner info and every candidate with every term."""
+        return {"planner": self.planner, "object": self.object, "site": self.site,
+                "total": float(self.total), "info": dict(self.info),
+                "candidates": [c.to_json() for c in self.candidates]}
+
+
+@runtime_checkable
+class Planner(Protocol):
+    """Chooses the next inspection; a pure function of its inputs (no belief mutation)."""
+
+    name: str
+
+    def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
+               distances: DistanceModel, inspected: Mapping[str, int],
+               excluded_sites: frozenset[str] = frozenset()) -> Decision:
+        """Pick the next (object, site).
+
+        Args:
+            belief: a :class:`~fg_tea.beliefs.engine.BeliefEngine` (read only).
+            objects: the unresolved objects on the task frontier, in priority order of ties.
+            relevance: object -> r_o in [0, 1] (eq. 15) for every object in `objects`.
+            distances: travel distances from the agent's current position (metres).
+            inspected: site -> times inspected with negative evidence in the current search.
+            excluded_sites: sites that must not be chosen (e.g. unreachable).
+
+        Returns:
+            The :class:`Decision`.
+        """
+        ...
+
+
+# ---------------------------------------------------------------------------------- shared checks
+def check_inputs(belief, objects: Sequence[str], relevance: Mapping[str, float],
+                 excluded_sites: frozenset[str]) -> tuple[list[int], list[int]]:
+    """Validate a planner call; return object indices (caller's order) and eligible site indices.
+
+    Raises:
+        ValueError: no objects, an unknown or repeated object, a missing or out-of-range
+            relevance, an unknown excluded site, or every site excluded.
+    """
+    if not objects:
+        raise ValueError("planner: no unresolved objects to search for")
+    known = list(belief.objects)
+    if len(set(objects)) != len(objects):
+        raise ValueError(f"planner: objects repeated in {list(objects)}")
+    obj_idx = []
+    for o in objects:
+        if o not in known:
+            raise ValueError(f"planner: unknown object {o!r} (known: {', '.join(known)})")
+        if o not in relevance:
+            raise ValueError(f"planner: no relevance r_o given for object {o!r}")
+        r = float(relevance[o])
+        if not 0.0 <= r <= 1.0:
+            raise ValueError(f"planner: relevance of {o!r} is {r}, outside [0, 1] (eq. 15)")
+        obj_idx.append(known.index(o))
+    sites = list(belief.sites)
+    for s in excluded_sites:
+        if s not in sites:
+            raise ValueError(f"planner: unknown excluded site {s!r}")
+    eligible = [j for j, s in enumerate(sites) if s not in excluded_sites]
+    if not eligible:
+        raise ValueError("planner: every site is excluded")
+    return obj_idx, eligible
+
+
+def repeat_counts(inspected: Mapping[str, int], sites: Sequence[str]) -> np.ndarray:
+    """Negative inspections per site so far, shape (K,), integers >= 0."""
+    counts = np.array([int(inspected.get(s, 0)) for s in sites])
+    if np.any(counts < 0):
+        raise ValueError("planner: inspection counts must be non-negative")
+    return counts
+
+
+def most_relevant(objects: Sequence[str], relevance: Mapping[str, float]) -> str:
+    """The object with the largest r_o; ties go to the first in `objects`."""
+    best = objects[0]
+    for o in objects[1:]:
+        if float(relevance[o]) > float(relevance[best]):
+            best = o
+    return best
+
+
+__all__ = ["DistanceModel", "DistanceTable", "euclidean_distances", "distance_vector",
+           "distance_matrix", "Candidate", "Decision", "Planner", "check_inputs",
+           "repeat_counts", "most_relevant"]

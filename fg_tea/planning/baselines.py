@@ -1,0 +1,120 @@
+"""Baseline search planners behind the :class:`~fg_tea.planning.base.Planner` interface.
+
+They answer the same question as the EFE planner (eqs. 8, 9, 17: which (object, site) next?) with
+simpler rules, so experiments can measure what each term of eqs. 12-16 buys:
+
+- :class:`NearestPlanner` — the nearest site not yet inspected (distance only, no belief);
+- :class:`GreedyProbabilityPlanner` — the most probable (object, site), argmax q(L_o = j);
+- :class:`RandomPlanner` — a uniformly random uninspected site from a seeded Generator;
+- :class:`~fg_tea.planning.efe.FactorisedEFEPlanner` — the blueprint's eqs. 10-11 on marginals
+  (defined in :mod:`fg_tea.planning.efe`, re-exported here).
+
+Site-level baselines (nearest, random) label their choice with the most relevant object (eq. 15;
+ties to the first in the caller's order), the object whose search node the inspection serves.
+Each candidate records every term the EFE score would use, with the baseline's own score in
+``base`` and ``total``.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from fg_tea.planning.base import (Candidate, Decision, DistanceModel, check_inputs,
+                                  distance_vector, most_relevant, repeat_counts)
+from fg_tea.planning.efe import FactorisedEFEPlanner
+
+
+def _fresh_sites(eligible: list[int], counts: np.ndarray) -> list[int]:
+    """Eligible sites never inspected; when all were, those inspected least often."""
+    fewest = min(int(counts[j]) for j in eligible)
+    return [j for j in eligible if counts[j] == fewest]
+
+
+class NearestPlanner:
+    """Go to the nearest site not yet inspected in this search (ties: site order).
+
+    Score: total = d_j (metres) over the sites with the fewest negative inspections so far.
+    """
+
+    name = "nearest"
+
+    def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
+               distances: DistanceModel, inspected: Mapping[str, int],
+               excluded_sites: frozenset[str] = frozenset()) -> Decision:
+        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites)
+        sites = list(belief.sites)
+        d = distance_vector(distances, sites)
+        counts = repeat_counts(inspected, sites)
+        pool = _fresh_sites(eligible, counts)
+        target = most_relevant(objects, relevance)
+        q = belief.location(target)
+        candidates = tuple(Candidate(target, sites[j], float(d[j]), float(q[j]), 0.0,
+                                     int(counts[j]), float(relevance[target]), float(d[j]),
+                                     float(d[j])) for j in pool)
+        best = min(candidates, key=lambda c: c.total)  # first minimum in site order
+        return Decision(best.object, best.site, best.total, candidates, self.name)
+
+
+class GreedyProbabilityPlanner:
+    """Inspect the most probable (object, site): argmax q(L_o = j) (ties: object, then site order).
+
+    Score: total = -q(L_o = j). No distance, information or repeat term: after a miss, eq. 6
+    lowers q at the inspected site by the factor mu, which is what moves the search on.
+    """
+
+    name = "greedy"
+
+    def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
+               distances: DistanceModel, inspected: Mapping[str, int],
+               excluded_sites: frozenset[str] = frozenset()) -> Decision:
+        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites)
+        sites = list(belief.sites)
+        q = belief.location_matrix()[obj_idx]
+        d = distance_vector(distances, sites)
+        counts = repeat_counts(inspected, sites)
+        candidates = tuple(Candidate(o, sites[j], float(d[j]), float(q[i, j]), 0.0, int(counts[j]),
+                                     float(relevance[o]), float(-q[i, j]), float(-q[i, j]))
+                           for i, o in enumerate(objects) for j in eligible)
+        best = min(candidates, key=lambda c: c.total)
+        return Decision(best.object, best.site, best.total, candidates, self.name)
+
+
+class RandomPlanner:
+    """A uniformly random site among those not yet inspected (seeded; ties impossible).
+
+    Each eligible site draws one key u ~ U[0, 1) from the Generator, in site order; the smallest
+    key wins, and the keys are the candidates' totals, so the log shows the draw.
+
+    Args:
+        rng: the Generator all randomness comes from (one draw of K' numbers per decision).
+    """
+
+    name = "random"
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        if not isinstance(rng, np.random.Generator):
+            raise ValueError("RandomPlanner needs a numpy.random.Generator "
+                             "(e.g. numpy.random.default_rng(seed))")
+        self.rng = rng
+
+    def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
+               distances: DistanceModel, inspected: Mapping[str, int],
+               excluded_sites: frozenset[str] = frozenset()) -> Decision:
+        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites)
+        sites = list(belief.sites)
+        d = distance_vector(distances, sites)
+        counts = repeat_counts(inspected, sites)
+        pool = _fresh_sites(eligible, counts)
+        keys = self.rng.random(len(pool))
+        target = most_relevant(objects, relevance)
+        q = belief.location(target)
+        candidates = tuple(Candidate(target, sites[j], float(d[j]), float(q[j]), 0.0,
+                                     int(counts[j]), float(relevance[target]), float(u), float(u))
+                           for j, u in zip(pool, keys))
+        best = min(candidates, key=lambda c: c.total)
+        return Decision(best.object, best.site, best.total, candidates, self.name)
+
+
+__all__ = ["NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner", "FactorisedEFEPlanner"]
