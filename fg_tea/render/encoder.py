@@ -20,9 +20,11 @@ class Mp4Writer:
         width, height: frame size in pixels (even numbers, as yuv420p requires).
         fps: output frame rate.
         crf: x264 quality (lower is better; 23 is x264's default).
+        bframes: x264 B-frames (0 keeps decode order = display order, so segments concatenate).
     """
 
-    def __init__(self, path: str | Path, width: int, height: int, fps: int = 30, crf: int = 23) -> None:
+    def __init__(self, path: str | Path, width: int, height: int, fps: int = 30, crf: int = 23,
+                 bframes: int | None = None) -> None:
         try:
             import av
         except ImportError as exc:  # pragma: no cover - av is a core dependency
@@ -38,6 +40,8 @@ class Mp4Writer:
         self._stream.width, self._stream.height = width, height
         self._stream.pix_fmt = "yuv420p"
         self._stream.options = {"preset": "veryfast", "crf": str(crf)}
+        if bframes is not None:
+            self._stream.options = {**self._stream.options, "bframes": str(bframes)}
         self.frames = 0
 
     def write(self, frame: np.ndarray) -> None:

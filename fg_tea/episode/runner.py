@@ -1,0 +1,352 @@
+"""The episode: the loop of the blueprint's Listing 3 over fg_tea's layers, one event at a time.
+
+    truth s* -> observation o -> belief q(s) -> decision pi -> changed world s*'      (eq. 1)
+
+Each :meth:`EpisodeRunner.step` asks the task executor for the next action and carries it out:
+
+- SEARCH: the planner scores every (unresolved object, site) pair on the task frontier; the
+  environment goes to the chosen site and looks; the belief engine absorbs every detection and
+  miss; every object found has its search confirmed, whichever search was being served (11.1);
+- INSPECT: the environment reads the hidden state through a noisy sensor; the executor absorbs it;
+- practical actions: unmet belief preconditions are first verified by inspection (bounded); the
+  environment carries the action out; the executor applies its belief effects, or its recovery
+  when the environment reports a failure.
+
+The runner never reads truth: it passes the environment's observations to the agent side and
+logs both. It stops on completion, on an unrecoverable failure, or on the frame limit, and says
+which (``terminated`` vs ``truncated``).
+"""
+
+from __future__ import annotations
+
+import platform
+from dataclasses import asdict, dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from fg_tea import __version__
+from fg_tea.beliefs.engine import BeliefEngine, entropy
+from fg_tea.env.base import ActionRequest, EnvAdapter, EnvConfig
+from fg_tea.episode.log import EventLog
+from fg_tea.episode.metrics import score
+from fg_tea.model import Model
+from fg_tea.planning import distances_for, make_planner
+from fg_tea.scenario import Scenario
+from fg_tea.tasks.executor import PreconditionError, TaskExecutor
+from fg_tea.tasks.load import load_task
+
+REASON_COMPLETE = "complete"
+REASON_FRAME_LIMIT = "frame_limit"
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """Episode parameters (blueprint Table 3 where it applies)."""
+
+    seed: int = 0
+    planner: str = "efe"
+    task: str = "make_tea"
+    preparation_site: str | None = None
+    max_frames: int = 50_000
+    belief_backend: str = "numpy"
+    snapshot_every_event: bool = True
+
+
+def env_config_for(model: Model, base: EnvConfig | None = None, **overrides) -> EnvConfig:
+    """The embodiment config with the model's perception switches (eq. 29) applied."""
+    from dataclasses import replace
+
+    base = base or EnvConfig()
+    return replace(base, min_visible_pixels=model.min_visible_pixels,
+                   site_association=model.site_association, **overrides)
+
+
+class _EnvDistances:
+    """Planner distances from the environment: geodesic lookups from the agent and between sites."""
+
+    def __init__(self, env: EnvAdapter) -> None:
+        self._env = env
+        self._from: dict[str, float] = {}
+
+    def from_agent(self, site: str) -> float:
+        if site not in self._from:
+            self._from[site] = float(self._env.distance_to_site(site))
+        return self._from[site]
+
+    def between(self, a: str, b: str) -> float:
+        return float(self._env.distance_between_sites(a, b))
+
+
+@dataclass
+class EpisodeState:
+    """What the runner has done so far (all derived from observations, none from truth)."""
+
+    frame: int = 0
+    steps: int = 0
+    inspected: dict[str, int] = field(default_factory=dict)
+    done: bool = False
+    reason: str | None = None
+    terminated: bool = False
+    truncated: bool = False
+
+
+class EpisodeRunner:
+    """Runs one episode of a task in an environment with a model, step by step.
+
+    Args:
+        scenario: the house (the agent reads its sites and priors; the env reads its truth).
+        model: the agent's generative model.
+        env: the environment adapter (PyBullet house, or a fake for tests).
+        config: episode parameters.
+        log: where events go (in memory when None).
+
+    Between steps, ``runner.belief``, ``runner.executor``, ``runner.graph`` and
+    ``runner.last_decision`` can be inspected freely.
+    """
+
+    def __init__(self, scenario: Scenario, model: Model, env: EnvAdapter,
+                 config: RunConfig = RunConfig(), log: EventLog | None = None) -> None:
+        self.scenario = scenario
+        self.model = model
+        self.env = env
+        self.config = config
+        self.log = log if log is not None else EventLog()
+        self.belief = BeliefEngine(scenario, model, backend=config.belief_backend)
+        self.graph = load_task(config.task, model, scenario, config.preparation_site)
+        self.executor = TaskExecutor(self.graph, self.belief, scenario, model)
+        self.planner = make_planner(config.planner, model,
+                                    rng=np.random.default_rng([config.seed, 0x9E7]))
+        self.state = EpisodeState()
+        self.last_decision = None
+        self._seen_executor_events = 0
+        self._started = False
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def done(self) -> bool:
+        return self.state.done
+
+    @property
+    def reason(self) -> str | None:
+        return self.state.reason
+
+    @property
+    def events(self) -> list[dict]:
+        return self.log.events
+
+    # ------------------------------------------------------------------ logging helpers
+    def _write(self, event: dict) -> dict:
+        return self.log.write({**event, "frame": self.state.frame})
+
+    def _flush_executor(self, merge_last: bool = False) -> dict | None:
+        """Write the executor's new events; with merge_last, return the last one instead."""
+        pending = self.executor.events[self._seen_executor_events:]
+        self._seen_executor_events = len(self.executor.events)
+        last = pending.pop() if merge_last and pending else None
+        for event in pending:
+            self._write(event)
+        return last
+
+    def _advance(self, result) -> dict:
+        self.state.frame += int(result.frames)
+        return {"distance": float(result.distance), "frames": int(result.frames),
+                "motion": [list(p) for p in result.motion]}
+
+    # ------------------------------------------------------------------ episode
+    def start(self) -> dict:
+        """Reset the environment and write the episode_start event."""
+        pose = self.env.reset(self.config.seed)
+        self._started = True
+        model = self.model
+        return self._write({
+            "event": "episode_start",
+            "scenario": self.scenario.name, "scenario_file": self.scenario.source,
+            "model": model.name, "model_file": model.source, "structure": model.structure,
+            "task": self.graph.name, "planner": self.config.planner, "seed": self.config.seed,
+            "versions": {"fg_tea": __version__, "python": platform.python_version(),
+                         "numpy": np.__version__},
+            "parameters": {"run": asdict(self.config), "env": _env_params(self.env.config),
+                           "planning": asdict(model.planning),
+                           "detection": {"miss_likelihood": model.miss_likelihood,
+                                         "false_positive_rate": model.false_positive_rate,
+                                         "positive_update": model.positive_update,
+                                         "prior_floor": model.prior_floor},
+                           "transition_form": model.transition_form},
+            "sites": [{"name": s.name, "room": s.room, "vantage": list(s.vantage),
+                       "position": list(s.position)} for s in self.scenario.sites],
+            "objects": list(self.scenario.object_names),
+            "searched": self.executor.pending_search_objects(),
+            "graph": self.graph.to_json(),
+            "tasks": [[n, self.graph.status(n)] for n in self.graph],
+            "pose": pose.as_list(),
+            "world": {"placements": {k: list(v) for k, v in self.env.placements().items()}},
+            "belief": self.belief.snapshot(),
+        })
+
+    def step(self) -> list[dict]:
+        """Carry out one event's worth of the loop; return the events it wrote."""
+        if not self._started:
+            self.start()
+        if self.state.done:
+            return []
+        first = len(self.log.events)
+        if self.state.frame >= self.config.max_frames:
+            self._end(REASON_FRAME_LIMIT, truncated=True)
+            return self.log.events[first:]
+        action = self.executor.next_action()
+        self._flush_executor()
+        if action is None:
+            if self.executor.done:
+                self._end(REASON_COMPLETE, terminated=True)
+            else:
+                self._end(f"stuck: {self.executor.stuck_reason}", terminated=True)
+            return self.log.events[first:]
+        self.state.steps += 1
+        if action.verb == "SEARCH":
+            self._search(action)
+        elif action.verb == "INSPECT":
+            self._inspect(action)
+        else:
+            self._practical(action)
+        if self.config.snapshot_every_event:
+            self._write({"event": "belief", **self.belief.snapshot()})
+        return self.log.events[first:]
+
+    def run(self, progress: Callable[["EpisodeRunner"], None] | None = None) -> dict:
+        """Step until the episode ends; return its metrics (computed from the log)."""
+        if not self._started:
+            self.start()
+        while not self.state.done:
+            self.step()
+            if progress is not None:
+                progress(self)
+        return self.metrics()
+
+    def metrics(self) -> dict:
+        return score(self.log.events)
+
+    # ------------------------------------------------------------------ search
+    def _search(self, action) -> None:
+        objects = self.executor.pending_search_objects()
+        relevance = self.executor.search_relevance()
+        pose = self.env.agent_pose()
+        distances = distances_for(self.model, self.scenario, (pose.x, pose.y),
+                                  geodesic=_EnvDistances(self.env))
+        excluded = frozenset(self.executor.excluded_sites)
+        decision = self.planner.choose(self.belief, objects, relevance, distances,
+                                       dict(self.state.inspected), excluded)
+        self.last_decision = decision
+        self._write({"event": "decision", "serving": action.id, "objects": objects,
+                     "relevance": relevance, "inspected": dict(self.state.inspected),
+                     "excluded": sorted(excluded), **decision.to_json()})
+        result = self.env.inspect_site(decision.site, objects)
+        moved = self._advance(result)
+        if not result.reachable:
+            self.executor.fail(action, "unreachable", site=decision.site)
+            event = self._flush_executor(merge_last=True) or {}
+            self._write({**event, "event": "action_failed", "action": action.id,
+                         "site": decision.site, "reason": "unreachable", **moved})
+            return
+        update = self.belief.observe_site(decision.site, result.detections)
+        if any(v is False for v in result.detections.values()):
+            self.state.inspected[decision.site] = self.state.inspected.get(decision.site, 0) + 1
+        self._write({
+            "event": "observation", "site": decision.site, "objects": objects,
+            "detections": dict(result.detections), "pixel_counts": dict(result.pixel_counts),
+            "resolved": list(update.detected),
+            "before": {o: update.before[o] for o in objects},
+            "after": {o: update.after[o] for o in objects},
+            "entropy_before": {o: entropy(update.before[o]) for o in objects},
+            "entropy_after": {o: entropy(update.after[o]) for o in objects},
+            **moved})
+        for obj in update.detected:
+            self.executor.confirm_search(obj, decision.site)
+        self._flush_executor()
+
+    # ------------------------------------------------------------------ state inspections
+    def _read_state(self, state: str, purpose: str, action=None) -> dict:
+        obj = state.partition(".")[0]
+        sensor = action.sensor if action is not None else self.model.sensor("state")
+        site = self.executor.inspection_site(obj)
+        reading = self.env.observe_state(obj, state.partition(".")[2], site,
+                                         sensor.sensitivity, sensor.specificity)
+        moved = self._advance(reading)
+        if action is not None:
+            self.executor.observe(action, reading.value)
+        else:
+            self.executor.observe_state(state, reading.value, sensor, purpose=purpose)
+        event = self._flush_executor(merge_last=True) or {}
+        return self._write({**event, "event": "state_reading", "purpose": purpose,
+                            "executor_event": event.get("event"), "site": site, **moved})
+
+    def _inspect(self, action) -> None:
+        self._read_state(action.state, "task", action)
+
+    # ------------------------------------------------------------------ practical actions
+    def _practical(self, action) -> None:
+        while states := self.executor.verification_inspections(action):
+            for state in states:
+                self._read_state(state, "verification")
+        violations = self.executor.check(action)
+        if violations:
+            kind = "precondition_unmet" if all(v.kind == "belief" for v in violations) else "affordance"
+            self._fail(action, kind, detail=[v.to_json() for v in violations])
+            return
+        request: ActionRequest = self.executor.request(action)
+        result = self.env.execute(request)
+        moved = self._advance(result)
+        env_fields = {"request": {"verb": request.verb, "object": request.object, "site": request.site,
+                                  "destination": request.destination, "effect": request.effect},
+                      "placements": {k: list(v) for k, v in (result.placements or {}).items()},
+                      **moved}
+        if not result.ok:
+            self._fail(action, result.reason, env_fields=env_fields)
+            return
+        try:
+            self.executor.complete(action, result)
+        except PreconditionError as exc:
+            self._fail(action, "precondition_unmet", detail=[str(exc)], env_fields=env_fields)
+            return
+        event = self._flush_executor(merge_last=True) or {}
+        self._write({**event, "event": "action", **env_fields})
+
+    def _fail(self, action, reason: str, detail=None, env_fields: Mapping | None = None) -> None:
+        decision = self.executor.fail(action, reason)
+        event = self._flush_executor(merge_last=True) or {}
+        self._write({**event, "event": "action_failed", "action": action.id, "reason": reason,
+                     "detail": detail or [], **(env_fields or {"distance": 0.0, "frames": 0, "motion": []})})
+        if decision.retry:
+            for state in decision.inspections:
+                self._read_state(state, "recovery")
+
+    # ------------------------------------------------------------------ the end
+    def _goal_conditions(self) -> dict:
+        objects = self.executor.object_state()
+        states = self.belief.states()
+        thresholds = {}
+        for node in self.graph:
+            if self.graph.status(node) in ("complete", "skipped"):
+                for c in self.graph.action(node).goals:
+                    thresholds[c.state] = max(thresholds.get(c.state, 0.0), c.at_least)
+        return {"all_actions_finished": self.executor.done,
+                "goals": {s: {"belief": states.get(s), "threshold": t, "met": states.get(s, 0.0) >= t}
+                          for s, t in sorted(thresholds.items())},
+                "objects": objects}
+
+    def _end(self, reason: str, terminated: bool = False, truncated: bool = False) -> None:
+        self.state.done, self.state.reason = True, reason
+        self.state.terminated, self.state.truncated = terminated, truncated
+        end = {"event": "episode_end", "reason": reason, "terminated": terminated,
+               "truncated": truncated, "graph": self.graph.to_json(),
+               "goal_conditions": self._goal_conditions(), "belief": self.belief.snapshot(),
+               "gtsam_agreement": self.belief.check_against_gtsam()}
+        self._write(end)
+        # Metrics are a pure function of the events above; logged once more for convenience.
+        self._write({"event": "metrics", **score(self.log.events)})
+
+
+def _env_params(config: EnvConfig) -> dict:
+    out = asdict(config)
+    out["failure_rates"] = dict(config.failure_rates)
+    return out

@@ -1,0 +1,316 @@
+"""Re-render an episode's video from its log, without re-running the agent (blueprint section 12).
+
+The log holds everything a frame needs: the agent pose at every frame of motion, where objects
+stand after each action, which object is held, and the beliefs, decision, task statuses and
+hidden-state probabilities to overlay. :func:`plan_frames` turns the events into a list of frame
+specifications; :func:`render_video` renders them with the PyBullet house (chase view with a
+first-person inset, or either alone), splitting the frames over worker processes that each
+encode a segment, and joins the segments into one H.264 MP4 by remuxing (no re-encode).
+
+Selected frames (decisions, observations, actions, skips) are held for a moment so a viewer can
+read the overlays.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from fg_tea.env.base import EnvConfig
+from fg_tea.episode.log import read_log
+from fg_tea.render.overlay import OverlayState, draw_overlays
+
+VIEWS = ("multi", "first", "third")
+
+
+@dataclass(frozen=True)
+class VideoOptions:
+    """Rendering options (blueprint Table 3 and section 12.1).
+
+    Attributes:
+        width, height: output size in pixels (even).
+        fps: output frame rate.
+        view: ``multi`` (chase view with first-person inset), ``first`` or ``third``.
+        inset_scale: inset width as a fraction of the frame width (multi view).
+        chase_distance, chase_height, chase_pitch_deg, chase_hfov_deg: chase camera (m, m, deg, deg).
+        hold_seconds: how long selected frames are held for reading.
+        frame_stride: render every n-th frame of motion (1 = every frame).
+        workers: rendering processes (0 = one per core).
+        overlays: draw the explanatory panels.
+    """
+
+    width: int = 960
+    height: int = 540
+    fps: int = 30
+    view: str = "multi"
+    inset_scale: float = 0.3
+    chase_distance: float = 3.2
+    chase_height: float = 2.2
+    chase_pitch_deg: float = -22.0
+    chase_hfov_deg: float = 78.0
+    hold_seconds: float = 0.8
+    frame_stride: int = 1
+    workers: int = 0
+    overlays: bool = True
+
+    def __post_init__(self) -> None:
+        if self.view not in VIEWS:
+            raise ValueError(f"view must be one of {', '.join(VIEWS)}, got {self.view!r}")
+        if self.width % 2 or self.height % 2 or self.width < 64 or self.height < 64:
+            raise ValueError(f"video size must be even and at least 64x64, got {self.width}x{self.height}")
+        if self.frame_stride < 1:
+            raise ValueError("frame_stride must be at least 1")
+
+
+@dataclass
+class FrameSpec:
+    """One output frame: where everything is, and what the overlays say."""
+
+    pose: tuple[float, float, float]
+    placements: int  # index into the placements table
+    held: str | None
+    overlay: int  # index into the overlay table
+    repeat: int = 1  # output frames this rendered frame is shown for
+
+
+@dataclass
+class FramePlan:
+    """Everything needed to render a log's video."""
+
+    scenario_file: str
+    scenario_name: str
+    seed: int
+    env: dict
+    frames: list[FrameSpec] = field(default_factory=list)
+    placements: list[dict[str, tuple[float, float, float]]] = field(default_factory=list)
+    overlays: list[OverlayState] = field(default_factory=list)
+
+    @property
+    def output_frames(self) -> int:
+        return sum(f.repeat for f in self.frames)
+
+
+def _top_candidates(decision: dict, n: int = 4) -> list[dict]:
+    return sorted(decision.get("candidates", []), key=lambda c: c["total"])[:n]
+
+
+def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
+    """Turn a log's events into frame specifications (pure; no rendering)."""
+    start = next((e for e in events if e.get("event") == "episode_start"), None)
+    if start is None:
+        raise ValueError("the log has no episode_start event")
+    plan = FramePlan(start["scenario_file"], start["scenario"], int(start["seed"]),
+                     start["parameters"]["env"])
+    hold = max(1, int(round(options.hold_seconds * options.fps)))
+    placements = {k: tuple(v) for k, v in start["world"]["placements"].items()}
+    plan.placements.append(dict(placements))
+    held: str | None = None
+    pose = tuple(start["pose"])
+    tasks = [tuple(t) for t in start["tasks"]]
+    status = dict(tasks)
+    ov = OverlayState(phase="start", caption=f"{start['scenario']} · {start['model']} model · "
+                      f"seed {start['seed']}", sites=[s["name"] for s in start["sites"]],
+                      locations=start["belief"]["locations"], tasks=tasks,
+                      states=start["belief"]["states"])
+
+    def push_overlay() -> int:
+        plan.overlays.append(copy.deepcopy(ov))
+        return len(plan.overlays) - 1
+
+    def emit(motion: Sequence[Sequence[float]], repeat_last: int = 0) -> None:
+        nonlocal pose
+        index = push_overlay()
+        for i, p in enumerate(motion):
+            if i % options.frame_stride and i != len(motion) - 1:
+                continue
+            pose = tuple(p)
+            plan.frames.append(FrameSpec(pose, len(plan.placements) - 1, held, index,
+                                         min(options.frame_stride, len(motion) - i)))
+        if repeat_last:
+            plan.frames.append(FrameSpec(pose, len(plan.placements) - 1, held, push_overlay(), repeat_last))
+
+    emit([], repeat_last=hold)
+    for e in events:
+        kind = e.get("event")
+        if kind == "decision":
+            ov.phase, ov.focus_object, ov.selected_site = "SEARCH", e["object"], e["site"]
+            ov.caption = f"plan: look for the {e['object']} at {e['site']} ({e['planner']})"
+            ov.candidates = _top_candidates(e)
+            emit([], repeat_last=hold)
+        elif kind == "observation":
+            ov.caption = f"going to {e['site']} for {', '.join(e['objects'])}"
+            emit(e.get("motion", []))
+            ov.locations = {**ov.locations, **e["after"]}
+            seen = [o for o, v in e["detections"].items() if v]
+            ov.caption = (f"at {e['site']}: found {', '.join(seen)}" if seen
+                          else f"at {e['site']}: nothing found — belief moves away")
+            emit([], repeat_last=hold)
+        elif kind in ("action", "state_reading", "action_failed"):
+            name = e.get("action") or e.get("state", "")
+            verb = e.get("verb") or ("INSPECT" if kind == "state_reading" else "")
+            ov.phase, ov.selected_site, ov.candidates = verb, None, []
+            ov.focus_object = None
+            if kind == "state_reading":
+                ov.caption = f"reading {e.get('state')} ({e.get('purpose')})"
+            elif kind == "action_failed":
+                ov.caption = f"{name} failed: {e.get('reason')}"
+            else:
+                ov.caption = f"{name}"
+            emit(e.get("motion", []))
+            if kind == "action":
+                if e.get("placements"):
+                    placements = {**placements, **{k: tuple(v) for k, v in e["placements"].items()}}
+                    plan.placements.append(dict(placements))
+                objects = e.get("objects_after", {})
+                held = next((o for o, s in objects.items() if s.get("held")), None)
+                ov.states = e.get("belief_after", ov.states)
+            if kind == "state_reading":
+                ov.caption = f"{e.get('state')} read {'true' if e.get('value') else 'false'}: " \
+                             f"q {e.get('before', 0):.2f} -> {e.get('after', 0):.2f}"
+            emit([], repeat_last=hold)
+        elif kind == "skip":
+            ov.phase, ov.caption = "SKIP", f"{e['action']} skipped: its goal already holds"
+            emit([], repeat_last=hold)
+        elif kind == "belief":
+            ov.locations, ov.states = e["locations"], e["states"]
+        if "graph" in e or "graph_after" in e:
+            graph = e.get("graph_after") or e.get("graph")
+            if isinstance(graph, dict):
+                status.update(graph)
+                ov.tasks = [(n, status[n]) for n, _ in tasks]
+        if kind == "episode_end":
+            ov.phase = "END"
+            ov.caption = f"episode ended: {e['reason']}"
+            emit([], repeat_last=2 * hold)
+    return plan
+
+
+# ---------------------------------------------------------------------------------- rendering
+def _load_scenario(plan: FramePlan):
+    from fg_tea.scenario import load_scenario
+
+    path = Path(plan.scenario_file)
+    return load_scenario(path if path.exists() else plan.scenario_name.split("#")[0])
+
+
+def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayState | None) -> np.ndarray:
+    w, h = options.width, options.height
+    pose, placements, held = scene_state
+    house.set_scene_state(pose, placements, held)
+    inset = None
+    if options.view == "first":
+        frame = np.ascontiguousarray(house.render_ego(w, h)[0])
+    else:
+        frame = np.ascontiguousarray(house.render_chase(
+            w, h, options.chase_distance, options.chase_height, options.chase_pitch_deg,
+            options.chase_hfov_deg))
+        if options.view == "multi":
+            iw = int(w * options.inset_scale) // 2 * 2
+            ih = int(iw * 3 / 4) // 2 * 2
+            ego = house.render_ego(iw, ih)[0]
+            x0 = w - iw - 4
+            frame[2:ih + 6, x0 - 2:x0 + iw + 2] = 255
+            frame[4:ih + 4, x0:x0 + iw] = ego
+            inset = (x0 - 2, 0, w, ih + 6)
+    if overlay is not None and options.overlays:
+        draw_overlays(frame, overlay, inset)
+    return frame
+
+
+def _render_segment(args: tuple) -> tuple[int, str, int]:
+    """Worker: render frames [lo, hi) of a plan into one MP4 segment."""
+    plan, options, lo, hi, path, index = args
+    from fg_tea.env.house import PyBulletHouse
+    from fg_tea.render.encoder import Mp4Writer
+
+    scenario = _load_scenario(plan)
+    env_fields = {k: v for k, v in plan.env.items() if k in EnvConfig.__dataclass_fields__}
+    house = PyBulletHouse(scenario, replace(EnvConfig(), **env_fields))
+    house.reset(plan.seed)
+    writer = Mp4Writer(path, options.width, options.height, options.fps, bframes=0)
+    count = 0
+    try:
+        for spec in plan.frames[lo:hi]:
+            frame = _compose(house, options, (spec.pose, plan.placements[spec.placements], spec.held),
+                             plan.overlays[spec.overlay])
+            for _ in range(spec.repeat):
+                writer.write(frame)
+                count += 1
+        writer.close()
+    finally:
+        house.close()
+    return index, path, count
+
+
+def _concat(segments: Sequence[str], out: Path, fps: int) -> None:
+    """Join H.264 segments into one MP4 by remuxing packets with shifted timestamps."""
+    import av
+
+    tmp = out.with_name(f".{out.name}.partial.mp4")
+    with av.open(str(tmp), "w", options={"movflags": "faststart"}) as dst:
+        stream = None
+        offset = 0
+        for seg in segments:
+            with av.open(seg) as src:
+                s_in = src.streams.video[0]
+                if stream is None:
+                    stream = dst.add_stream_from_template(s_in)
+                last = 0
+                for packet in src.demux(s_in):
+                    if packet.dts is None:
+                        continue
+                    packet.pts = (packet.pts or 0) + offset
+                    packet.dts = packet.dts + offset
+                    last = max(last, packet.pts + (packet.duration or 0))
+                    packet.stream = stream
+                    dst.mux(packet)
+                offset = last
+    os.replace(tmp, out)
+
+
+def render_video(events: list[dict], out: str | Path, options: VideoOptions = VideoOptions(),
+                 progress: Callable[[int, int], None] | None = None) -> dict:
+    """Render the video of a logged episode to `out` (an MP4, written atomically).
+
+    Returns:
+        {"path", "frames" (output frames), "rendered" (distinct rendered frames), "workers"}.
+    """
+    plan = plan_frames(events, options)
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    workers = options.workers or min(os.cpu_count() or 1, 8)
+    workers = max(1, min(workers, len(plan.frames)))
+    bounds = np.linspace(0, len(plan.frames), workers + 1).astype(int)
+    with tempfile.TemporaryDirectory(dir=out.parent, prefix=".render-") as tmp:
+        jobs = [(plan, options, int(bounds[i]), int(bounds[i + 1]), str(Path(tmp) / f"seg{i:02d}.mp4"), i)
+                for i in range(workers) if bounds[i + 1] > bounds[i]]
+        done = 0
+        if len(jobs) == 1:
+            results = [_render_segment(jobs[0])]
+        else:
+            with ProcessPoolExecutor(max_workers=len(jobs)) as pool:
+                results = []
+                for result in pool.map(_render_segment, jobs):
+                    results.append(result)
+                    done += 1
+                    if progress is not None:
+                        progress(done, len(jobs))
+        results.sort()
+        _concat([r[1] for r in results], out, options.fps)
+    return {"path": str(out), "frames": sum(r[2] for r in results), "rendered": len(plan.frames),
+            "workers": len(jobs)}
+
+
+def render_log(log_path: str | Path, out: str | Path | None = None,
+               options: VideoOptions = VideoOptions()) -> dict:
+    """Re-render the video of the log at `log_path` (default output: the log's name, .mp4)."""
+    log_path = Path(log_path)
+    out = Path(out) if out is not None else log_path.with_suffix(".mp4")
+    return render_video(read_log(log_path), out, options)
