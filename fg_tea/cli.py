@@ -87,6 +87,247 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------------------ episodes
+def _video_options(args: argparse.Namespace):
+    from fg_tea.render.video import VideoOptions
+
+    try:
+        return VideoOptions(width=args.width, height=args.height, fps=args.fps, view=args.view,
+                            inset_scale=args.inset_scale, chase_distance=args.third_person_distance,
+                            chase_height=args.third_person_height,
+                            chase_pitch_deg=args.third_person_pitch,
+                            chase_hfov_deg=args.third_person_hfov, hold_seconds=args.hold,
+                            workers=args.workers, overlays=not args.no_overlays,
+                            scene_scale=args.scene_scale, frame_stride=args.frame_stride)
+    except ValueError as exc:
+        raise InputError("<command line>", "video options", str(exc)) from None
+
+
+def _failure_rates(pairs: list[str]) -> dict[str, float]:
+    from fg_tea.env.base import VERBS
+
+    rates = {}
+    for pair in pairs:
+        verb, _, value = pair.partition("=")
+        try:
+            rate = float(value)
+        except ValueError:
+            rate = -1.0
+        if verb.upper() not in VERBS or not 0.0 <= rate <= 1.0:
+            raise InputError("<command line>", "--failure-rate",
+                             f"expected VERB=P with VERB in {', '.join(VERBS)} and P in [0, 1], got {pair!r}")
+        rates[verb.upper()] = rate
+    return rates
+
+
+class _Progress:
+    """A one-line progress display on a terminal; silent otherwise."""
+
+    def __init__(self, max_frames: int, stream=None) -> None:
+        self.stream = stream or sys.stderr
+        self.max_frames = max_frames
+        self.tty = self.stream.isatty()
+
+    def __call__(self, runner) -> None:
+        if not self.tty:
+            return
+        frame = runner.state.frame
+        width = 24
+        done = min(int(width * frame / max(self.max_frames, 1) * 10), width)  # a tenth of the cap fills it
+        active = [n for n in runner.graph if runner.graph.status(n) == "active"]
+        finished = sum(runner.graph.is_finished(n) for n in runner.graph)
+        self.stream.write(f"\r[{'#' * done}{'.' * (width - done)}] frame {frame:6d} · "
+                          f"{finished}/{len(runner.graph)} actions · {(active or ['-'])[0]:<22}")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            self.stream.write("\n")
+
+
+def summary(events: list[dict]) -> str:
+    """A one-paragraph account of an episode, from its log."""
+    from fg_tea.episode.metrics import score
+
+    m = score(events)
+    found = []
+    sites = {}
+    for e in events:
+        if e.get("event") == "observation":
+            for obj in e.get("resolved", []):
+                sites[obj] = e["site"]
+    for obj, n in sorted(m["inspections_until_resolved"].items(), key=lambda kv: kv[1] or 10 ** 9):
+        found.append(f"the {obj} on {sites[obj]} after {n} inspection{'s' * (n != 1)}"
+                     if n is not None else f"never the {obj}")
+    skipped = ", ".join(m["skipped_actions"]) or "none"
+    end = "The task is complete" if m["success"] else f"The episode ended without finishing ({m['reason']})"
+    return (f"Found {', '.join(found)} ({m['inspections']} inspections, {m['repeated_sites']} "
+            f"repeated, {m['total_distance']:.1f} m travelled, {m['state_readings']} state readings, "
+            f"{m['failures']} failed actions). Skipped actions: {skipped}. {end}: "
+            f"{m['actions_complete']} of {m['actions_total']} actions complete and "
+            f"{m['actions_skipped']} skipped, in {m['frames']} frames.")
+
+
+@_command("run")
+def cmd_run(args: argparse.Namespace) -> int:
+    """Run one episode in the PyBullet house; write its log, and its video unless --no-video."""
+    import json
+    import time
+
+    from fg_tea.env.house import PyBulletHouse
+    from fg_tea.episode.log import EventLog
+    from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+    from fg_tea.model import load_model
+    from fg_tea.scenario import load_scenario
+
+    t0 = time.perf_counter()
+    scenario = load_scenario(args.scenario)
+    model = load_model(args.model)
+    options = None if args.no_video else _video_options(args)
+    if args.preparation_site is not None and args.preparation_site not in scenario.site_names:
+        raise InputError(scenario.source, "$.sites", f"--preparation-site {args.preparation_site!r} "
+                         "is not a site of this scenario")
+    out = Path(args.out) if args.out else Path("runs") / f"{scenario.name}-{model.name}-seed{args.seed}"
+    out.mkdir(parents=True, exist_ok=True)
+    config = RunConfig(seed=args.seed, planner=args.planner, task=args.task,
+                       preparation_site=args.preparation_site, max_frames=args.max_frames,
+                       belief_backend=args.backend)
+    env = PyBulletHouse(scenario, env_config_for(model, failure_rates=_failure_rates(args.failure_rate),
+                                                 min_visible_pixels=args.min_visible_pixels
+                                                 if args.min_visible_pixels is not None
+                                                 else model.min_visible_pixels))
+    log_path = out / "episode.jsonl"
+    progress = _Progress(args.max_frames)
+    t1 = time.perf_counter()
+    try:
+        with EventLog(log_path) as log:
+            runner = EpisodeRunner(scenario, model, env, config, log)
+            runner.run(progress)
+    finally:
+        progress.close()
+        env.close()
+    t2 = time.perf_counter()
+    print(summary(runner.events))
+    print(f"log: {log_path}")
+    timings = {"load_s": t1 - t0, "episode_s": t2 - t1}
+    if options is not None:
+        from fg_tea.render.video import render_video
+
+        sys.stderr.write("rendering video...\n") if sys.stderr.isatty() else None
+        result = render_video(runner.events, out / "episode.mp4", options)
+        timings["video_s"] = time.perf_counter() - t2
+        timings["video_frames"] = result["frames"]
+        print(f"video: {result['path']} ({result['frames']} frames, "
+              f"{result['frames'] / max(timings['video_s'], 1e-9):.1f} frames/s rendered)")
+    (out / "timings.json").write_text(json.dumps(timings, indent=2) + "\n")
+    return 0 if runner.reason == "complete" else 1
+
+
+@_command("render")
+def cmd_render(args: argparse.Namespace) -> int:
+    """Re-render the video of a logged episode, without re-running the agent."""
+    from fg_tea.episode.log import read_log
+    from fg_tea.render.video import render_video
+
+    path = Path(args.log)
+    if not path.exists():
+        raise InputError(path, "$", "file not found")
+    events = read_log(path)
+    if not any(e.get("event") == "episode_start" for e in events):
+        raise InputError(path, "$", "not an fg_tea episode log (no episode_start event)")
+    out = Path(args.out) if args.out else path.with_suffix(".mp4")
+    result = render_video(events, out, _video_options(args))
+    print(f"video: {result['path']} ({result['frames']} frames)")
+    return 0
+
+
+@_command("preview")
+def cmd_preview(args: argparse.Namespace) -> int:
+    """Write a PNG of the chase camera with the first-person inset at the start pose."""
+    import cv2
+
+    from fg_tea.env.house import PyBulletHouse
+    from fg_tea.model import load_model
+    from fg_tea.render.overlay import OverlayState
+    from fg_tea.render.video import _compose
+    from fg_tea.scenario import load_scenario
+    from fg_tea.episode.runner import env_config_for
+
+    scenario = load_scenario(args.scenario)
+    options = _video_options(args)
+    house = PyBulletHouse(scenario, env_config_for(load_model(args.model)))
+    try:
+        pose = house.reset(args.seed)
+        overlay = OverlayState(phase="preview", caption=f"{scenario.name}: start pose "
+                               f"({pose.x:.2f}, {pose.y:.2f}, {pose.yaw_deg:.0f} deg)")
+        frame = _compose(house, options, (pose, house.placements(), None), overlay)
+    finally:
+        house.close()
+    out = Path(args.out) if args.out else Path(f"{scenario.name}-preview.png")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.partial.png")
+    cv2.imwrite(str(tmp), frame[:, :, ::-1])
+    tmp.replace(out)
+    print(f"preview: {out}")
+    return 0
+
+
+def _add_video_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("video (blueprint Table 3)")
+    g.add_argument("--view", choices=("multi", "first", "third"), default="multi",
+                   help="chase view with first-person inset, or either alone (default: %(default)s)")
+    g.add_argument("--width", type=int, default=960, help="output width in pixels (default: %(default)s)")
+    g.add_argument("--height", type=int, default=540, help="output height in pixels (default: %(default)s)")
+    g.add_argument("--fps", type=int, default=30, help="output frame rate (default: %(default)s)")
+    g.add_argument("--scene-scale", type=float, default=2 / 3,
+                   help="render the 3D views at this fraction of the output size (default: 0.667)")
+    g.add_argument("--inset-scale", type=float, default=0.3, help="inset width / frame width")
+    g.add_argument("--third-person-distance", type=float, default=3.2, help="metres behind the agent")
+    g.add_argument("--third-person-height", type=float, default=2.2, help="camera height, metres")
+    g.add_argument("--third-person-pitch", type=float, default=-22.0, help="camera pitch, degrees")
+    g.add_argument("--third-person-hfov", type=float, default=78.0, help="horizontal field of view, degrees")
+    g.add_argument("--hold", type=float, default=0.8, help="seconds to hold decision frames")
+    g.add_argument("--frame-stride", type=int, default=1,
+                   help="render every n-th frame of motion, for quick drafts (default: %(default)s)")
+    g.add_argument("--workers", type=int, default=0, help="rendering processes (0: one per core)")
+    g.add_argument("--no-overlays", action="store_true", help="camera images only")
+
+
+def _add_run_parsers(sub) -> None:
+    p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)")
+    p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
+                   help="scenario file or bundled name (default: %(default)s)")
+    p.add_argument("--model", default=DEFAULT_MODEL, help="model file or bundled name (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0, help="episode seed (default: %(default)s)")
+    p.add_argument("--out", help="output folder (default: runs/SCENARIO-MODEL-seedN)")
+    p.add_argument("--no-video", action="store_true", help="headless: write the log only")
+    p.add_argument("--max-frames", type=int, default=50_000, help="frame limit (default: %(default)s)")
+    p.add_argument("--planner", default="efe",
+                   choices=("efe", "factorised_efe", "nearest", "greedy", "random", "optimal"),
+                   help="search planner (default: %(default)s)")
+    p.add_argument("--task", default="make_tea", help="task file or bundled name (default: %(default)s)")
+    p.add_argument("--preparation-site", help="site where the tea is made (default: the scenario's)")
+    p.add_argument("--backend", choices=("numpy", "gtsam"), default="numpy",
+                   help="exact belief solver (default: %(default)s)")
+    p.add_argument("--min-visible-pixels", type=int, default=None,
+                   help="detection threshold (default: the model's, 25)")
+    p.add_argument("--failure-rate", action="append", default=[], metavar="VERB=P",
+                   help="inject seeded failures, e.g. FILL=0.3 (repeatable)")
+    _add_video_options(p)
+
+    p = sub.add_parser("render", help="re-render the video of a logged episode")
+    p.add_argument("log", help="an episode.jsonl written by fg-tea run")
+    p.add_argument("--out", help="output MP4 (default: the log's name with .mp4)")
+    _add_video_options(p)
+
+    p = sub.add_parser("preview", help="write a PNG of the cameras at the start pose")
+    p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO)
+    p.add_argument("--model", default=DEFAULT_MODEL)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", help="output PNG (default: SCENARIO-preview.png)")
+    _add_video_options(p)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="fg-tea", description="A tea-making drone that reasons with exact beliefs.")
     from fg_tea import __version__
@@ -106,13 +347,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenario", default=DEFAULT_SCENARIO, help="scenario to check task files against")
     p.add_argument("--model", default=DEFAULT_MODEL, help="model to check task files against")
 
-    for extend in _EXTENSIONS:
-        extend(sub)
+    _add_run_parsers(sub)
     return parser
-
-
-# Later layers (episode runner, experiments) register their sub-commands here.
-_EXTENSIONS: list[Callable[[argparse._SubParsersAction], None]] = []
 
 
 def main(argv: Sequence[str] | None = None) -> int:

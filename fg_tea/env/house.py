@@ -25,7 +25,7 @@ import math
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
-import pybullet
+from fg_tea.env._pybullet import pybullet
 
 from fg_tea.env import assets
 from fg_tea.env.base import EnvConfig, Pose

@@ -58,8 +58,9 @@ def env_config_for(model: Model, base: EnvConfig | None = None, **overrides) -> 
     from dataclasses import replace
 
     base = base or EnvConfig()
-    return replace(base, min_visible_pixels=model.min_visible_pixels,
-                   site_association=model.site_association, **overrides)
+    fields = {"min_visible_pixels": model.min_visible_pixels, "site_association": model.site_association,
+              **overrides}
+    return replace(base, **fields)
 
 
 class _EnvDistances:
