@@ -187,11 +187,11 @@ class EpisodeRunner:
 
     def step(self) -> list[dict]:
         """Carry out one event's worth of the loop; return the events it wrote."""
+        first = len(self.log.events)
         if not self._started:
             self.start()
         if self.state.done:
             return []
-        first = len(self.log.events)
         if self.state.frame >= self.config.max_frames:
             self._end(REASON_FRAME_LIMIT, truncated=True)
             return self.log.events[first:]
