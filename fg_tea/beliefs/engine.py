@@ -4,8 +4,8 @@ Only this module writes beliefs. It keeps two independent blocks of one factor g
 
 - the **location block**: one variable ``L[o]`` per object over the K sites (the site where o
   stood when the episode began). Factors: the prior [eq. 2], every detection [4] and miss [5, 6],
-  and, in joint models, relational factors (capacity, co-location). Factorised models have no
-  relational factors, so each marginal is the blueprint's closed form.
+  and, in joint models, relational factors (capacity, co-location, exclusivity). Factorised
+  models have no relational factors, so each marginal is the blueprint's closed form.
 - the **state block**: Bernoulli task states (``kettle.contains_water``...). Factors: priors,
   noisy readings [23, 24] and action transitions P(z'|z,a) [27] (or the direct form [25, 26]).
   A transition creates a new time slice of the states it touches and sums the old slice out at
@@ -13,10 +13,12 @@ Only this module writes beliefs. It keeps two independent blocks of one factor g
 
 Exact answers come from a solver (:mod:`fg_tea.beliefs.solvers`): ``backend="gtsam"`` runs every
 query through gtsam's discrete elimination (the engine of record); ``backend="numpy"`` (default)
-answers the same queries from dense tables and closed forms, and :meth:`BeliefEngine.check_against_gtsam`
-measures their agreement. Hypothetical evidence (what the planner asks dozens of times per
-decision) is answered in one vectorised step from single and pairwise marginals, without
-mutating the belief.
+answers the same queries from closed forms (factorised models), the dense K^N joint table (small
+joint models) or the subset dynamic program of :mod:`fg_tea.beliefs.structured` (joint models
+whose relational factors are site- or room-local, at any size up to its object limit), and
+:meth:`BeliefEngine.check_against_gtsam` measures their agreement. Hypothetical evidence (what
+the planner asks dozens of times per decision) is answered in one vectorised step from single
+and pairwise marginals, without mutating the belief.
 """
 
 from __future__ import annotations
@@ -30,14 +32,17 @@ import numpy as np
 from fg_tea.beliefs.factors import (Factor, collapse_factor, collapse_target, detection_factor,
                                     effect_factor, location_var, miss_factor, state_observation,
                                     state_prior)
-from fg_tea.beliefs.graph import BeliefGraph, build_graph
+from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, build_graph
 from fg_tea.beliefs.solvers import GtsamSolver, NumpySolver
+from fg_tea.beliefs.structured import (MAX_OBJECTS, NumericalGuardError, PairWeights,
+                                       StructuredLocationModel)
 from fg_tea.errors import ContradictionError
 from fg_tea.model import Effect, Model, Sensor
 from fg_tea.scenario import Scenario
 
-DENSE_LIMIT = 1 << 22  # largest joint location table (K^N entries) held densely
-MAX_STATES = 20        # Bernoulli states held jointly in the state block
+MAX_STATES = 20             # Bernoulli states held jointly in the state block
+GTSAM_MAP_LIMIT = 1 << 16   # joint states above which MAP uses the structured max-product chain
+DENSE_PREFERRED = 50_000    # joint states up to which "auto" prefers the dense joint table
 
 
 def entropy(p: np.ndarray) -> float:
@@ -79,16 +84,29 @@ class BeliefEngine:
     """Exact beliefs over object locations and task states for one scenario and model.
 
     Args:
-        scenario: the house (only its priors are read, never its truth).
+        scenario: the house (only its priors are read, never its truth), or a prebuilt graph.
         model: the agent's generative model.
-        backend: ``"numpy"`` (fast exact path) or ``"gtsam"`` (every query through gtsam).
+        backend: ``"numpy"`` (fast exact path) or ``"gtsam"`` (every location and state query,
+            hypothetical ones included, re-solved through gtsam's discrete elimination).
+        location_solver: how the numpy backend solves a joint location block: ``"auto"`` (the
+            cheaper of the two exact methods), ``"dense"`` (the K^N joint table) or
+            ``"structured"`` (the subset dynamic program of :mod:`fg_tea.beliefs.structured`).
+
+    Raises:
+        ValueError: unknown backend or solver, or a joint model that no exact method can hold
+            (relational factors that are not site/room-local over more than
+            :data:`DENSE_LIMIT` joint states).
     """
 
-    def __init__(self, scenario: Scenario | BeliefGraph, model: Model, backend: str = "numpy") -> None:
+    def __init__(self, scenario: Scenario | BeliefGraph, model: Model, backend: str = "numpy",
+                 location_solver: str = "auto") -> None:
         import gtsam
 
         if backend not in ("numpy", "gtsam"):
             raise ValueError(f"unknown belief backend {backend!r}; use 'numpy' or 'gtsam'")
+        if location_solver not in ("auto", "dense", "structured"):
+            raise ValueError(f"unknown location solver {location_solver!r}; "
+                             "use 'auto', 'dense' or 'structured'")
         graph = scenario if isinstance(scenario, BeliefGraph) else build_graph(scenario, model)
         self.model = model
         self.graph = graph
@@ -97,27 +115,48 @@ class BeliefEngine:
         self.objects = graph.objects
         self._site_index = {s: i for i, s in enumerate(self.sites)}
         self._obj_index = {o: i for i, o in enumerate(self.objects)}
-        k = len(self.sites)
+        n, k = len(self.objects), len(self.sites)
         self._cards: dict[str, int] = {location_var(o): k for o in self.objects}
         self._keys: dict[str, int] = {location_var(o): gtsam.symbol("l", i)
                                       for i, o in enumerate(self.objects)}
         self._loc_factors: list[Factor] = list(graph.location_priors)
-        self._unary = np.stack([f.table for f in graph.location_priors])
-        self._relational = list(graph.relational)
+        self._unary = np.stack([f.table / f.table.sum() for f in graph.location_priors])
+        self._correlated = graph.correlated
+        self._pair_weights = self._pair_matrices(graph)
+        self._structurable = (self._correlated and not graph.extra and n <= MAX_OBJECTS
+                              and bool(np.all(self._pair_weights.same_room > 0)))
+        self._dense_ok = graph.joint_size <= DENSE_LIMIT
+        if self._correlated and not (self._structurable or self._dense_ok):
+            raise ValueError(f"joint model with {n} objects over {k} sites has "
+                             f"{graph.joint_size:,} joint states, more than the dense limit "
+                             f"{DENSE_LIMIT:,}, and relational factors the structured solver "
+                             "cannot take (it needs site/room-local factors and at most "
+                             f"{MAX_OBJECTS} objects)")
+        if location_solver == "dense" and self._correlated and not self._dense_ok:
+            raise ValueError(f"the dense joint of {graph.joint_size:,} states exceeds the dense "
+                             f"limit {DENSE_LIMIT:,}")
+        if location_solver == "structured" and self._correlated and not self._structurable:
+            raise ValueError("this model's relational factors are not site/room-local")
+        self.location_solver = location_solver
         self._rel_joint: np.ndarray | None = None
-        if self._relational:
-            if k ** len(self.objects) > DENSE_LIMIT:
-                raise ValueError(f"joint model with {len(self.objects)} objects over {k} sites has "
-                                 f"{k ** len(self.objects):,} joint states, more than the dense "
-                                 f"limit {DENSE_LIMIT:,}")
-            self._rel_joint = NumpySolver().contract(
-                self._relational, [location_var(o) for o in self.objects], self._cards)
         self._serial = 0
         self._slice: dict[str, str] = {}
         self._state_factors: list[Factor] = []
         for f in graph.state_priors:
             self._add_state(f.variables[0], f.table[1])
         self._cache: dict[str, object] = {}
+
+    @staticmethod
+    def _pair_matrices(graph: BeliefGraph) -> PairWeights:
+        n = len(graph.objects)
+        index = {o: i for i, o in enumerate(graph.objects)}
+        same_site, same_room = np.ones((n, n)), np.ones((n, n))
+        for p in graph.pairs:
+            a, b = index[p.a], index[p.b]
+            for x, y in ((a, b), (b, a)):
+                same_site[x, y] *= p.same_site
+                same_room[x, y] *= p.same_room
+        return PairWeights(same_site, same_room)
 
     # ------------------------------------------------------------------ bookkeeping
     def copy(self) -> "BeliefEngine":
@@ -138,44 +177,108 @@ class BeliefEngine:
     def _add_state(self, state: str, p_true: float) -> None:
         import gtsam
 
+        if len(self._slice) >= MAX_STATES:
+            raise ValueError(f"more than {MAX_STATES} task states in one belief")
+        if not 0.0 <= float(p_true) <= 1.0:
+            raise ValueError(f"prior {p_true} of {state!r} is outside [0, 1]")
         name = f"{state}@{self._serial}"
         self._keys[name] = gtsam.symbol("z", self._serial)
         self._cards[name] = 2
         self._serial += 1
         self._slice[state] = name
-        self._state_factors.append(state_prior(name, float(p_true)))
-        if len(self._slice) > MAX_STATES:
-            raise ValueError(f"more than {MAX_STATES} task states in one belief")
+        self._state_factors = self._state_factors + [state_prior(name, float(p_true))]
 
     def ensure_state(self, state: str, prior: float = 0.5) -> None:
-        """Declare a new Bernoulli state (objects can gain states, e.g. a cupboard's ``open``)."""
+        """Declare a new Bernoulli state (objects can gain states, e.g. a cupboard's ``open``).
+
+        Args:
+            state: ``object.state`` name; nothing happens if it already exists.
+            prior: q(state = true) before any evidence, in [0, 1].
+        """
         if state not in self._slice:
             self._add_state(state, prior)
             self._cache.pop("states", None)
+
+    # ------------------------------------------------------------------ location solvers
+    def _method(self) -> str:
+        """Which exact method answers location queries: independent, dense, structured or gtsam."""
+        if self.backend == "gtsam":
+            return "gtsam"
+        if not self._correlated:
+            return "independent"
+        if self.location_solver != "auto":
+            return self.location_solver
+        if not self._dense_ok:
+            return "structured"
+        if not self._structurable:
+            return "dense"
+        # Measured (experiments/bench_inference.py): below ~5e4 joint states the dense table is
+        # cheaper than the subset program's per-site overhead; above, dense pairwise marginals
+        # (~N^2 K^N) lose quickly to the program's ~(K + rooms^2) 3^N.
+        return "dense" if self.graph.joint_size <= DENSE_PREFERRED else "structured"
+
+    @property
+    def location_method(self) -> str:
+        """The exact method answering location queries (``independent``, ``dense``,
+        ``structured`` or ``gtsam``)."""
+        return self._method()
+
+    def _relational_joint(self) -> np.ndarray:
+        if self._rel_joint is None:
+            self._rel_joint = NumpySolver().contract(
+                list(self.graph.relational), [location_var(o) for o in self.objects], self._cards)
+        return self._rel_joint
+
+    def _structured(self) -> StructuredLocationModel:
+        cached = self._cache.get("structured")
+        if cached is None:
+            g = self.graph
+            cached = StructuredLocationModel(self._unary, g.rooms, g.capacities,
+                                             g.capacity_penalty if g.capacity_active else None,
+                                             self._pair_weights)
+            self._cache["structured"] = cached
+        return cached
+
+    def _location_factors(self) -> list[Factor]:
+        return self._loc_factors + list(self.graph.relational)
+
+    def _gtsam_marginals(self, factors: Sequence[Factor]) -> np.ndarray:
+        names = [location_var(o) for o in self.objects]
+        marg = GtsamSolver(self._keys).marginals(factors, names, self._cards)
+        return np.stack([marg[v] for v in names])
 
     # ------------------------------------------------------------------ location queries
     def _location_marginals(self) -> np.ndarray:
         cached = self._cache.get("locations")
         if cached is None:
-            if self.backend == "gtsam":
-                names = [location_var(o) for o in self.objects]
-                marg = self._solver().marginals(self._loc_factors + self._relational, names, self._cards)
-                cached = np.stack([marg[n] for n in names])
-            elif self._rel_joint is None:
+            method = self._method()
+            if method == "gtsam":
+                cached = self._gtsam_marginals(self._location_factors())
+            elif method == "independent":
                 cached = self._unary / self._unary.sum(axis=1, keepdims=True)
+            elif method == "structured":
+                try:
+                    cached = self._structured().singles()
+                except NumericalGuardError:
+                    if not self._dense_ok:
+                        raise
+                    cached = self._dense_marginals()
             else:
-                joint = self.location_joint()
-                n = len(self.objects)
-                cached = np.stack([joint.sum(axis=tuple(a for a in range(n) if a != i))
-                                   for i in range(n)])
+                cached = self._dense_marginals()
             self._cache["locations"] = cached
         return cached
+
+    def _dense_marginals(self) -> np.ndarray:
+        joint = self._dense_joint()
+        n = len(self.objects)
+        return np.stack([joint.sum(axis=tuple(a for a in range(n) if a != i)) for i in range(n)])
 
     def location(self, obj: str) -> np.ndarray:
         """q(L_o = i) for every site i (a fresh array, sums to 1)."""
         return self._location_marginals()[self._obj_index[obj]].copy()
 
     def locations(self) -> dict[str, np.ndarray]:
+        """Every object's location marginal, object -> (K,) array."""
         m = self._location_marginals()
         return {o: m[i].copy() for i, o in enumerate(self.objects)}
 
@@ -184,17 +287,27 @@ class BeliefEngine:
         return self._location_marginals().copy()
 
     def location_joint(self) -> np.ndarray:
-        """The exact joint P(L_1, ..., L_N) as an array of shape (K,) * N."""
+        """The exact joint P(L_1, ..., L_N) as an array of shape (K,) * N.
+
+        Raises:
+            ValueError: K^N exceeds :data:`DENSE_LIMIT` (single and pairwise marginals —
+                :meth:`location_matrix`, :meth:`pairwise` — remain exact and available).
+        """
+        return self._dense_joint()
+
+    def _dense_joint(self) -> np.ndarray:
         cached = self._cache.get("joint")
         if cached is None:
             n, k = self._unary.shape
             if k ** n > DENSE_LIMIT:
-                raise ValueError(f"the joint over {n} objects x {k} sites is too large to hold densely")
+                raise ValueError(f"the joint over {n} objects x {k} sites has {k ** n:,} states, "
+                                 f"more than the dense limit {DENSE_LIMIT:,}; single and pairwise "
+                                 "marginals (location_matrix(), pairwise()) are still exact")
             operands: list = []
             for i in range(n):
                 operands += [self._unary[i], [i]]
-            if self._rel_joint is not None:
-                operands += [self._rel_joint, list(range(n))]
+            if self._correlated:
+                operands += [self._relational_joint(), list(range(n))]
             table = np.einsum(*operands, list(range(n)))
             total = table.sum()
             if not np.isfinite(total) or total <= 0:
@@ -205,27 +318,44 @@ class BeliefEngine:
 
     def pairwise(self) -> np.ndarray:
         """P(L_o = a, L_p = b) as an array of shape (N, N, K, K); diagonal blocks are diag(q_o)."""
+        return self._pairwise().copy()
+
+    def _pairwise(self) -> np.ndarray:
         cached = self._cache.get("pairwise")
         if cached is None:
+            method = self._method()
             m = self._location_marginals()
             n, k = m.shape
-            cached = np.empty((n, n, k, k))
-            joint = self.location_joint() if self._rel_joint is not None else None
-            for o in range(n):
-                cached[o, o] = np.diag(m[o])
-                for p in range(o + 1, n):
-                    if joint is None:
-                        block = np.outer(m[o], m[p])
-                    else:
-                        block = joint.sum(axis=tuple(a for a in range(n) if a not in (o, p)))
-                    cached[o, p], cached[p, o] = block, block.T
+            if method == "structured":
+                try:
+                    cached = self._structured().pairwise()
+                except NumericalGuardError:
+                    if not self._dense_ok:
+                        raise
+                    method = "dense"
+            if cached is None:
+                cached = np.empty((n, n, k, k))
+                joint = self._dense_joint() if method == "dense" else None
+                factors = self._location_factors() if method == "gtsam" else None
+                for o in range(n):
+                    cached[o, o] = np.diag(m[o])
+                    for p in range(o + 1, n):
+                        if method == "independent":
+                            block = np.outer(m[o], m[p])
+                        elif method == "gtsam":
+                            block = GtsamSolver(self._keys).joint(
+                                factors, [location_var(self.objects[o]),
+                                          location_var(self.objects[p])], self._cards)
+                        else:
+                            block = joint.sum(axis=tuple(a for a in range(n) if a not in (o, p)))
+                        cached[o, p], cached[p, o] = block, block.T
             self._cache["pairwise"] = cached
         return cached
 
     @property
     def correlated(self) -> bool:
         """True when location variables are coupled by relational factors."""
-        return bool(self._relational)
+        return self._correlated
 
     # ------------------------------------------------------------------ state queries
     def _state_marginals(self) -> dict[str, float]:
@@ -246,13 +376,18 @@ class BeliefEngine:
                            f"{', '.join(sorted(self._slice))})") from None
 
     def states(self) -> dict[str, float]:
+        """q(z = true) of every task state, name -> probability."""
         return dict(self._state_marginals())
 
     def has_state(self, name: str) -> bool:
+        """True when the belief holds task state `name`."""
         return name in self._slice
 
     def state_joint(self, names: Sequence[str]) -> np.ndarray:
         """The joint of a few task states, shape (2,) * len(names), axis order as given."""
+        for name in names:
+            if name not in self._slice:
+                raise KeyError(f"no task state {name!r} in the belief")
         return self._solver().joint(self._state_factors, [self._slice[n] for n in names], self._cards)
 
     # ------------------------------------------------------------------ generic queries
@@ -268,11 +403,24 @@ class BeliefEngine:
         return entropy(self.marginal(var))
 
     def joint(self, variables: Sequence[str]) -> np.ndarray:
-        """The joint of a few variables of one block (all locations, or all states)."""
+        """The joint of a few variables of one block (all locations, or all states).
+
+        One or two location variables are answered from the single and pairwise marginals (so
+        they work for joint models too large to hold densely); more need :meth:`location_joint`.
+        """
         if all(v.startswith("L[") for v in variables):
             names = [location_var(o) for o in self.objects]
-            full = self.location_joint()
+            for v in variables:
+                if v not in names:
+                    raise KeyError(f"no location variable {v!r}")
             axes = [names.index(v) for v in variables]
+            if len(set(axes)) != len(axes):
+                raise ValueError(f"repeated variable in {list(variables)}")
+            if len(axes) == 1:
+                return self._location_marginals()[axes[0]].copy()
+            if len(axes) == 2:
+                return self._pairwise()[axes[0], axes[1]].copy()
+            full = self.location_joint()
             other = tuple(a for a in range(len(names)) if a not in axes)
             reduced = full.sum(axis=other)
             order = sorted(axes)
@@ -291,15 +439,21 @@ class BeliefEngine:
                 raise ContradictionError(f"evidence {f.label} has probability zero under the model")
             self._unary[o] = row / total
             self._loc_factors.append(f)
-            self._cache.pop("locations", None)
-            self._cache.pop("joint", None)
-            self._cache.pop("pairwise", None)
+            for key in ("locations", "joint", "pairwise", "structured"):
+                self._cache.pop(key, None)
+
+    def _detection_factor(self, obj: str, j: int) -> Factor:
+        """The factor of "obj seen at site j": eq. 4's collapse, or the detection likelihood."""
+        if self.model.positive_update == "blueprint":
+            return collapse_factor(obj, j, self.location(obj), self.model.prior_floor)
+        return detection_factor(obj, j, len(self.sites), self.model.miss_likelihood,
+                                self.model.false_positive_rate)
 
     def observe_site(self, site: str, detections: Mapping[str, bool]) -> SiteUpdate:
         """Absorb one inspection of `site`: True = seen there, False = looked and not seen.
 
         An object absent from `detections` is "no observation" and its evidence is unchanged.
-        Misses are applied first (they commute); then detections, in object order.
+        Misses [5, 6] are applied first (they commute); then detections [4], in object order.
 
         Raises:
             ContradictionError: the evidence has probability zero; the belief is left unchanged.
@@ -318,14 +472,9 @@ class BeliefEngine:
             self._commit_location(misses)
             for o in self.objects:
                 if detections.get(o) is True:
-                    if self.model.positive_update == "blueprint":
-                        f = collapse_factor(o, j, self.location(o), self.model.prior_floor)
-                    else:
-                        f = detection_factor(o, j, k, self.model.miss_likelihood,
-                                             self.model.false_positive_rate)
-                    self._commit_location([f])
+                    self._commit_location([self._detection_factor(o, j)])
             after = self.locations()
-        except ContradictionError:
+        except BaseException:
             self._unary, self._loc_factors, self._cache = saved
             raise
         detected = tuple(o for o in self.objects if detections.get(o) is True)
@@ -337,32 +486,67 @@ class BeliefEngine:
         return self.copy().observe_site(site, detections).after
 
     def hypothetical_all(self) -> tuple[np.ndarray, np.ndarray]:
-        """Every single-object hypothesis at every site, in one vectorised step.
+        """Every single-object hypothesis at every site, without touching the belief.
 
         Returns:
             (miss, seen): arrays of shape (N, K, N, K). ``miss[o, j, p]`` is q(L_p) after "o not
-            seen at site j"; ``seen[o, j, p]`` is q(L_p) after "o seen at site j". Exact: an
-            observation touches one variable, so P(L_p | obs on o) = sum_a P(L_p, L_o = a) l(a) /
-            sum_a P(L_o = a) l(a), from the pairwise marginals.
+            seen at site j" [5, 6]; ``seen[o, j, p]`` is q(L_p) after "o seen at site j" [4].
+            A hypothesis with probability zero under the belief leaves the marginals as they are.
+
+        The numpy backend answers all 2·N·K hypotheses in one vectorised step: an observation
+        touches one variable, so P(L_p | obs on o) = sum_a P(L_p, L_o = a) l(a) / sum_a P(L_o = a)
+        l(a), from the pairwise marginals. The gtsam backend re-solves the graph per hypothesis
+        (the reference the fast path is tested against).
         """
+        if self.backend == "gtsam":
+            return self._hypothetical_all_resolved()
         m = self._location_marginals()
-        pw = self.pairwise()
+        pw = self._pairwise()
         n, k = m.shape
         mu = self.model.miss_likelihood
-        # Miss at j: l(a) = 1 - (1 - mu)[a = j].
-        z_miss = 1.0 - (1.0 - mu) * m  # (o, j)
-        miss = (m[None, None, :, :] - (1.0 - mu) * np.transpose(pw, (0, 2, 1, 3))) / z_miss[:, :, None, None]
-        # Seen at j.
+        # Miss at j: l(a) = 1 - (1 - mu)[a = j]; P(L_p = b, miss) >= mu q(L_p = b), so the
+        # subtraction below loses at most a factor 1/mu of relative precision.
+        z_miss = 1.0 - (1.0 - mu) * m                                      # (o, j)
+        num = m[None, None, :, :] - (1.0 - mu) * np.transpose(pw, (0, 2, 1, 3))
+        miss = np.maximum(num, 0.0) / z_miss[:, :, None, None]
         if self.model.positive_update == "blueprint":
+            # Jeffrey's rule: q'(L_p) = sum_a t_j(a) P(L_p | L_o = a), t_j restricted to the
+            # support of q(L_o) (eq. 4 where the belief allows it).
             floor = self.model.prior_floor
-            targets = np.stack([collapse_target(j, k, floor) for j in range(k)])  # (j, a)
-            cond = pw / m[:, None, :, None]  # P(L_p = b | L_o = a): (o, p, a, b)
-            seen = np.einsum("ja,opab->ojpb", targets, cond)
+            targets = np.stack([collapse_target(j, k, floor) for j in range(k)])   # (j, a)
+            support = m > 0                                                         # (o, a)
+            t = targets[None, :, :] * support[:, None, :]                           # (o, j, a)
+            t_norm = t.sum(axis=2, keepdims=True)
+            t = np.divide(t, t_norm, out=np.zeros_like(t), where=t_norm > 0)
+            safe = np.where(support, m, 1.0)
+            cond = np.where(support[:, None, :, None], pw / safe[:, None, :, None], 0.0)
+            seen = np.einsum("oja,opab->ojpb", t, cond)
+            possible = support                                                      # (o, j)
         else:
             lik = np.full((k, k), self.model.false_positive_rate)
-            np.fill_diagonal(lik, 1.0 - mu)  # (j, a)
+            np.fill_diagonal(lik, 1.0 - mu)                                         # (j, a)
             num = np.einsum("ja,opab->ojpb", lik, pw)
-            seen = num / np.einsum("ja,oa->oj", lik, m)[:, :, None, None]
+            den = np.einsum("ja,oa->oj", lik, m)
+            possible = den > 0
+            seen = num / np.where(possible, den, 1.0)[:, :, None, None]
+        seen = np.where(possible[:, :, None, None], seen, m[None, None, :, :])
+        return miss, seen
+
+    def _hypothetical_all_resolved(self) -> tuple[np.ndarray, np.ndarray]:
+        """hypothetical_all by re-running the backend's inference once per hypothesis."""
+        n, k = len(self.objects), len(self.sites)
+        base = self._location_marginals()
+        miss = np.empty((n, k, n, k))
+        seen = np.empty((n, k, n, k))
+        factors = self._location_factors()
+        for o, obj in enumerate(self.objects):
+            for j in range(k):
+                for out, make in ((miss, lambda: miss_factor(obj, j, k, self.model.miss_likelihood)),
+                                  (seen, lambda: self._detection_factor(obj, j))):
+                    try:
+                        out[o, j] = self._gtsam_marginals(factors + [make()])
+                    except ContradictionError:
+                        out[o, j] = base
         return miss, seen
 
     # ------------------------------------------------------------------ state evidence and actions
@@ -374,7 +558,7 @@ class BeliefEngine:
         self._cache.pop("states", None)
         try:
             after = {s: self.state(s) for s in touched}
-        except ContradictionError:
+        except BaseException:
             self._state_factors, self._slice, self._cache = saved
             raise
         return StateUpdate(kind, before, after, detail)
@@ -435,7 +619,7 @@ class BeliefEngine:
         self._cache.pop("states", None)
         try:
             after = {s: self.state(s) for s in targets}
-        except ContradictionError:
+        except BaseException:
             self._state_factors, self._slice, self._cache = saved
             raise
         return StateUpdate("transition", before, after,
@@ -446,18 +630,30 @@ class BeliefEngine:
     # ------------------------------------------------------------------ inspection and checks
     def factor_labels(self) -> list[str]:
         """What the current graph holds, factor by factor (location block, then state block)."""
-        return [f.label for f in self._loc_factors + self._relational + self._state_factors]
+        return ([f.label for f in self._loc_factors] + list(self.graph.relational_labels)
+                + [f.label for f in self._state_factors])
 
     def map_estimate(self) -> dict[str, str]:
-        """The most probable joint arrangement of objects (gtsam max-product)."""
-        assignment = GtsamSolver(self._keys).map_assignment(self._loc_factors + self._relational, self._cards)
+        """The most probable joint arrangement of objects.
+
+        gtsam max-product over the factor graph; joint models whose dense relational tables
+        would exceed :data:`GTSAM_MAP_LIMIT` joint states use the structured max-product chain.
+        """
+        if self._correlated and self._structurable and self.graph.joint_size > GTSAM_MAP_LIMIT:
+            sites = self._structured().map_assignment()
+            return {o: self.sites[int(sites[i])] for i, o in enumerate(self.objects)}
+        assignment = GtsamSolver(self._keys).map_assignment(self._location_factors(), self._cards)
         return {o: self.sites[assignment[location_var(o)]] for o in self.objects}
 
     def check_against_gtsam(self) -> float:
-        """Largest absolute difference between this engine's marginals and gtsam's."""
+        """Largest absolute difference between this engine's marginals and gtsam's.
+
+        Raises:
+            ValueError: the relational factors are too large for gtsam's dense tables.
+        """
         ref = GtsamSolver(self._keys)
         names = [location_var(o) for o in self.objects]
-        loc = ref.marginals(self._loc_factors + self._relational, names, self._cards)
+        loc = ref.marginals(self._location_factors(), names, self._cards)
         diff = max(float(np.max(np.abs(loc[location_var(o)] - self.location(o)))) for o in self.objects)
         states = ref.marginals(self._state_factors, list(self._slice.values()), self._cards)
         for s, v in self._slice.items():
@@ -465,13 +661,21 @@ class BeliefEngine:
         return diff
 
     def snapshot(self, digits: int | None = None) -> dict:
-        """A JSON-serialisable picture of the belief: location marginals and state probabilities."""
+        """A JSON-serialisable picture of the belief: location marginals and state probabilities.
+
+        Args:
+            digits: round every number to this many decimals (None = full precision; Python's
+                float repr round-trips exactly through JSON).
+        """
         def r(x: float) -> float:
             return round(float(x), digits) if digits is not None else float(x)
 
+        locations = self.locations()
         return {
+            "model": self.model.name,
+            "structure": self.graph.structure,
             "sites": list(self.sites),
-            "locations": {o: [r(x) for x in q] for o, q in self.locations().items()},
+            "locations": {o: [r(x) for x in q] for o, q in locations.items()},
             "states": {s: r(p) for s, p in sorted(self.states().items())},
-            "entropy": {o: r(entropy(q)) for o, q in self.locations().items()},
+            "entropy": {o: r(entropy(q)) for o, q in locations.items()},
         }

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fg_tea.errors import ContradictionError
+
 
 @dataclass(frozen=True, eq=False)
 class Factor:
@@ -85,13 +87,20 @@ def collapse_factor(obj: str, site_index: int, current: np.ndarray, floor: float
 
     Multiplying the graph by lambda(i) = t(i) / q(L_o = i) makes the posterior marginal of L_o
     equal t (the blueprint's collapse) and moves every correlated variable by P(x | L_o = i)
-    weighted with t — the exact joint counterpart of eq. 4.
+    weighted with t — the exact joint counterpart of eq. 4. Sites the belief already rules out
+    (q = 0, possible only with zero-probability factors) stay ruled out: lambda = 0 there, so the
+    posterior is t restricted to the support of q.
+
+    Raises:
+        ContradictionError: q(L_o = j) = 0 — the detection contradicts the belief.
     """
     current = np.asarray(current, dtype=float)
+    if not current[site_index] > 0:
+        raise ContradictionError(f"{location_var(obj)} was detected at site {site_index}, where its "
+                                 "probability is zero")
     target = collapse_target(site_index, len(current), floor)
-    if np.any(current <= 0):
-        raise ValueError("collapse needs a strictly positive current marginal")
-    return Factor((location_var(obj),), target / current, f"collapse {location_var(obj)}@{site_index}")
+    ratio = np.divide(target, current, out=np.zeros_like(target), where=current > 0)
+    return Factor((location_var(obj),), ratio, f"collapse {location_var(obj)}@{site_index}")
 
 
 def state_prior(state: str, p_true: float) -> Factor:
@@ -153,10 +162,13 @@ def capacity_factor(objects: list[str], capacities: list[int | None], penalty: f
     limited = [(j, c) for j, c in enumerate(capacities) if c is not None and c < n]
     if not limited:
         return None
-    grids = np.indices((k,) * n).reshape(n, -1)
-    log_table = np.zeros(grids.shape[1])
+    table = np.ones((k,) * n)
     for j, c in limited:
-        excess = np.maximum((grids == j).sum(axis=0) - c, 0)
-        log_table += excess * np.log(penalty) if penalty > 0 else np.where(excess > 0, -np.inf, 0)
-    table = np.exp(log_table).reshape((k,) * n)
+        count = np.zeros((k,) * n, dtype=np.int16)
+        for axis in range(n):
+            shape = [1] * n
+            shape[axis] = k
+            count += (np.arange(k) == j).reshape(shape).astype(np.int16)
+        excess = np.maximum(count - c, 0)
+        table *= np.where(excess > 0, float(penalty) ** excess.astype(float), 1.0)
     return Factor(tuple(location_var(o) for o in objects), table, "capacity")

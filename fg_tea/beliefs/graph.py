@@ -1,14 +1,23 @@
 """Build the agent's initial factor graph from a scenario and a model — a pure function.
 
 ``build_graph(scenario, model)`` returns the variables (named, with cardinalities and gtsam keys),
-the location priors [eq. 2], the relational factors of joint models, and the Bernoulli state priors.
-Evidence and queries live in :mod:`fg_tea.beliefs.engine`; this module only reads the scenario's
-priors (site affordances, state priors), never its hidden truth.
+the location priors [eq. 2], the relational factors of joint models, and the Bernoulli state
+priors (eq. 21). Evidence and queries live in :mod:`fg_tea.beliefs.engine`; this module only
+reads the scenario's priors (site affordances, state priors), never its hidden truth.
+
+Relational factors are kept in their *structured* form — a capacity penalty per site and
+pairwise same-site / same-room weights (:class:`PairRelation`) — because that is what the
+structure-aware solver (:mod:`fg_tea.beliefs.structured`) needs and because the dense capacity
+table has K^N entries. :attr:`BeliefGraph.relational` expands them into dense
+:class:`~fg_tea.beliefs.factors.Factor` tables on demand (for gtsam and the dense solvers).
+:func:`assemble_graph` builds a graph from plain arrays (synthetic houses in tests and benchmarks).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -16,6 +25,21 @@ from fg_tea.beliefs.factors import (Factor, capacity_factor, location_prior, loc
                                     pair_factor, state_prior)
 from fg_tea.model import Model
 from fg_tea.scenario import Scenario
+
+
+DENSE_LIMIT = 1 << 22  # largest joint location table (K^N entries) ever held densely
+
+
+@dataclass(frozen=True)
+class PairRelation:
+    """psi(L_a, L_b): `same_site` when a and b share a site, `same_room` when they share a room
+    on two different sites, 1 otherwise (exclusivity and co-location factors)."""
+
+    a: str
+    b: str
+    same_site: float
+    same_room: float
+    label: str
 
 
 @dataclass(frozen=True)
@@ -28,8 +52,11 @@ class BeliefGraph:
         rooms: room of each site (same order as `sites`).
         capacities: capacity of each site (None = unlimited).
         location_priors: one unary factor per object, eq. 2.
-        relational: factors between location variables (empty for factorised models).
-        state_priors: one Bernoulli factor per declared task state, ``object.state``.
+        state_priors: one Bernoulli factor per declared task state, ``object.state`` (eq. 21).
+        structure: ``"factorised"`` or ``"joint"``.
+        pairs: pairwise relational factors of joint models (empty for factorised models).
+        capacity_penalty: weight per object beyond a site's capacity; None = no capacity factor.
+        extra: further relational factors given as dense tables (not structure-aware).
     """
 
     sites: tuple[str, ...]
@@ -37,9 +64,53 @@ class BeliefGraph:
     rooms: tuple[str, ...]
     capacities: tuple[int | None, ...]
     location_priors: tuple[Factor, ...]
-    relational: tuple[Factor, ...]
     state_priors: tuple[Factor, ...]
     structure: str
+    pairs: tuple[PairRelation, ...] = ()
+    capacity_penalty: float | None = None
+    extra: tuple[Factor, ...] = ()
+
+    @property
+    def joint_size(self) -> int:
+        """K^N, the number of joint location states."""
+        return len(self.sites) ** len(self.objects)
+
+    @property
+    def capacity_active(self) -> bool:
+        """True when some site's capacity could be exceeded by the N objects."""
+        n = len(self.objects)
+        return self.capacity_penalty is not None and any(c is not None and c < n for c in self.capacities)
+
+    @property
+    def correlated(self) -> bool:
+        """True when relational factors couple the location variables."""
+        return bool(self.pairs) or self.capacity_active or bool(self.extra)
+
+    @property
+    def relational_labels(self) -> tuple[str, ...]:
+        """Labels of the relational factors, without building any table."""
+        return (("capacity",) if self.capacity_active else ()) + \
+            tuple(p.label for p in self.pairs) + tuple(f.label for f in self.extra)
+
+    @cached_property
+    def relational(self) -> tuple[Factor, ...]:
+        """The relational factors as dense tables (capacity: one K^N table over all objects).
+
+        Raises:
+            ValueError: the capacity table would exceed :data:`DENSE_LIMIT` entries.
+        """
+        out: list[Factor] = []
+        if self.capacity_active:
+            if self.joint_size > DENSE_LIMIT:
+                raise ValueError(f"the capacity factor over {len(self.objects)} objects x "
+                                 f"{len(self.sites)} sites has {self.joint_size:,} entries, more "
+                                 f"than the dense limit {DENSE_LIMIT:,}; use the structured solver")
+            f = capacity_factor(list(self.objects), list(self.capacities), self.capacity_penalty)
+            if f is not None:
+                out.append(f)
+        out += [pair_factor(p.a, p.b, p.same_site, p.same_room, list(self.rooms), p.label)
+                for p in self.pairs]
+        return tuple(out) + self.extra
 
 
 def prior_weights(scenario: Scenario, category: str) -> np.ndarray:
@@ -47,45 +118,64 @@ def prior_weights(scenario: Scenario, category: str) -> np.ndarray:
     return np.array([site.affordances.get(category, 0.0) for site in scenario.sites], dtype=float)
 
 
-def build_graph(scenario: Scenario, model: Model) -> BeliefGraph:
-    """The initial factor graph of `model` over the house of `scenario`."""
-    objects = scenario.object_names
-    rooms = [s.room for s in scenario.sites]
-    priors = tuple(location_prior(o.name, prior_weights(scenario, o.category), model.prior_floor)
-                   for o in scenario.objects)
-    relational: list[Factor] = []
+def assemble_graph(model: Model, sites: Sequence[str], rooms: Sequence[str],
+                   objects: Sequence[str], categories: Sequence[str], weights: np.ndarray,
+                   capacities: Sequence[int | None] | None = None,
+                   state_priors: Mapping[str, float] | None = None) -> BeliefGraph:
+    """A belief graph from plain arrays: the model's priors and relations over a given house.
+
+    Args:
+        model: supplies the prior floor [eq. 2], the structure and the relations.
+        sites: site names (K).
+        rooms: room of each site (K).
+        objects: object names (N).
+        categories: category of each object (N), matched against co-location relations.
+        weights: (N, K) non-negative affordance weights a_ic, one row per object.
+        capacities: capacity per site (None = unlimited); default all unlimited.
+        state_priors: ``object.state`` -> q(true) (eq. 21).
+    """
+    weights = np.asarray(weights, dtype=float)
+    if weights.shape != (len(objects), len(sites)):
+        raise ValueError(f"weights have shape {weights.shape}, expected {(len(objects), len(sites))}")
+    capacities = tuple(capacities) if capacities is not None else (None,) * len(sites)
+    priors = tuple(location_prior(o, w, model.prior_floor) for o, w in zip(objects, weights))
+    pairs: list[PairRelation] = []
+    penalty: float | None = None
     if model.structure == "joint":
-        by_category: dict[str, list[str]] = {}
-        for o in scenario.objects:
-            by_category.setdefault(o.category, []).append(o.name)
         for rel in model.relations:
             if rel.kind == "capacity":
-                f = capacity_factor(list(objects), [s.capacity for s in scenario.sites], rel.penalty)
-                if f is not None:
-                    relational.append(f)
+                penalty = rel.penalty if penalty is None else penalty * rel.penalty
             elif rel.kind == "co_location":
                 a_cat, b_cat = rel.categories
-                for a in by_category.get(a_cat, []):
-                    for b in by_category.get(b_cat, []):
-                        relational.append(pair_factor(a, b, rel.same_site, rel.same_room, rooms,
+                for a, ca in zip(objects, categories):
+                    for b, cb in zip(objects, categories):
+                        if ca == a_cat and cb == b_cat and a != b:
+                            pairs.append(PairRelation(a, b, rel.same_site, rel.same_room,
                                                       f"co_location {a}~{b}"))
             elif rel.kind == "exclusivity":
                 for i, a in enumerate(objects):
                     for b in objects[i + 1:]:
-                        relational.append(pair_factor(a, b, rel.weight, 1.0, rooms,
-                                                      f"exclusivity {a}|{b}"))
-    states = tuple(state_prior(f"{o.name}.{name}", p)
-                   for o in scenario.objects for name, p in o.state_priors.items())
-    return BeliefGraph(
+                        pairs.append(PairRelation(a, b, rel.weight, 1.0, f"exclusivity {a}|{b}"))
+    states = tuple(state_prior(name, p) for name, p in (state_priors or {}).items())
+    return BeliefGraph(sites=tuple(sites), objects=tuple(objects), rooms=tuple(rooms),
+                       capacities=capacities, location_priors=priors, state_priors=states,
+                       structure=model.structure, pairs=tuple(pairs), capacity_penalty=penalty)
+
+
+def build_graph(scenario: Scenario, model: Model) -> BeliefGraph:
+    """The initial factor graph of `model` over the house of `scenario`."""
+    return assemble_graph(
+        model,
         sites=scenario.site_names,
-        objects=objects,
-        rooms=tuple(rooms),
-        capacities=tuple(s.capacity for s in scenario.sites),
-        location_priors=priors,
-        relational=tuple(relational),
-        state_priors=states,
-        structure=model.structure,
+        rooms=[s.room for s in scenario.sites],
+        objects=scenario.object_names,
+        categories=[o.category for o in scenario.objects],
+        weights=np.stack([prior_weights(scenario, o.category) for o in scenario.objects]),
+        capacities=[s.capacity for s in scenario.sites],
+        state_priors={f"{o.name}.{name}": p for o in scenario.objects
+                      for name, p in o.state_priors.items()},
     )
 
 
-__all__ = ["BeliefGraph", "build_graph", "prior_weights", "location_var"]
+__all__ = ["BeliefGraph", "DENSE_LIMIT", "PairRelation", "assemble_graph", "build_graph",
+           "prior_weights", "location_var"]

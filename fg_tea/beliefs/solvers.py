@@ -24,6 +24,13 @@ def _variables(factors: Iterable[Factor]) -> list[str]:
     return list(dict.fromkeys(v for f in factors for v in f.variables))
 
 
+def _zero_evidence(exc: RuntimeError, what: str) -> Exception:
+    """Turn gtsam's "product factor is 0" error into a ContradictionError; keep others."""
+    if "is 0" in str(exc) or "zero" in str(exc).lower():
+        return ContradictionError(f"evidence has probability zero under the model ({what}): {exc}")
+    return exc
+
+
 def _normalise(table: np.ndarray, what: str) -> np.ndarray:
     total = float(table.sum())
     if not np.isfinite(total) or total <= 0.0:
@@ -102,7 +109,10 @@ class GtsamSolver:
         g = self.graph(factors, cards)
         if any(float(np.max(f.table)) <= 0 for f in factors):
             raise ContradictionError("a factor is zero everywhere")
-        marg = self._gtsam.DiscreteMarginals(g)
+        try:
+            marg = self._gtsam.DiscreteMarginals(g)
+        except RuntimeError as exc:
+            raise _zero_evidence(exc, "marginals") from exc
         out = {}
         for v in variables:
             if v not in present:
@@ -131,7 +141,10 @@ class GtsamSolver:
             ordering = gtsam.Ordering()
             for v in eliminate:
                 ordering.push_back(self.keys[v])
-            _, remaining = g.eliminatePartialSequential(ordering)
+            try:
+                _, remaining = g.eliminatePartialSequential(ordering)
+            except RuntimeError as exc:
+                raise _zero_evidence(exc, label) from exc
         else:
             remaining = g
         table = np.zeros([cards[v] for v in keep])
@@ -145,7 +158,10 @@ class GtsamSolver:
 
     def map_assignment(self, factors: Sequence[Factor], cards: Mapping[str, int]) -> dict[str, int]:
         """The most probable joint assignment (max-product elimination)."""
-        values = self.graph(factors, cards).optimize()
+        try:
+            values = self.graph(factors, cards).optimize()
+        except RuntimeError as exc:
+            raise _zero_evidence(exc, "most probable assignment") from exc
         return {v: int(values[self.keys[v]]) for v in _variables(factors)}
 
 
