@@ -18,6 +18,11 @@ def total_distance(events: list[dict]) -> float:
     return float(sum(e.get("distance", 0.0) for e in events if e.get("event") in MOVING_EVENTS))
 
 
+def search_distance(events: list[dict]) -> float:
+    """Metres travelled to inspect sites while searching (the search phase's travel cost)."""
+    return float(sum(e.get("distance", 0.0) for e in iter_events(events, "observation")))
+
+
 def inspections(events: list[dict]) -> int:
     """Number of site inspections (search observations)."""
     return sum(1 for _ in iter_events(events, "observation"))
@@ -79,6 +84,7 @@ def score(events: list[dict]) -> dict:
         "actions_skipped": statuses.count("skipped"),
         "goal_conditions": end.get("goal_conditions", {}) if end else {},
         "total_distance": round(total_distance(events), 6),
+        "search_distance": round(search_distance(events), 6),
         "inspections": inspections(events),
         "inspections_until_resolved": inspections_until_resolved(events),
         "entropy_reduction_per_inspection": None if not reductions else round(_mean(reductions), 9),
