@@ -7,6 +7,7 @@ one line and exit with status 2.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -129,3 +130,13 @@ class Reader:
         if value not in options:
             raise self.fail(f"must be one of {', '.join(options)}; got {value!r}", key)
         return value
+
+
+def read_json(path: str | Path) -> Any:
+    """Parse a JSON input file; a missing file or a syntax error is an :class:`InputError`."""
+    try:
+        return json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise InputError(path, "$", "file not found") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(path, f"line {exc.lineno} column {exc.colno}", f"invalid JSON: {exc.msg}") from None

@@ -11,13 +11,12 @@ inspects it. Hidden truth (``true_site``, ``hidden_state_truth``) is read only b
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-from fg_tea.errors import InputError, Reader
+from fg_tea.errors import InputError, Reader, read_json
 
 SCHEMA_VERSIONS = (1, 2)
 
@@ -313,10 +312,4 @@ def load_scenario(path: str | Path) -> Scenario:
     from fg_tea.resources import resolve_scenario
 
     path = resolve_scenario(path)
-    try:
-        data = json.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise InputError(path, "$", "file not found") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(path, f"line {exc.lineno} column {exc.colno}", f"invalid JSON: {exc.msg}") from None
-    return parse_scenario(data, path)
+    return parse_scenario(read_json(path), path)

@@ -17,7 +17,6 @@ Same distribution, same seed: the same world.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -25,7 +24,7 @@ from typing import Mapping
 
 import numpy as np
 
-from fg_tea.errors import InputError, Reader
+from fg_tea.errors import InputError, Reader, read_json
 from fg_tea.scenario import Scenario, load_scenario
 
 
@@ -153,10 +152,4 @@ def load_world(path: str | Path) -> WorldDistribution:
     from fg_tea.resources import _resolve
 
     path = _resolve(path, "scenarios/worlds", ".json")
-    try:
-        data = json.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise InputError(path, "$", "file not found") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(path, f"line {exc.lineno} column {exc.colno}", f"invalid JSON: {exc.msg}") from None
-    return parse_world(data, path)
+    return parse_world(read_json(path), path)

@@ -18,30 +18,11 @@ from fg_tea.planning import (DistanceTable, EFEPlanner, FactorisedEFEPlanner,
                              GreedyProbabilityPlanner, NearestPlanner, RandomPlanner,
                              distances_for, euclidean_distances, make_planner, planner_names)
 from fg_tea.planning.efe import factorised_information_gain, joint_information_gain
-from fg_tea.scenario import load_scenario, parse_scenario
+from fg_tea.scenario import load_scenario
+from houses import make_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 ABLATIONS = ROOT / "models" / "ablations"
-
-
-def make_scenario(sites, objects, start=(0.0, 0.0)):
-    """A wall-less test house. sites: (name, room, (x, y) vantage, affordances[, capacity])."""
-    site_docs = []
-    for s in sites:
-        name, room, (x, y), aff = s[:4]
-        doc = {"name": name, "room": room, "position": [x, y, 0.8],
-               "vantage_position": [x, y, 0.0], "affordances": aff}
-        if len(s) > 4 and s[4] is not None:
-            doc["capacity"] = s[4]
-        site_docs.append(doc)
-    return parse_scenario({
-        "schema_version": 2, "name": "test_house",
-        "start_pose": {"position": list(start)},
-        "house": {"floor": {"min": [-10, -10], "max": [20, 20]}, "walls": [], "furniture": []},
-        "sites": site_docs,
-        "objects": [{"name": o, "category": c, "true_site": t, "semantic_id": i + 1}
-                    for i, (o, c, t) in enumerate(objects)],
-    })
 
 
 # The hand-worked house: agent at (0, 0); site A 1 m away, B 2 m, C 4 m.

@@ -12,27 +12,7 @@ from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.model import Relation, load_model
 from fg_tea.planning import OptimalPlanner, euclidean_distances, make_planner, planner_names
 from fg_tea.planning.optimal import expected_travel_table, truth_table
-from fg_tea.scenario import parse_scenario
-
-
-def make_scenario(sites, objects, start=(0.0, 0.0)):
-    """A wall-less test house. sites: (name, room, (x, y) vantage, affordances[, capacity])."""
-    site_docs = []
-    for s in sites:
-        name, room, (x, y), aff = s[:4]
-        doc = {"name": name, "room": room, "position": [x, y, 0.8],
-               "vantage_position": [x, y, 0.0], "affordances": aff}
-        if len(s) > 4 and s[4] is not None:
-            doc["capacity"] = s[4]
-        site_docs.append(doc)
-    return parse_scenario({
-        "schema_version": 2, "name": "test_house",
-        "start_pose": {"position": list(start)},
-        "house": {"floor": {"min": [-10, -10], "max": [20, 20]}, "walls": [], "furniture": []},
-        "sites": site_docs,
-        "objects": [{"name": o, "category": c, "true_site": t, "semantic_id": i + 1}
-                    for i, (o, c, t) in enumerate(objects)],
-    })
+from houses import make_scenario
 
 
 def perfect_sensor(model):

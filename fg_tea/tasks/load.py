@@ -63,12 +63,11 @@ what is wrong; dangling dependencies and cycles name the actions involved.
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
 from fg_tea.env.base import VERBS
-from fg_tea.errors import InputError, Reader
+from fg_tea.errors import InputError, Reader, read_json
 from fg_tea.model import Condition, Effect, Model
 from fg_tea.resources import resolve_task
 from fg_tea.scenario import Scenario
@@ -353,11 +352,4 @@ def load_task(path_or_name: str | Path, model: Model, scenario: Scenario,
         InputError: naming the file, the JSON path and the fault.
     """
     path = resolve_task(path_or_name)
-    try:
-        data = json.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise InputError(path, "$", "file not found") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(path, f"line {exc.lineno} column {exc.colno}",
-                         f"invalid JSON: {exc.msg}") from None
-    return parse_task(data, model, scenario, preparation_site, path)
+    return parse_task(read_json(path), model, scenario, preparation_site, path)
