@@ -145,6 +145,26 @@ class _Progress:
             self.stream.write("\n")
 
 
+def _frames_progress(stream=None):
+    """Report video rendering: a live line on a terminal, a line per 25 % otherwise."""
+    import time
+
+    stream = stream or sys.stderr
+    start, last_quarter = time.perf_counter(), [-1]
+
+    def report(done: int, total: int) -> None:
+        rate = done / max(time.perf_counter() - start, 1e-9)
+        line = f"rendering video: {done}/{total} frames ({rate:.1f} frames/s)"
+        if stream.isatty():
+            stream.write("\r" + line + ("\n" if done >= total else ""))
+        elif done * 4 // max(total, 1) > last_quarter[0]:
+            last_quarter[0] = done * 4 // max(total, 1)
+            stream.write(line + "\n")
+        stream.flush()
+
+    return report
+
+
 def summary(events: list[dict]) -> str:
     """A one-paragraph account of an episode, from its log."""
     from fg_tea.episode.metrics import score
@@ -213,8 +233,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if options is not None:
         from fg_tea.render.video import render_video
 
-        sys.stderr.write("rendering video...\n") if sys.stderr.isatty() else None
-        result = render_video(runner.events, out / "episode.mp4", options)
+        result = render_video(runner.events, out / "episode.mp4", options, _frames_progress())
         timings["video_s"] = time.perf_counter() - t2
         timings["video_frames"] = result["frames"]
         print(f"video: {result['path']} ({result['frames']} frames, "
@@ -236,7 +255,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     if not any(e.get("event") == "episode_start" for e in events):
         raise InputError(path, "$", "not an fg_tea episode log (no episode_start event)")
     out = Path(args.out) if args.out else path.with_suffix(".mp4")
-    result = render_video(events, out, _video_options(args))
+    result = render_video(events, out, _video_options(args), _frames_progress())
     print(f"video: {result['path']} ({result['frames']} frames)")
     return 0
 

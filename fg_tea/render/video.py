@@ -241,8 +241,11 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
 
 
 def _render_segment(args: tuple) -> tuple[int, str, int]:
-    """Worker: render frames [lo, hi) of a plan into one MP4 segment."""
-    plan, options, lo, hi, path, index = args
+    """Worker: render frames [lo, hi) of a plan into one MP4 segment.
+
+    `done` (optional) is a shared list; slot `index` holds the output frames written so far.
+    """
+    plan, options, lo, hi, path, index, done = args
     from fg_tea.env.house import PyBulletHouse
     from fg_tea.render.encoder import Mp4Writer
 
@@ -259,6 +262,8 @@ def _render_segment(args: tuple) -> tuple[int, str, int]:
             for _ in range(spec.repeat):
                 writer.write(frame)
                 count += 1
+            if done is not None and count - done[index] >= 30:
+                done[index] = count
         writer.close()
     finally:
         house.close()
@@ -295,6 +300,12 @@ def render_video(events: list[dict], out: str | Path, options: VideoOptions = Vi
                  progress: Callable[[int, int], None] | None = None) -> dict:
     """Render the video of a logged episode to `out` (an MP4, written atomically).
 
+    Args:
+        events: the episode's log events.
+        out: the MP4 to write.
+        options: rendering options.
+        progress: called about once a second with (output frames done, total output frames).
+
     Returns:
         {"path", "frames" (output frames), "rendered" (distinct rendered frames), "workers"}.
     """
@@ -304,24 +315,33 @@ def render_video(events: list[dict], out: str | Path, options: VideoOptions = Vi
     workers = options.workers or min(os.cpu_count() or 1, 8)
     workers = max(1, min(workers, len(plan.frames)))
     bounds = np.linspace(0, len(plan.frames), workers + 1).astype(int)
+    total = plan.output_frames
     with tempfile.TemporaryDirectory(dir=out.parent, prefix=".render-") as tmp:
-        jobs = [(plan, options, int(bounds[i]), int(bounds[i + 1]), str(Path(tmp) / f"seg{i:02d}.mp4"), i)
-                for i in range(workers) if bounds[i + 1] > bounds[i]]
-        done = 0
-        if len(jobs) == 1:
-            results = [_render_segment(jobs[0])]
+        paths = [str(Path(tmp) / f"seg{i:02d}.mp4") for i in range(workers)]
+        spans = [(int(bounds[i]), int(bounds[i + 1])) for i in range(workers) if bounds[i + 1] > bounds[i]]
+        if len(spans) == 1:
+            results = [_render_segment((plan, options, *spans[0], paths[0], 0, None))]
         else:
-            with ProcessPoolExecutor(max_workers=len(jobs)) as pool:
+            import multiprocessing
+            from concurrent.futures import FIRST_COMPLETED, wait
+
+            with multiprocessing.Manager() as manager, ProcessPoolExecutor(max_workers=len(spans)) as pool:
+                done = manager.list([0] * len(spans))
+                pending = {pool.submit(_render_segment, (plan, options, lo, hi, paths[i], i, done))
+                           for i, (lo, hi) in enumerate(spans)}
                 results = []
-                for result in pool.map(_render_segment, jobs):
-                    results.append(result)
-                    done += 1
+                while pending:
+                    finished, pending = wait(pending, timeout=1.0, return_when=FIRST_COMPLETED)
+                    for future in finished:
+                        index, _, count = future.result()
+                        done[index] = count
+                        results.append(future.result())
                     if progress is not None:
-                        progress(done, len(jobs))
+                        progress(sum(done), total)
         results.sort()
         _concat([r[1] for r in results], out, options.fps)
     return {"path": str(out), "frames": sum(r[2] for r in results), "rendered": len(plan.frames),
-            "workers": len(jobs)}
+            "workers": len(spans)}
 
 
 def render_log(log_path: str | Path, out: str | Path | None = None,
