@@ -32,7 +32,14 @@ class Pose:
 
 @dataclass(frozen=True)
 class EnvConfig:
-    """Embodiment parameters (blueprint Table 3). Units: metres, degrees, pixels."""
+    """Embodiment parameters (blueprint Table 3). Units: metres, degrees, pixels.
+
+    Experiment knobs, off by default: ``failure_rates`` (verb -> probability that the action fails
+    with ``injected_failure``) and ``detection_miss_rate``, the probability in [0, 1] that a
+    detection the camera would make (eq. 29 satisfied) is dropped, so the object is reported as
+    looked-and-not-seen. Both are drawn from the environment's seeded RNG, and only when the rate
+    is above zero, so runs with the defaults draw exactly as before and stay byte-identical.
+    """
 
     movement_step: float = 0.018
     turn_step_deg: float = 2.5
@@ -49,6 +56,7 @@ class EnvConfig:
     site_association_radius: float = 0.45
     distance: str = "geodesic"  # or "euclidean" (ablation)
     failure_rates: Mapping[str, float] = field(default_factory=dict)  # verb -> P(fail), injected
+    detection_miss_rate: float = 0.0  # P(a would-be detection is dropped), injected
 
 
 @dataclass(frozen=True)

@@ -196,12 +196,17 @@ class TruthBackedAdapter(EnvAdapter):
     verb needs) raises ``ValueError``: that is a caller bug, not a world event.
 
     Randomness: one ``numpy.random.Generator`` seeded in :meth:`reset`; a state reading draws once,
-    and an action draws once for fault injection only when its verb has a non-zero failure rate.
+    an action draws once for fault injection only when its verb has a non-zero failure rate, and
+    an inspection draws once per would-be detection only when ``config.detection_miss_rate`` is
+    non-zero (a dropped detection is reported as False, "looked and not seen").
     """
 
     def __init__(self, scenario: Scenario, config: EnvConfig = EnvConfig()) -> None:
         if config.distance not in ("geodesic", "euclidean"):
             raise ValueError(f"EnvConfig.distance must be 'geodesic' or 'euclidean', got {config.distance!r}")
+        if not 0.0 <= float(config.detection_miss_rate) <= 1.0:
+            raise ValueError(f"EnvConfig.detection_miss_rate must lie in [0, 1], got "
+                             f"{config.detection_miss_rate!r}")
         self.scenario = scenario
         self.config = config
         self._specs = {spec.name: spec for spec in scenario.objects}
@@ -293,6 +298,13 @@ class TruthBackedAdapter(EnvAdapter):
         counts = self._pixel_counts(k, considered)
         detections = {name: bool(counts[name] >= self.config.min_visible_pixels
                                  and self._associated(name, k)) for name in considered}
+        miss_rate = float(self.config.detection_miss_rate)
+        if miss_rate > 0.0:
+            # Injected detector misses: one draw per would-be detection, in `objects` order. The
+            # pixel counts stay as rendered; only the detector's verdict is dropped.
+            for name in considered:
+                if detections[name] and float(self._rng.random()) < miss_rate:
+                    detections[name] = False
         return InspectionResult(site, detections, {n: int(counts[n]) for n in considered},
                                 reachable=True, distance=self._travelled(frames), frames=len(frames),
                                 motion=_motion(frames), image_size=size)
