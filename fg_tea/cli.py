@@ -104,7 +104,7 @@ def _video_options(args: argparse.Namespace):
 
 
 def _failure_rates(pairs: list[str]) -> dict[str, float]:
-    from fg_tea.env.base import VERBS
+    from fg_tea.interface import VERBS
 
     rates = {}
     for pair in pairs:
@@ -347,6 +347,81 @@ def _add_run_parsers(sub) -> None:
     _add_video_options(p)
 
 
+# ------------------------------------------------------------------------------ compare (issue 7)
+#: Planners of the full comparison, and of --quick.
+COMPARE_PLANNERS = ("efe", "factorised_efe", "nearest", "greedy", "random", "optimal")
+COMPARE_QUICK_PLANNERS = ("efe", "greedy", "nearest", "optimal")
+
+
+@_command("compare")
+def cmd_compare(args: argparse.Namespace) -> int:
+    """Models x planners over N sampled worlds, paired; write episodes.csv, summary.md and plots."""
+    import shlex
+
+    from fg_tea.analysis import comparison_report
+    from fg_tea.sweep import SweepError, plan_sweep, run_sweep
+
+    if args.workers < 0:
+        raise InputError("<command line>", "--workers", f"expected 0 (every core) or more, got {args.workers}")
+    n_worlds = args.worlds if args.worlds is not None else (10 if args.quick else 200)
+    planners = args.planners or list(COMPARE_QUICK_PLANNERS if args.quick else COMPARE_PLANNERS)
+    out = Path(args.out) if args.out else Path("runs") / f"compare-{Path(args.world).stem}"
+    jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
+                      env=args.env)
+    csv_path = out / "episodes.csv"
+    try:
+        rows = run_sweep(jobs, csv_path, args.backend, workers=args.workers or None,
+                         address=args.address, resume=args.resume, label="compare")
+    except SweepError as exc:
+        sys.stderr.write(f"fg-tea: error: {exc} (finished episodes are in {csv_path}; "
+                         "run again to resume)\n")
+        return 1
+    command = shlex.join(["fg-tea", "compare", "--world", args.world, "--worlds", str(n_worlds),
+                          "--models", *args.models, "--planners", *planners, "--first-seed",
+                          str(args.first_seed), "--env", args.env, "--out", str(out)])
+    files = comparison_report(rows, out, title=f"Factorised vs joint beliefs on `{args.world}` worlds",
+                              command=command)
+    print(f"episodes: {csv_path} ({len(rows)} rows)")
+    for name in ("summary.md", "summary.csv", "paired.csv", "travel_inspections.png", "entropy.png",
+                 "ratio_to_optimal.png"):
+        if name in files:
+            print(f"{name.split('.')[-1]}: {files[name]}")
+    return 0
+
+
+def _add_compare_parser(sub) -> None:
+    from fg_tea.planning import planner_names
+    from fg_tea.sweep import BACKENDS, ENVIRONMENTS
+
+    p = sub.add_parser("compare", help="compare models and planners over many sampled worlds (paired)",
+                       description="Run every model with every planner on the same N sampled worlds "
+                       "(headless), then write OUT/episodes.csv (one row per episode), OUT/summary.md "
+                       "(means, 95% CIs, paired differences, ratio to the Bayes-optimal planner, "
+                       "ablations when other models are given) and PNG plots. Episodes already in "
+                       "OUT/episodes.csv are not run again (--no-resume starts afresh).")
+    p.add_argument("--worlds", type=int, default=None, help="number of worlds (default: 200; 10 with --quick)")
+    p.add_argument("--world", default="correlated",
+                   help="world distribution, bundled name or JSON file (default: %(default)s)")
+    p.add_argument("--first-seed", type=int, default=0, help="first world seed (default: %(default)s)")
+    p.add_argument("--models", nargs="+", default=["factorised", "joint"],
+                   help="models: bundled names, bundled ablations or files (default: factorised joint)")
+    p.add_argument("--planners", nargs="+", choices=planner_names(), default=None,
+                   help=f"planners (default: {' '.join(COMPARE_PLANNERS)}; "
+                   f"with --quick: {' '.join(COMPARE_QUICK_PLANNERS)})")
+    p.add_argument("--backend", choices=BACKENDS, default="process",
+                   help="serial, a process pool over every core, or Ray (default: %(default)s)")
+    p.add_argument("--address", default=None, help="Ray cluster address (default: a local Ray instance)")
+    p.add_argument("--workers", type=int, default=0, help="processes or local Ray CPUs (0: every core)")
+    p.add_argument("--env", choices=ENVIRONMENTS, default="pybullet",
+                   help="PyBullet house or the fake oracle house (default: %(default)s)")
+    p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
+    p.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
+                   help="skip episodes already in OUT/episodes.csv (default: on; --no-resume discards it)")
+    p.add_argument("--quick", action="store_true",
+                   help=f"10 worlds and planners {' '.join(COMPARE_QUICK_PLANNERS)} (CI size)")
+# ------------------------------------------------------------------------------ end compare (issue 7)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="fg-tea", description="A tea-making drone that reasons with exact beliefs.")
     from fg_tea import __version__
@@ -367,6 +442,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", default=DEFAULT_MODEL, help="model to check task files against")
 
     _add_run_parsers(sub)
+    _add_compare_parser(sub)  # issue 7
     return parser
 
 

@@ -12,7 +12,8 @@ import math
 
 import pytest
 
-from fg_tea.env.base import ActionRequest, ActionResult, EnvConfig, InspectionResult, Pose, StateReading
+from fg_tea.env.base import EnvConfig
+from fg_tea.interface import ActionRequest, ActionResult, InspectionResult, Pose, StateReading
 from fg_tea.env.fake import FakeHouse
 from fg_tea.scenario import load_scenario
 
@@ -134,7 +135,6 @@ class TestFakeHouse(EnvContract):
 
 @pytest.fixture(scope="module")
 def pybullet_house():
-    pytest.importorskip("pybullet")
     from fg_tea.env.house import PyBulletHouse
 
     house = PyBulletHouse(SCENARIO, EnvConfig(ego_width=160, ego_height=120))

@@ -8,14 +8,13 @@ import math
 import numpy as np
 import pytest
 
-pytest.importorskip("pybullet")
-
-from fg_tea.env.base import ActionRequest, EnvConfig, Pose  # noqa: E402
-from fg_tea.env.house import PyBulletHouse  # noqa: E402
-from fg_tea.env.navigation import Navigator, follow_path, turn_frames  # noqa: E402
-from fg_tea.errors import InputError  # noqa: E402
-from fg_tea.resources import bundled, resolve_scenario  # noqa: E402
-from fg_tea.scenario import load_scenario, parse_scenario  # noqa: E402
+from fg_tea.env.base import EnvConfig
+from fg_tea.env.house import PyBulletHouse
+from fg_tea.env.navigation import Navigator, follow_path, turn_frames
+from fg_tea.interface import ActionRequest, Pose
+from fg_tea.errors import InputError
+from fg_tea.resources import bundled, resolve_scenario
+from fg_tea.scenario import load_scenario, parse_scenario
 
 SCENARIO = load_scenario("default_apartment")
 OBJECTS = ("mug", "kettle", "teabag")

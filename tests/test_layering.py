@@ -78,3 +78,31 @@ def test_agent_modules_do_not_load_pybullet_at_run_time():
                          env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+#: What the agent side (beliefs, planning, tasks) may import from fg_tea: the layers before it
+#: and the agent/environment contract — never the environment, the episode or the renderer.
+AGENT_MAY_IMPORT = ("fg_tea.errors", "fg_tea.resources", "fg_tea.scenario", "fg_tea.model",
+                    "fg_tea.interface", "fg_tea.beliefs", "fg_tea.planning", "fg_tea.tasks")
+
+
+def fg_tea_imports(source: str) -> list[str]:
+    names = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            names.append(node.module)
+    return [n for n in names if n == "fg_tea" or n.startswith("fg_tea.")]
+
+
+def test_the_layer_check_can_fail():
+    assert fg_tea_imports("from fg_tea.env.base import EnvConfig\nimport numpy") == ["fg_tea.env.base"]
+
+
+@pytest.mark.parametrize("folder", AGENT_DIRS)
+def test_agent_side_imports_only_earlier_layers(folder):
+    for path in sorted((ROOT / folder).rglob("*.py")):
+        bad = [n for n in fg_tea_imports(path.read_text())
+               if not any(n == ok or n.startswith(ok + ".") for ok in AGENT_MAY_IMPORT)]
+        assert not bad, f"{path.relative_to(ROOT)} imports {bad}"

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from fg_tea.beliefs.engine import BeliefEngine
-from fg_tea.env.base import ActionRequest, ActionResult
+from fg_tea.interface import ActionRequest, ActionResult
 from fg_tea.model import load_model
 from fg_tea.scenario import load_scenario
 from fg_tea.tasks import (AffordanceError, PreconditionError, TaskError, TaskExecutor, load_task)

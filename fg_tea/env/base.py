@@ -1,12 +1,8 @@
 """The environment adapter: how an action happens in the house, and what the camera sees.
 
 This is the boundary of the project's scientific point (blueprint eq. 1, section 7.4): truth lives
-only behind an :class:`EnvAdapter`. The agent side receives :class:`InspectionResult`,
-:class:`StateReading` and :class:`ActionResult` values, which carry observations (detections,
-pixel counts, noisy readings, success or failure) and never the hidden truth itself.
-
-Every result also carries `motion`: the agent pose at each rendered frame of the movement it took,
-and `placements`: where objects stand after it, so a renderer can replay an episode from its log.
+only behind an :class:`EnvAdapter`, which answers with the observation types of
+:mod:`fg_tea.interface` and never with the hidden truth itself.
 """
 
 from __future__ import annotations
@@ -15,19 +11,7 @@ import abc
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
-VERBS = ("SEARCH", "INSPECT", "PICK", "NAVIGATE", "PLACE", "INSERT", "FILL", "POUR", "USE", "WAIT")
-
-
-@dataclass(frozen=True)
-class Pose:
-    """Agent pose on the floor: position in metres, yaw in degrees (0 = +x, counter-clockwise)."""
-
-    x: float
-    y: float
-    yaw_deg: float
-
-    def as_list(self) -> list[float]:
-        return [round(self.x, 5), round(self.y, 5), round(self.yaw_deg, 4)]
+from fg_tea.interface import (ActionRequest, ActionResult, InspectionResult, Pose, StateReading)
 
 
 @dataclass(frozen=True)
@@ -57,64 +41,6 @@ class EnvConfig:
     distance: str = "geodesic"  # or "euclidean" (ablation)
     failure_rates: Mapping[str, float] = field(default_factory=dict)  # verb -> P(fail), injected
     detection_miss_rate: float = 0.0  # P(a would-be detection is dropped), injected
-
-
-@dataclass(frozen=True)
-class InspectionResult:
-    """What one site inspection observed [28, 29].
-
-    `detections` has an entry only for objects the inspection considered: True = detected at the
-    site, False = looked and not seen. `pixel_counts` gives n_o for the same objects.
-    """
-
-    site: str
-    detections: Mapping[str, bool]
-    pixel_counts: Mapping[str, int]
-    reachable: bool = True
-    distance: float = 0.0
-    frames: int = 0
-    motion: tuple[tuple[float, float, float], ...] = ()
-    image_size: tuple[int, int] = (0, 0)
-
-
-@dataclass(frozen=True)
-class StateReading:
-    """A noisy binary reading of a hidden state, e.g. ``kettle.contains_water`` [23, 24]."""
-
-    state: str
-    value: bool
-    sensitivity: float
-    specificity: float
-    distance: float = 0.0
-    frames: int = 0
-    motion: tuple[tuple[float, float, float], ...] = ()
-
-
-@dataclass(frozen=True)
-class ActionRequest:
-    """A practical action as the environment needs it: verb, object, where, onto or into what.
-
-    `site` is where the agent believes the object is (for PICK, INSPECT) or where to go (NAVIGATE,
-    PLACE); the environment checks it against truth and reports failure rather than correcting it.
-    """
-
-    verb: str
-    object: str
-    site: str | None = None
-    destination: str | None = None
-    effect: str | None = None  # name of the truth effect: fill, boil, pour, steep, serve
-
-
-@dataclass(frozen=True)
-class ActionResult:
-    """Outcome of a practical action. `ok` False carries a machine-readable `reason`."""
-
-    ok: bool
-    reason: str = ""
-    distance: float = 0.0
-    frames: int = 0
-    motion: tuple[tuple[float, float, float], ...] = ()
-    placements: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)
 
 
 class EnvAdapter(abc.ABC):

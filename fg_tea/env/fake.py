@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
-from fg_tea.env.base import Pose
+from fg_tea.interface import Pose
 from fg_tea.env.navigation import follow_path
 from fg_tea.env.truth import TruthBackedAdapter
 

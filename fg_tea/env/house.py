@@ -28,7 +28,8 @@ import numpy as np
 from fg_tea.env._pybullet import pybullet
 
 from fg_tea.env import assets
-from fg_tea.env.base import EnvConfig, Pose
+from fg_tea.env.base import EnvConfig
+from fg_tea.interface import Pose
 from fg_tea.env.navigation import Navigator, follow_path, wall_boxes
 from fg_tea.env.truth import TruthBackedAdapter, held_position
 from fg_tea.scenario import Scenario

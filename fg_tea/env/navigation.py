@@ -30,7 +30,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from fg_tea.env.base import EnvConfig, Pose
+from fg_tea.env.base import EnvConfig
+from fg_tea.interface import Pose
 from fg_tea.errors import InputError
 from fg_tea.scenario import House, Scenario
 

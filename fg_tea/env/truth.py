@@ -24,8 +24,9 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.env.base import (ActionRequest, ActionResult, EnvAdapter, EnvConfig, InspectionResult,
-                             Pose, StateReading)
+from fg_tea.env.base import EnvAdapter, EnvConfig
+from fg_tea.interface import (ActionRequest, ActionResult, InspectionResult, Pose,
+                              StateReading)
 from fg_tea.scenario import ObjectSpec, Scenario
 
 EFFECTS = ("fill", "boil", "pour", "steep", "serve")

@@ -27,7 +27,8 @@ import numpy as np
 
 from fg_tea import __version__
 from fg_tea.beliefs.engine import BeliefEngine, entropy
-from fg_tea.env.base import ActionRequest, EnvAdapter, EnvConfig
+from fg_tea.env.base import EnvAdapter, EnvConfig
+from fg_tea.interface import ActionRequest
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.model import Model

@@ -70,7 +70,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fg_tea.beliefs.engine import BeliefEngine
-from fg_tea.env.base import ActionRequest, ActionResult
+from fg_tea.interface import ActionRequest, ActionResult
 from fg_tea.model import Condition, Model, Sensor
 from fg_tea.scenario import Scenario
 from fg_tea.tasks.actions import UNREACHABLE_REASONS, TaskAction

@@ -66,7 +66,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from fg_tea.env.base import VERBS
+from fg_tea.interface import VERBS
 from fg_tea.errors import InputError, Reader, read_json
 from fg_tea.model import Condition, Effect, Model
 from fg_tea.resources import resolve_task

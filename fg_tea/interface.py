@@ -1,0 +1,90 @@
+"""The contract between the agent side and the environment: what is asked, what comes back.
+
+The task layer says *what* should happen as an :class:`ActionRequest` (a verb from :data:`VERBS`,
+an object, a site, a destination, a truth effect); the environment decides *how* and reports
+observations: :class:`InspectionResult` (detections and pixel counts, eqs. 28-29),
+:class:`StateReading` (a noisy reading, eqs. 23-24) and :class:`ActionResult` (success or a
+machine-readable failure). None of these carries hidden truth. Both sides import this module; the
+agent side imports nothing else of the environment.
+
+Every result also carries `motion`: the agent pose at each rendered frame of the movement it took,
+and :class:`ActionResult` carries `placements`: where objects stand after it, so a renderer can
+replay an episode from its log (presentation only; the agent never reads them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+VERBS = ("SEARCH", "INSPECT", "PICK", "NAVIGATE", "PLACE", "INSERT", "FILL", "POUR", "USE", "WAIT")
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Agent pose on the floor: position in metres, yaw in degrees (0 = +x, counter-clockwise)."""
+
+    x: float
+    y: float
+    yaw_deg: float
+
+    def as_list(self) -> list[float]:
+        return [round(self.x, 5), round(self.y, 5), round(self.yaw_deg, 4)]
+
+
+@dataclass(frozen=True)
+class InspectionResult:
+    """What one site inspection observed [28, 29].
+
+    `detections` has an entry only for objects the inspection considered: True = detected at the
+    site, False = looked and not seen. `pixel_counts` gives n_o for the same objects.
+    """
+
+    site: str
+    detections: Mapping[str, bool]
+    pixel_counts: Mapping[str, int]
+    reachable: bool = True
+    distance: float = 0.0
+    frames: int = 0
+    motion: tuple[tuple[float, float, float], ...] = ()
+    image_size: tuple[int, int] = (0, 0)
+
+
+@dataclass(frozen=True)
+class StateReading:
+    """A noisy binary reading of a hidden state, e.g. ``kettle.contains_water`` [23, 24]."""
+
+    state: str
+    value: bool
+    sensitivity: float
+    specificity: float
+    distance: float = 0.0
+    frames: int = 0
+    motion: tuple[tuple[float, float, float], ...] = ()
+
+
+@dataclass(frozen=True)
+class ActionRequest:
+    """A practical action as the environment needs it: verb, object, where, onto or into what.
+
+    `site` is where the agent believes the object is (for PICK, INSPECT) or where to go (NAVIGATE,
+    PLACE); the environment checks it against truth and reports failure rather than correcting it.
+    """
+
+    verb: str
+    object: str
+    site: str | None = None
+    destination: str | None = None
+    effect: str | None = None  # name of the truth effect: fill, boil, pour, steep, serve
+
+
+@dataclass(frozen=True)
+class ActionResult:
+    """Outcome of a practical action. `ok` False carries a machine-readable `reason`."""
+
+    ok: bool
+    reason: str = ""
+    distance: float = 0.0
+    frames: int = 0
+    motion: tuple[tuple[float, float, float], ...] = ()
+    placements: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)
