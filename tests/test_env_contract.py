@@ -123,10 +123,15 @@ class EnvContract:
         assert env.distance_to_site("kitchen_counter") == pytest.approx(0.0, abs=1e-9)
 
 
+@pytest.fixture(scope="module")
+def fake_house():
+    return FakeHouse(SCENARIO)
+
+
 class TestFakeHouse(EnvContract):
-    @pytest.fixture(scope="class")
-    def env(self):
-        return FakeHouse(SCENARIO)
+    @pytest.fixture
+    def env(self, fake_house):
+        return fake_house
 
     @pytest.fixture
     def fresh_env(self):
