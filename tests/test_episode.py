@@ -51,6 +51,7 @@ def test_default_episode_makes_tea(default_runs):
     assert statuses <= {"complete", "skipped"}
     assert runner.belief.state("mug.tea_brewed") >= 0.90 and runner.belief.state("mug.served") >= 0.90
     assert "fill_kettle" not in score(runner.events)["skipped_actions"]
+    assert score(runner.events)["goals_true"] is True  # the world agrees with what it believes
 
 
 @pytest.mark.parametrize("model", MODELS)
@@ -223,3 +224,34 @@ def test_preview_writes_png(tmp_path):
     assert main(["preview", "--out", str(out), "--width", "320", "--height", "180"]) == 0
     image = cv2.imread(str(out))
     assert image.shape == (180, 320, 3) and image.std() > 5
+
+
+class _LyingWaterSensor(FakeHouse):
+    """The kettle is empty, but its water reading says full (a 5 % false positive, forced)."""
+
+    def observe_state(self, obj, state, site, sensitivity, specificity):
+        reading = super().observe_state(obj, state, site, sensitivity, specificity)
+        if (obj, state) == ("kettle", "contains_water"):
+            from dataclasses import replace
+
+            return replace(reading, value=True)
+        return reading
+
+
+@pytest.mark.parametrize("model,reason,goals_true", [
+    # Full transitions: the agent later reads that the tea has not brewed and stops, honestly.
+    ("factorised", "stuck: serve_tea failed 2 times: precondition_unmet", None),
+    # Certain effects: it believes every step worked and "completes" - but the world disagrees.
+    ("models/ablations/certain_effects.toml", "complete", False),
+])
+def test_final_truth_is_logged_for_evaluation(model, reason, goals_true):
+    s, m = load_scenario("default_apartment"), load_model(ROOT / model if model.endswith(".toml") else model)
+    runner = EpisodeRunner(s, m, _LyingWaterSensor(s, env_config_for(m)), RunConfig(seed=0))
+    metrics = runner.run()
+    assert "fill_kettle" in metrics["skipped_actions"]
+    assert metrics["reason"] == reason
+    end = next(e for e in runner.events if e["event"] == "episode_end")
+    assert end["world_truth"]["states"]["mug.tea_brewed"] is False
+    if goals_true is not None:
+        assert metrics["goals_true"] is goals_true
+        assert "mug.tea_brewed" in end["goal_conditions"]["final_states"]

@@ -77,6 +77,15 @@ class EnvAdapter(abc.ABC):
     def execute(self, request: ActionRequest) -> ActionResult:
         """Carry out a practical action and its truth effects; report failure, never pretend."""
 
+    def truth_report(self) -> dict:
+        """The world's hidden truth now, for evaluating an episode after it ends.
+
+        Experiments and the episode log's final record use it; the runner never passes it to the
+        agent side. Returns ``{"states": {name: bool}, "sites": {object: site or None},
+        "held": object or None, "contained_in": {object: container}}``.
+        """
+        return {}
+
     def placements(self) -> Mapping[str, tuple[float, float, float]]:
         """Where each object's body stands now (for rendering only, never for the agent)."""
         return {}

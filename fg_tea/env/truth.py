@@ -350,6 +350,12 @@ class TruthBackedAdapter(EnvAdapter):
             return self._result(False, "injected_failure", [])
         return handler(request, effect)
 
+    def truth_report(self) -> dict:
+        self._require_reset()
+        truth = self._truth
+        return {"states": dict(sorted(truth.states.items())), "sites": dict(sorted(truth.site_of.items())),
+                "held": truth.held, "contained_in": dict(sorted(truth.contained_in.items()))}
+
     def placements(self) -> Mapping[str, tuple[float, float, float]]:
         self._require_reset()
         return {name: tuple(round(c, 4) for c in xyz) for name, xyz in sorted(self._positions.items())}

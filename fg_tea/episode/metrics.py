@@ -65,6 +65,21 @@ def frames(events: list[dict]) -> int:
     return max((int(e.get("frame", 0)) for e in events), default=0)
 
 
+def believed_goals_true(events: list[dict]) -> bool | None:
+    """Whether every belief goal the episode finished on is also true in the world's final truth.
+
+    The agent's success is judged by its beliefs (eqs. 19-20); this checks them against the truth
+    the environment reports at the end (``episode_end.world_truth``), restricted to the goals of
+    the actions that completed or were skipped last for each state. None when the log has no truth.
+    """
+    end = next(iter_events(events, "episode_end"), None)
+    truth = (end or {}).get("world_truth", {}).get("states")
+    if not end or not truth:
+        return None
+    goals = end.get("goal_conditions", {}).get("final_states", [])
+    return all(bool(truth.get(state, False)) for state in goals)
+
+
 def _mean(values: Iterable[float]) -> float | None:
     values = list(values)
     return sum(values) / len(values) if values else None
@@ -83,6 +98,7 @@ def score(events: list[dict]) -> dict:
         "actions_complete": statuses.count("complete"),
         "actions_skipped": statuses.count("skipped"),
         "goal_conditions": end.get("goal_conditions", {}) if end else {},
+        "goals_true": believed_goals_true(events),
         "total_distance": round(total_distance(events), 6),
         "search_distance": round(search_distance(events), 6),
         "inspections": inspections(events),

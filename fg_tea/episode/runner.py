@@ -326,14 +326,17 @@ class EpisodeRunner:
     def _goal_conditions(self) -> dict:
         objects = self.executor.object_state()
         states = self.belief.states()
-        thresholds = {}
+        thresholds: dict[str, float] = {}
         for node in self.graph:
             if self.graph.status(node) in ("complete", "skipped"):
-                for c in self.graph.action(node).goals:
+                action = self.graph.action(node)
+                for c in (*action.goals, *action.preconditions):
                     thresholds[c.state] = max(thresholds.get(c.state, 0.0), c.at_least)
-        return {"all_actions_finished": self.executor.done,
-                "goals": {s: {"belief": states.get(s), "threshold": t, "met": states.get(s, 0.0) >= t}
-                          for s, t in sorted(thresholds.items())},
+        goals = {s: {"belief": states.get(s), "threshold": t, "met": states.get(s, 0.0) >= t}
+                 for s, t in sorted(thresholds.items())}
+        return {"all_actions_finished": self.executor.done, "goals": goals,
+                # What the agent claims holds at the end: goals and preconditions it still believes.
+                "final_states": [s for s, g in goals.items() if g["met"]],
                 "objects": objects}
 
     def _end(self, reason: str, terminated: bool = False, truncated: bool = False) -> None:
@@ -342,7 +345,10 @@ class EpisodeRunner:
         end = {"event": "episode_end", "reason": reason, "terminated": terminated,
                "truncated": truncated, "graph": self.graph.to_json(),
                "goal_conditions": self._goal_conditions(), "belief": self.belief.snapshot(),
-               "gtsam_agreement": self.belief.check_against_gtsam()}
+               "gtsam_agreement": self.belief.check_against_gtsam(),
+               # The world as it truly ended, for evaluation only: written after the agent's
+               # last decision, never read by the agent side.
+               "world_truth": self.env.truth_report()}
         self._write(end)
         # Metrics are a pure function of the events above; logged once more for convenience.
         self._write({"event": "metrics", **score(self.log.events)})
