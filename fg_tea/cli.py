@@ -356,6 +356,7 @@ COMPARE_QUICK_PLANNERS = ("efe", "greedy", "nearest", "optimal")
 @_command("compare")
 def cmd_compare(args: argparse.Namespace) -> int:
     """Models x planners over N sampled worlds, paired; write episodes.csv, summary.md and plots."""
+    import os
     import shlex
 
     from fg_tea.analysis import comparison_report
@@ -376,16 +377,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
         sys.stderr.write(f"fg-tea: error: {exc} (finished episodes are in {csv_path}; "
                          "run again to resume)\n")
         return 1
+    shown = os.path.relpath(out) if not os.path.relpath(out).startswith("..") else str(out)
     command = shlex.join(["fg-tea", "compare", "--world", args.world, "--worlds", str(n_worlds),
                           "--models", *args.models, "--planners", *planners, "--first-seed",
-                          str(args.first_seed), "--env", args.env, "--out", str(out)])
+                          str(args.first_seed), "--env", args.env, "--out", shown])
     files = comparison_report(rows, out, title=f"Factorised vs joint beliefs on `{args.world}` worlds",
                               command=command)
     print(f"episodes: {csv_path} ({len(rows)} rows)")
-    for name in ("summary.md", "summary.csv", "paired.csv", "travel_inspections.png", "entropy.png",
-                 "ratio_to_optimal.png"):
-        if name in files:
-            print(f"{name.split('.')[-1]}: {files[name]}")
+    print("wrote: " + ", ".join(str(files[name]) for name in sorted(files)))
     return 0
 
 

@@ -1,0 +1,635 @@
+"""Analysis of sweep rows: means with confidence intervals, paired differences, tables and plots.
+
+This module answers the second half of the experiment question ("which model searches better, and
+by how much, with what uncertainty?") over the rows written by :mod:`fg_tea.sweep`.
+
+**Intervals.** A mean is reported with a two-sided 95 % Student-t interval,
+``mean ± t_{0.975, n-1} · s / sqrt(n)`` with the sample standard deviation s (ddof = 1); with
+fewer than two values the interval is undefined (NaN). A success rate is a proportion, for
+which the t-interval collapses to a point when every episode succeeds, so it gets the Wilson
+score interval instead: ``(p + z²/2n ± z sqrt(p(1-p)/n + z²/4n²)) / (1 + z²/n)``, z = 1.95996.
+
+**Pairing.** Every configuration of a sweep solves the same world seeds with the same episode
+seeds, so configurations are compared world by world: a paired difference is the t-interval of
+the per-world differences (``b - a`` for "b minus a"), and a ratio to a reference (such as the
+Bayes-optimal planner) is the t-interval of the per-world ratios. Rows refused by the optimal
+planner (reason ``refused: ...``) are excluded from means and pairs, and counted. Episodes the
+sweep stopped at its step limit (reason ``step_limit: ...``, a planner looping in place) count
+as failures in the success rate but are excluded from the travel and inspection means and pairs
+(their numbers would only measure the limit), and are counted separately.
+
+**Plots** are drawn with matplotlib's object-oriented API on the Agg canvas (no pyplot, no
+window). Belief entropy over time uses the ``entropy_trace`` list column of each row (summed
+location entropy of the searched objects after each inspection); an episode whose search ended
+keeps its last value, so every curve is a mean over all worlds of the configuration.
+
+Every file is written atomically: to a temporary file in the same folder, then renamed.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from fg_tea.sweep import REFUSED, STEP_LIMIT, write_csv_atomic
+
+#: Metrics summarised by default (search travel first: it is what the planners optimise).
+METRICS = ("search_distance", "total_distance", "inspections")
+#: Human-readable names and units.
+LABELS = {"search_distance": "search travel (m)", "total_distance": "total travel (m)",
+          "inspections": "inspections", "success": "success rate", "repeated_sites": "repeated sites",
+          "entropy_reduction_per_inspection": "entropy reduction / inspection (nats)",
+          "quality_kl_mean": "KL(joint ‖ factorised) (nats)", "quality_brier_mean": "Brier (mean)",
+          "quality_brier_final": "Brier (final)", "quality_ece": "ECE"}
+#: Pairing columns: the world and the episode seed (plus whatever strata the caller adds).
+PAIR_ON = ("world", "world_seed", "seed")
+Z95 = 1.959963984540054
+
+
+# ---------------------------------------------------------------------------------- intervals
+@dataclass(frozen=True)
+class Interval:
+    """A mean with its confidence interval. Fields are NaN when undefined."""
+
+    mean: float
+    low: float
+    high: float
+    n: int
+
+    def fmt(self, digits: int = 2) -> str:
+        """``mean [low, high]`` (or ``mean`` alone when the interval is undefined)."""
+        if self.n == 0 or math.isnan(self.mean):
+            return "–"
+        if math.isnan(self.low):
+            return f"{self.mean:.{digits}f}"
+        return f"{self.mean:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"
+
+
+def t_interval(values: Iterable[float], confidence: float = 0.95) -> Interval:
+    """Mean and two-sided Student-t confidence interval of a sample.
+
+    Args:
+        values: the sample (None and NaN are dropped).
+        confidence: the coverage, in (0, 1).
+
+    Returns:
+        The interval ``mean ± t_{(1+c)/2, n-1} s / sqrt(n)``; NaN bounds for n < 2, all NaN for n = 0.
+    """
+    from scipy import stats
+
+    x = np.array([float(v) for v in values if v is not None and not _isnan(v)], dtype=float)
+    n = len(x)
+    if n == 0:
+        return Interval(math.nan, math.nan, math.nan, 0)
+    mean = float(x.mean())
+    if n < 2:
+        return Interval(mean, math.nan, math.nan, n)
+    half = float(stats.t.ppf(0.5 + confidence / 2, n - 1) * x.std(ddof=1) / math.sqrt(n))
+    return Interval(mean, mean - half, mean + half, n)
+
+
+def wilson_interval(successes: int, n: int, z: float = Z95) -> Interval:
+    """A proportion with its Wilson score interval (z = 1.96 for 95 %)."""
+    if n == 0:
+        return Interval(math.nan, math.nan, math.nan, 0)
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return Interval(p, centre - half, centre + half, n)
+
+
+def _isnan(v: Any) -> bool:
+    return isinstance(v, float) and math.isnan(v)
+
+
+def refused(row: Mapping[str, Any]) -> bool:
+    """Whether the optimal planner declined this episode (too many open sites)."""
+    return str(row.get("reason") or "").startswith(REFUSED)
+
+
+def step_limited(row: Mapping[str, Any]) -> bool:
+    """Whether the sweep stopped this episode at its step limit."""
+    return str(row.get("reason") or "").startswith(STEP_LIMIT)
+
+
+def excluded(row: Mapping[str, Any]) -> bool:
+    """Rows left out of metric means and pairs: refused or step-limited episodes."""
+    return refused(row) or step_limited(row)
+
+
+def _groups(rows: Iterable[Mapping[str, Any]], by: Sequence[str]) -> dict[tuple, list[Mapping[str, Any]]]:
+    out: dict[tuple, list] = {}
+    for row in rows:
+        out.setdefault(tuple(row.get(c) for c in by), []).append(row)
+    return out
+
+
+def _order(values: Iterable[Any], preferred: Sequence[Any] = ()) -> list[Any]:
+    """Distinct values: those in `preferred` first in its order, then the rest sorted."""
+    values = list(dict.fromkeys(values))
+    head = [v for v in preferred if v in values]
+    return head + sorted((v for v in values if v not in head), key=lambda v: (str(type(v)), v))
+
+
+# ---------------------------------------------------------------------------------- tables
+def summary_table(rows: Sequence[Mapping[str, Any]], by: Sequence[str] = ("model", "planner"),
+                  metrics: Sequence[str] = METRICS, confidence: float = 0.95) -> list[dict[str, Any]]:
+    """Per group: episode count, refusals, success rate (Wilson) and each metric's mean (t-interval).
+
+    Args:
+        rows: sweep rows.
+        by: grouping columns, e.g. ``("model", "planner")`` or ``("model", "planner", "same_site_teabag_kettle")``.
+        metrics: numeric columns to summarise.
+        confidence: interval coverage.
+
+    Returns:
+        One dict per group, in order of first appearance, with the `by` columns, ``n`` (episodes
+        in the metric means), ``refused``, ``step_limited``, ``success`` (an :class:`Interval`
+        over every episode not refused) and one :class:`Interval` per metric.
+    """
+    out = []
+    for key, group in _groups(rows, by).items():
+        attempted = [r for r in group if not refused(r)]
+        measured = [r for r in attempted if not step_limited(r)]
+        entry: dict[str, Any] = dict(zip(by, key))
+        entry["n"] = len(measured)
+        entry["refused"] = len(group) - len(attempted)
+        entry["step_limited"] = len(attempted) - len(measured)
+        entry["success"] = wilson_interval(sum(bool(r.get("success")) for r in attempted), len(attempted))
+        for m in metrics:
+            entry[m] = t_interval((r.get(m) for r in measured), confidence)
+        out.append(entry)
+    return out
+
+
+def paired_differences(rows: Sequence[Mapping[str, Any]], vary: str, baseline: Any,
+                       metrics: Sequence[str] = METRICS, by: Sequence[str] = ("planner",),
+                       pair_on: Sequence[str] = PAIR_ON, confidence: float = 0.95
+                       ) -> list[dict[str, Any]]:
+    """Paired differences ``other - baseline`` of the column `vary`, world by world.
+
+    Args:
+        rows: sweep rows.
+        vary: the column being compared, e.g. ``"model"`` or ``"planner"``.
+        baseline: its reference value, e.g. ``"factorised"``.
+        metrics: numeric columns to difference (``success`` is treated as 0/1).
+        by: strata within which pairs are formed (e.g. ``("planner",)``).
+        pair_on: columns that identify one world (and episode seed) within a stratum.
+        confidence: interval coverage.
+
+    Returns:
+        Per stratum and other value: the `by` columns, `vary` (the other value), ``baseline``,
+        ``pairs``, and per metric an :class:`Interval` of the differences under the metric's name,
+        plus ``<metric>_baseline`` and ``<metric>_other`` (the means over the same pairs).
+
+    Raises:
+        ValueError: two rows of one configuration share a pairing key (the pairing is ambiguous).
+    """
+    out = []
+    for key, group in _groups([r for r in rows if not excluded(r)], by).items():
+        table: dict[Any, dict[tuple, Mapping[str, Any]]] = {}
+        for r in group:
+            pk = tuple(r.get(c) for c in pair_on)
+            slot = table.setdefault(r.get(vary), {})
+            if pk in slot:
+                raise ValueError(f"two rows with {vary}={r.get(vary)!r} share the pairing key "
+                                 f"{dict(zip(pair_on, pk))} within {dict(zip(by, key))}; add the "
+                                 "distinguishing column to `by`")
+            slot[pk] = r
+        if baseline not in table:
+            continue
+        base = table[baseline]
+        for other in table:  # first-appearance order
+            if other == baseline:
+                continue
+            common = [pk for pk in base if pk in table[other]]
+            entry: dict[str, Any] = dict(zip(by, key))
+            entry.update({vary: other, "baseline": baseline, "pairs": len(common)})
+            for m in metrics:
+                a = [_num(base[pk].get(m)) for pk in common]
+                b = [_num(table[other][pk].get(m)) for pk in common]
+                ok = [(x, y) for x, y in zip(a, b) if x is not None and y is not None]
+                entry[m] = t_interval((y - x for x, y in ok), confidence)
+                entry[f"{m}_baseline"] = t_interval((x for x, _ in ok), confidence)
+                entry[f"{m}_other"] = t_interval((y for _, y in ok), confidence)
+            out.append(entry)
+    return out
+
+
+def ratio_to_reference(rows: Sequence[Mapping[str, Any]], vary: str = "planner",
+                       reference: Any = "optimal", metric: str = "search_distance",
+                       by: Sequence[str] = ("model",), pair_on: Sequence[str] = PAIR_ON,
+                       confidence: float = 0.95) -> list[dict[str, Any]]:
+    """Per-world ratios ``metric(other) / metric(reference)`` with t-intervals.
+
+    With the defaults this is each planner's search travel relative to the Bayes-optimal planner
+    on the same world and model (1.0 = as good as the limit). Worlds where the reference's value
+    is zero are skipped and counted in ``zero_reference``.
+
+    Returns:
+        Per stratum and other value: the `by` columns, `vary`, ``reference``, ``pairs``,
+        ``zero_reference`` and ``ratio`` (an :class:`Interval`), plus ``difference`` (an
+        :class:`Interval` of ``other - reference`` in the metric's unit).
+    """
+    out = []
+    for key, group in _groups([r for r in rows if not excluded(r)], by).items():
+        table: dict[Any, dict[tuple, Mapping[str, Any]]] = {}
+        for r in group:
+            table.setdefault(r.get(vary), {})[tuple(r.get(c) for c in pair_on)] = r
+        if reference not in table:
+            continue
+        ref = table[reference]
+        for other in table:  # first-appearance order
+            common = [pk for pk in ref if pk in table[other]]
+            pairs = [(_num(ref[pk].get(metric)), _num(table[other][pk].get(metric))) for pk in common]
+            pairs = [(x, y) for x, y in pairs if x is not None and y is not None]
+            zero = sum(1 for x, _ in pairs if x == 0)
+            entry: dict[str, Any] = dict(zip(by, key))
+            entry.update({vary: other, "reference": reference, "pairs": len(pairs), "zero_reference": zero,
+                          "ratio": t_interval((y / x for x, y in pairs if x != 0), confidence),
+                          "difference": t_interval((y - x for x, y in pairs), confidence)})
+            out.append(entry)
+    return out
+
+
+def _num(v: Any) -> float | None:
+    if v is None or isinstance(v, str) or _isnan(v):
+        return None
+    return float(v)
+
+
+# ---------------------------------------------------------------------------------- markdown
+def markdown_table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    """A GitHub-flavoured markdown table; numbers right-aligned."""
+    def cell(v: Any) -> str:
+        return str(v).replace("|", "\\|")
+
+    numeric = [all(isinstance(r[i], (int, float)) or _looks_numeric(r[i]) for r in rows) and rows
+               for i in range(len(header))]
+    lines = ["| " + " | ".join(cell(h) for h in header) + " |",
+             "|" + "|".join("---:" if numeric[i] else "---" for i in range(len(header))) + "|"]
+    lines += ["| " + " | ".join(cell(v) for v in r) + " |" for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _looks_numeric(v: Any) -> bool:
+    s = str(v).split(" ")[0]
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False
+
+
+def summary_markdown(summary: Sequence[Mapping[str, Any]], by: Sequence[str] = ("model", "planner"),
+                     metrics: Sequence[str] = METRICS, digits: int = 2) -> str:
+    """The summary table (means [95 % CI]) as markdown."""
+    header = list(by) + ["n"] + [LABELS.get(m, m) for m in metrics] + ["success rate"]
+    body = []
+    for s in summary:
+        n = (f"{s['n']}" + (f" (+{s['refused']} refused)" if s["refused"] else "")
+             + (f" (+{s['step_limited']} step-limited)" if s.get("step_limited") else ""))
+        body.append([s[c] for c in by] + [n] + [s[m].fmt(digits) for m in metrics] + [s["success"].fmt(3)])
+    return markdown_table(header, body)
+
+
+def paired_markdown(diffs: Sequence[Mapping[str, Any]], vary: str, by: Sequence[str] = ("planner",),
+                    metrics: Sequence[str] = METRICS, digits: int = 2) -> str:
+    """Paired differences as markdown: baseline mean, other mean, difference [95 % CI]."""
+    header = list(by) + [f"{vary} (vs baseline)", "pairs"]
+    for m in metrics:
+        header += [f"{LABELS.get(m, m)}: baseline", "other", "difference [95% CI]"]
+    body = []
+    for d in diffs:
+        line = [d[c] for c in by] + [f"{d[vary]} − {d['baseline']}", d["pairs"]]
+        for m in metrics:
+            line += [f"{d[f'{m}_baseline'].mean:.{digits}f}", f"{d[f'{m}_other'].mean:.{digits}f}",
+                     d[m].fmt(digits)]
+        body.append(line)
+    return markdown_table(header, body)
+
+
+def ratio_markdown(ratios: Sequence[Mapping[str, Any]], vary: str = "planner",
+                   by: Sequence[str] = ("model",), unit: str = "m", digits: int = 2) -> str:
+    """Ratios to the reference as markdown."""
+    header = list(by) + [vary, "pairs", "ratio to reference [95% CI]", f"excess ({unit}) [95% CI]"]
+    body = [[r[c] for c in by] + [r[vary], r["pairs"], r["ratio"].fmt(digits), r["difference"].fmt(digits)]
+            for r in ratios]
+    return markdown_table(header, body)
+
+
+# ---------------------------------------------------------------------------------- files
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write text through a temporary file in the same folder and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+    return path
+
+
+def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:
+    """Save a matplotlib Figure as PNG atomically (temporary file, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.png")
+    fig.savefig(tmp, format="png", dpi=dpi, bbox_inches="tight")
+    tmp.replace(path)
+    return path
+
+
+def _figure(width: float = 7.5, height: float = 4.0, ncols: int = 1):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, ncols, squeeze=False)[0]
+    return fig, axes
+
+
+def _err(iv: Interval) -> tuple[float, float]:
+    if math.isnan(iv.low):
+        return 0.0, 0.0
+    return iv.mean - iv.low, iv.high - iv.mean
+
+
+def plot_bars(summary: Sequence[Mapping[str, Any]], path: str | Path,
+              metrics: Sequence[str] = ("search_distance", "inspections"), group: str = "planner",
+              series: str = "model", title: str = "") -> Path:
+    """Grouped bars (one group per `group` value, one bar per `series` value) with 95 % CI whiskers."""
+    groups = list(dict.fromkeys(s[group] for s in summary))
+    names = list(dict.fromkeys(s[series] for s in summary))
+    panel = max(3.5, 0.3 * len(groups) * max(1, len(names)) + 1.0)
+    fig, axes = _figure(panel * len(metrics), 4.0, len(metrics))
+    width = 0.8 / max(1, len(names))
+    lookup = {(s[group], s[series]): s for s in summary}
+    for ax, metric in zip(axes, metrics):
+        for i, name in enumerate(names):
+            xs, ys, lo, hi = [], [], [], []
+            for g, value in enumerate(groups):
+                s = lookup.get((value, name))
+                if s is None or s[metric].n == 0:
+                    continue
+                xs.append(g + (i - (len(names) - 1) / 2) * width)
+                ys.append(s[metric].mean)
+                e = _err(s[metric])
+                lo.append(e[0])
+                hi.append(e[1])
+            ax.bar(xs, ys, width, yerr=[lo, hi], capsize=3, label=str(name))
+        ax.set_xticks(range(len(groups)), [str(g) for g in groups], rotation=30, ha="right")
+        ax.set_ylabel(LABELS.get(metric, metric))
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].legend(title=series)
+    if title:
+        fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+def entropy_curves(rows: Sequence[Mapping[str, Any]], by: Sequence[str] = ("model", "planner")
+                   ) -> dict[tuple, tuple[np.ndarray, np.ndarray]]:
+    """Mean (and standard error of) summed location entropy after each inspection, per group.
+
+    Each row's ``entropy_trace`` is padded with its last value to the longest trace of its group.
+
+    Returns:
+        group -> (mean, standard error), arrays over inspection index 0.. (0 = before searching).
+    """
+    out = {}
+    for key, group in _groups([r for r in rows if not excluded(r)], by).items():
+        traces = [[float(x) for x in str(r.get("entropy_trace") or "").split(";") if x]
+                  for r in group]
+        traces = [t for t in traces if t]
+        if not traces:
+            continue
+        length = max(len(t) for t in traces)
+        padded = np.array([t + [t[-1]] * (length - len(t)) for t in traces])
+        sem = padded.std(axis=0, ddof=1) / math.sqrt(len(padded)) if len(padded) > 1 else np.zeros(length)
+        out[key] = (padded.mean(axis=0), sem)
+    return out
+
+
+def plot_entropy(rows: Sequence[Mapping[str, Any]], path: str | Path,
+                 by: Sequence[str] = ("model", "planner"), title: str = "") -> Path:
+    """Belief entropy over inspections: mean ± 1.96 SE per group, one panel per first `by` value."""
+    curves = entropy_curves(rows, by)
+    panels = _order((k[0] for k in curves), ("factorised", "joint"))
+    fig, axes = _figure(5.0 * max(1, len(panels)), 4.0, max(1, len(panels)))
+    for ax, panel in zip(axes, panels):
+        for key, (mean, sem) in curves.items():
+            if key[0] != panel:
+                continue
+            x = np.arange(len(mean))
+            label = " / ".join(str(k) for k in key[1:]) or str(panel)
+            line, = ax.plot(x, mean, label=label, marker=".")
+            ax.fill_between(x, mean - Z95 * sem, mean + Z95 * sem, color=line.get_color(), alpha=0.15)
+        ax.set_title(f"{by[0]} = {panel}")
+        ax.set_xlabel("inspections")
+        ax.set_ylabel("summed location entropy (nats)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+def plot_ratios(ratios: Sequence[Mapping[str, Any]], path: str | Path, vary: str = "planner",
+                by: str = "model", title: str = "") -> Path:
+    """Ratio to the reference per `vary` value and `by` value, with 95 % CI whiskers and a line at 1."""
+    groups = list(dict.fromkeys(r[vary] for r in ratios))
+    names = list(dict.fromkeys(r[by] for r in ratios))
+    fig, axes = _figure(max(6.0, 1.2 * len(groups)), 4.0)
+    ax = axes[0]
+    width = 0.8 / max(1, len(names))
+    lookup = {(r[vary], r[by]): r for r in ratios}
+    for i, name in enumerate(names):
+        xs, ys, lo, hi = [], [], [], []
+        for g, value in enumerate(groups):
+            r = lookup.get((value, name))
+            if r is None or r["ratio"].n == 0:
+                continue
+            xs.append(g + (i - (len(names) - 1) / 2) * width)
+            ys.append(r["ratio"].mean)
+            e = _err(r["ratio"])
+            lo.append(e[0])
+            hi.append(e[1])
+        ax.bar(xs, ys, width, yerr=[lo, hi], capsize=3, label=str(name))
+    ax.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax.set_xticks(range(len(groups)), [str(g) for g in groups], rotation=30, ha="right")
+    ax.set_ylabel("search travel / Bayes-optimal search travel")
+    ax.legend(title=by)
+    ax.grid(axis="y", alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+def plot_sweep(diffs: Sequence[Mapping[str, Any]], x: str, path: str | Path,
+               metrics: Sequence[str] = ("search_distance", "inspections"), sign: float = -1.0,
+               xlabel: str | None = None, ylabel: str = "saved by the joint model", title: str = "") -> Path:
+    """A paired difference against a knob: one panel per metric, mean with 95 % CI whiskers.
+
+    Args:
+        diffs: rows of :func:`paired_differences` stratified by `x`.
+        x: the knob column.
+        sign: multiplies the differences (``-1``: plot ``baseline - other``, i.e. what `other` saves).
+    """
+    fig, axes = _figure(5.0 * len(metrics), 4.0, len(metrics))
+    points = sorted((d for d in diffs if d[x] is not None), key=lambda d: d[x])
+    for ax, metric in zip(axes, metrics):
+        xs = [d[x] for d in points]
+        ivs = [d[metric] for d in points]
+        ys = [sign * iv.mean for iv in ivs]
+        errs = np.array([_err(iv) for iv in ivs]).T if ivs else np.zeros((2, 0))
+        if sign < 0 and len(ivs):
+            errs = errs[::-1]
+        ax.errorbar(xs, ys, yerr=errs, marker="o", capsize=4)
+        ax.axhline(0.0, color="k", lw=0.8, ls="--")
+        ax.set_xlabel(xlabel or x)
+        ax.set_ylabel(f"{LABELS.get(metric, metric)} {ylabel}")
+        ax.grid(alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+# ---------------------------------------------------------------------------------- report
+def _summary_csv_rows(summary: Sequence[Mapping[str, Any]], metrics: Sequence[str]) -> list[dict]:
+    out = []
+    for s in summary:
+        row = {k: v for k, v in s.items() if not isinstance(v, Interval)}
+        for m in list(metrics) + ["success"]:
+            iv = s[m]
+            row.update({f"{m}_mean": iv.mean, f"{m}_ci_low": iv.low, f"{m}_ci_high": iv.high})
+        out.append(row)
+    return out
+
+
+def _diff_csv_rows(diffs: Sequence[Mapping[str, Any]], metrics: Sequence[str]) -> list[dict]:
+    out = []
+    for d in diffs:
+        row = {k: v for k, v in d.items() if not isinstance(v, Interval)}
+        for m in metrics:
+            for suffix in ("", "_baseline", "_other"):
+                iv = d.get(f"{m}{suffix}")
+                if iv is not None:
+                    name = f"{m}{suffix or '_difference'}"
+                    row.update({f"{name}_mean": iv.mean, f"{name}_ci_low": iv.low, f"{name}_ci_high": iv.high})
+        out.append(row)
+    return out
+
+
+def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, title: str = "Comparison",
+                      command: str = "", baseline_model: str = "factorised",
+                      joint_model: str = "joint", reference_planner: str = "optimal") -> dict[str, Path]:
+    """Write summary.md, summary.csv, paired.csv and plots for a model x planner sweep.
+
+    Sections: means with 95 % CIs per (model, planner); paired differences joint − factorised per
+    planner; each planner vs the Bayes-optimal planner (ratio and excess travel, per model); an
+    ablation table (every other model − `baseline_model`) when the sweep has other models.
+
+    Args:
+        rows: the sweep's rows.
+        out: the output folder.
+        title: the markdown title.
+        command: the command that reproduces the sweep (quoted in the report).
+        baseline_model: the reference model of paired differences.
+        joint_model: the model compared with the baseline in the headline section.
+        reference_planner: the planner used as the limit.
+
+    Returns:
+        Name -> path of every file written.
+    """
+    out = Path(out)
+    metrics = METRICS
+    models = _order((r["model"] for r in rows), (baseline_model, joint_model))
+    planners = _order((r["planner"] for r in rows),
+                      ("efe", "factorised_efe", "nearest", "greedy", "random", "optimal"))
+    ordered = sorted(rows, key=lambda r: (models.index(r["model"]), planners.index(r["planner"]), r["key"]))
+    summary = summary_table(ordered, ("model", "planner"), metrics)
+    files: dict[str, Path] = {}
+    worlds = sorted({(r["world"], r["world_seed"]) for r in rows})
+    n_refused = sum(refused(r) for r in rows)
+    n_stuck = sum(step_limited(r) for r in rows)
+    lines = [f"# {title}", ""]
+    if command:
+        lines += ["Reproduce with:", "", f"    {command}", ""]
+    lines += [f"{len(rows)} episodes: {len(worlds)} worlds of "
+              f"{', '.join(sorted({str(r['world']) for r in rows}))} × {len(models)} models "
+              f"({', '.join(map(str, models))}) × {len(planners)} planners ({', '.join(map(str, planners))}); "
+              f"every configuration solves the same worlds with the same seeds."
+              + (f" {n_refused} episodes were refused by the optimal planner's site limit and are "
+                 "excluded." if n_refused else "")
+              + (f" {n_stuck} episodes were stopped at the sweep's step limit (the planner kept "
+                 "re-inspecting a site in place); they count as failures in the success rate and "
+                 "are excluded from the travel and inspection means and from the pairs." if n_stuck else ""),
+              "",
+              "Means with 95 % Student-t confidence intervals (success rate: Wilson interval). "
+              "Search travel is the metres walked to inspect sites until every object was found; "
+              "total travel includes making the tea.", "",
+              "## Means per model and planner", "", summary_markdown(summary, metrics=metrics)]
+    if baseline_model in models and joint_model in models:
+        diffs = paired_differences([r for r in ordered if r["model"] in (baseline_model, joint_model)],
+                                   "model", baseline_model, metrics + ("success",), by=("planner",))
+        lines += [f"## Paired differences: {joint_model} − {baseline_model} (same worlds)", "",
+                  "Negative = the joint model travels less / inspects less.", "",
+                  paired_markdown(diffs, "model", metrics=metrics)]
+        write_csv_atomic(out / "paired.csv", _diff_csv_rows(diffs, metrics + ("success",)))
+        files["paired.csv"] = out / "paired.csv"
+    if reference_planner in planners and len(planners) > 1:
+        ratios = ratio_to_reference(ordered, "planner", reference_planner, "search_distance", by=("model",))
+        lines += [f"## Search travel relative to the Bayes-optimal limit (planner `{reference_planner}`)",
+                  "",
+                  "Per world: search travel of the planner ÷ that of the optimal planner with the same "
+                  "model (1.00 = the limit); excess = difference in metres. The optimal planner is "
+                  "Bayes-optimal for its own belief under perfect detection, so a ratio below 1 is "
+                  "possible when a planner is lucky on a world.", "",
+                  ratio_markdown([r for r in ratios if r["planner"] != reference_planner])]
+        files["ratio_to_optimal.png"] = plot_ratios(
+            [r for r in ratios if r["planner"] != reference_planner], out / "ratio_to_optimal.png",
+            title="Search travel relative to the Bayes-optimal limit (95 % CI)")
+    others = [m for m in models if m not in (baseline_model, joint_model)]
+    if baseline_model in models and others:
+        abl = paired_differences([r for r in ordered if r["model"] in [baseline_model] + others],
+                                 "model", baseline_model, metrics + ("success",), by=("planner",))
+        lines += [f"## Ablations: each model − {baseline_model} (same worlds)", "",
+                  paired_markdown(abl, "model", metrics=metrics)]
+    quality = [c for c in ("quality_kl_mean", "quality_brier_mean", "quality_brier_final", "quality_ece")
+               if any(r.get(c) is not None for r in rows)]
+    if quality:
+        lines += ["## Belief quality (from fg_tea.quality)", "",
+                  "Per episode, then averaged: KL of the factorised from the joint posterior on the same "
+                  "evidence (nats, mean over steps), Brier score of the agent's location beliefs against "
+                  "the true sites (mean over steps, and after the last inspection), expected calibration "
+                  "error.", "",
+                  summary_markdown(summary_table(ordered, ("model", "planner"), quality), metrics=quality,
+                                   digits=3)]
+    write_csv_atomic(out / "summary.csv", _summary_csv_rows(summary, metrics))
+    files["summary.csv"] = out / "summary.csv"
+    files["travel_inspections.png"] = plot_bars(summary, out / "travel_inspections.png",
+                                                ("search_distance", "total_distance", "inspections"),
+                                                title="Travel and inspections per model and planner (95 % CI)")
+    files["entropy.png"] = plot_entropy(ordered, out / "entropy.png",
+                                        title="Location-belief entropy over inspections (mean ± 95 % CI)")
+    lines += ["## Plots", "",
+              "- `travel_inspections.png`: search travel, total travel and inspections per model and planner.",
+              "- `entropy.png`: summed location entropy of the searched objects after each inspection.",
+              ]
+    if "ratio_to_optimal.png" in files:
+        lines.append("- `ratio_to_optimal.png`: search travel relative to the Bayes-optimal limit.")
+    lines.append("")
+    files["summary.md"] = atomic_write_text(out / "summary.md", "\n".join(lines))
+    return files
+
+
+__all__ = ["METRICS", "LABELS", "PAIR_ON", "Interval", "t_interval", "wilson_interval", "refused",
+           "step_limited", "excluded",
+           "summary_table", "paired_differences", "ratio_to_reference", "markdown_table",
+           "summary_markdown", "paired_markdown", "ratio_markdown", "atomic_write_text", "save_figure",
+           "plot_bars", "entropy_curves", "plot_entropy", "plot_ratios", "plot_sweep", "comparison_report"]

@@ -1,0 +1,755 @@
+"""Sweeps: many seeded episodes over sampled worlds, models and planners, one CSV row each.
+
+This module answers the experiment question of the architecture ("which model searches better,
+and why?", blueprint sections 15.3-15.4) at the level of single episodes; :mod:`fg_tea.analysis`
+turns the rows into tables and plots.
+
+- A :class:`Job` names one episode completely: world distribution and its knobs, world seed,
+  model (and overrides), planner, episode seed, environment (and overrides). Its :attr:`Job.key`
+  is a stable string, so a CSV row can always be traced back to the job that made it.
+- :func:`plan_sweep` builds **paired** job lists: every configuration solves the same world seeds
+  (and the same episode seeds), so differences between configurations can be taken world by world.
+- :func:`run_job` runs one headless episode and returns its row: every scalar metric of the log
+  (:func:`fg_tea.episode.metrics.score`) flattened, plus the configuration, the world's parameters
+  and its hidden truth. Rows never hold wall-clock time, so a sweep's CSV is a pure function of
+  its jobs. Episodes refused by the optimal planner's site limit are recorded with reason
+  ``"refused: ..."`` instead of stopping the sweep, and episodes still running after
+  ``Job.max_steps`` runner steps (a planner that re-inspects, in place, a site it has already
+  ruled out never reaches the frame limit) with reason ``"step_limit: ..."``.
+- :func:`run_sweep` runs a job list on a backend (``"serial"``, ``"process"``: a process pool
+  over all cores, the default, or ``"ray"``: Ray tasks on a local instance or a cluster), appends
+  each row to the CSV as it arrives (flushed), skips jobs whose key is already in the CSV
+  (resume; a truncated last line left by a crash is dropped), reports progress on stderr, and
+  finally rewrites the CSV sorted by key, so every backend writes the same bytes.
+
+The ``ray`` backend ships each job as a Ray task calling :func:`run_job` by reference, so on a
+cluster (``address="auto"`` or ``"ray://head:10001"``) every worker node needs the same fg_tea
+installed (``pip install -e ".[ray]"``); without an address a local instance is started with one
+CPU per worker and shut down afterwards. Nothing in a row depends on where it ran.
+
+Per-step belief entropy is kept as a list column, ``entropy_trace``: the summed location entropy
+(nats, eq. 7) of the searched objects at the start and after each inspection, joined by ``;``.
+When :mod:`fg_tea.quality` is importable, the scalars of its ``quality_summary(events, world)``
+(KL of the factorised from the joint posterior on the same evidence, Brier scores, expected
+calibration error) are added as ``quality_*`` columns.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
+
+from fg_tea.errors import InputError
+
+BACKENDS = ("serial", "process", "ray")
+ENVIRONMENTS = ("pybullet", "fake")
+WORLD_KNOBS = ("prior_violation", "same_site", "same_room")
+#: Reason prefix of episodes the optimal planner declined (too many open sites for its DP).
+REFUSED = "refused: "
+#: Reason prefix of episodes stopped by the sweep's step limit (see :class:`Job`).
+STEP_LIMIT = "step_limit: "
+#: Columns of a row that describe the configuration (everything else is an outcome).
+CONFIG_COLUMNS = ("key", "world", "world_seed", "seed", "knobs", "model", "model_ref", "structure",
+                  "planner", "env", "model_overrides", "env_overrides")
+_CLI = "<sweep>"
+
+
+def _scalar(value: Any, what: str) -> Any:
+    if isinstance(value, bool) or isinstance(value, (int, float, str)):
+        return value
+    raise InputError(_CLI, what, f"expected a number, string or boolean, got {type(value).__name__}")
+
+
+def _pairs(value: Mapping[str, Any] | Iterable[tuple[str, Any]] | None, what: str
+           ) -> tuple[tuple[str, Any], ...]:
+    items = value.items() if isinstance(value, Mapping) else (value or ())
+    return tuple(sorted((str(k), _scalar(v, f"{what}.{k}")) for k, v in items))
+
+
+def _fmt(value: Any) -> str:
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def _joined(pairs: Sequence[tuple[str, Any]]) -> str:
+    return ",".join(f"{k}={_fmt(v)}" for k, v in pairs)
+
+
+@dataclass(frozen=True)
+class Job:
+    """One episode of a sweep, named completely.
+
+    Args:
+        world: a world distribution (bundled name such as ``"correlated"``, or a JSON path).
+        world_seed: the seed of the sampled world (``WorldDistribution.sample``).
+        model: a model (bundled name, bundled ablation name such as ``"no_epistemic"``, or a path).
+        planner: a planner registry name (:func:`fg_tea.planning.planner_names`).
+        seed: the episode seed (environment RNG, random planner); defaults to `world_seed`.
+        knobs: world knobs (``prior_violation``, ``same_site``, ``same_room``), values in [0, 1].
+        model_overrides: ``Model`` fields to replace, e.g. ``{"miss_likelihood": 0.2}``.
+        env_overrides: ``EnvConfig`` fields to replace, e.g. ``{"detection_miss_rate": 0.2}``.
+        env: ``"pybullet"`` (the PyBullet house, headless) or ``"fake"`` (oracle perception).
+        max_frames: the episode's frame limit.
+        max_steps: the sweep's own limit on runner steps. The frame limit cannot end an episode
+            whose planner re-inspects the site it stands at (zero travel, zero frames) forever;
+            such an episode is stopped here and recorded with reason ``"step_limit: ..."``.
+
+    Mappings are stored as sorted tuples of pairs, so jobs are hashable and keys are stable.
+    """
+
+    world: str
+    world_seed: int
+    model: str = "factorised"
+    planner: str = "efe"
+    seed: int | None = None
+    knobs: tuple[tuple[str, float], ...] = ()
+    model_overrides: tuple[tuple[str, Any], ...] = ()
+    env_overrides: tuple[tuple[str, Any], ...] = ()
+    env: str = "pybullet"
+    max_frames: int = 50_000
+    max_steps: int = 2_000
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "world", str(self.world))
+        set_(self, "model", str(self.model))
+        set_(self, "world_seed", int(self.world_seed))
+        set_(self, "seed", int(self.world_seed if self.seed is None else self.seed))
+        knobs = _pairs(self.knobs, "knobs")
+        for name, value in knobs:
+            if name not in WORLD_KNOBS:
+                raise InputError(_CLI, f"knobs.{name}", f"unknown world knob (known: {', '.join(WORLD_KNOBS)})")
+            if isinstance(value, (bool, str)) or not 0.0 <= float(value) <= 1.0:
+                raise InputError(_CLI, f"knobs.{name}", f"expected a probability in [0, 1], got {value!r}")
+        set_(self, "knobs", tuple((k, float(v)) for k, v in knobs))
+        set_(self, "model_overrides", _pairs(self.model_overrides, "model_overrides"))
+        set_(self, "env_overrides", _pairs(self.env_overrides, "env_overrides"))
+
+    @property
+    def key(self) -> str:
+        """A stable, human-readable identifier: equal keys mean equal jobs (and equal rows)."""
+        parts = [f"world={self.world}", f"ws={self.world_seed:06d}"]
+        if self.knobs:
+            parts.append(f"knobs={_joined(self.knobs)}")
+        parts.append(f"model={self.model}")
+        if self.model_overrides:
+            parts.append(f"mo={_joined(self.model_overrides)}")
+        parts += [f"planner={self.planner}", f"seed={self.seed:06d}"]
+        if self.env != "pybullet":
+            parts.append(f"env={self.env}")
+        if self.env_overrides:
+            parts.append(f"eo={_joined(self.env_overrides)}")
+        if self.max_frames != 50_000:
+            parts.append(f"frames={self.max_frames}")
+        if self.max_steps != 2_000:
+            parts.append(f"steps={self.max_steps}")
+        return "|".join(parts)
+
+
+# ---------------------------------------------------------------------------------- resolving
+def ablation_names() -> tuple[str, ...]:
+    """Names of the bundled ablation models (``models/ablations/*.toml``), sorted."""
+    from fg_tea.resources import bundled
+
+    return tuple(p.stem for p in bundled("models/ablations", ".toml"))
+
+
+def model_names() -> tuple[str, ...]:
+    """Names of the bundled models (``models/*.toml``), sorted."""
+    from fg_tea.resources import bundled
+
+    return tuple(p.stem for p in bundled("models", ".toml"))
+
+
+def world_names() -> tuple[str, ...]:
+    """Names of the bundled world distributions (``scenarios/worlds/*.json``), sorted."""
+    from fg_tea.resources import bundled
+
+    return tuple(p.stem for p in bundled("scenarios/worlds", ".json"))
+
+
+def world_path(ref: str) -> Path:
+    """The file of a world reference: a bundled world distribution or a path."""
+    from fg_tea.resources import _resolve
+
+    return _resolve(ref, "scenarios/worlds", ".json")
+
+
+def model_path(ref: str) -> Path:
+    """The file of a model reference: a bundled model, a bundled ablation, or a path."""
+    from fg_tea.resources import data_dir, resolve_model
+
+    path = resolve_model(ref)
+    if path.exists():
+        return path
+    path_ref = Path(ref)
+    if not path_ref.suffix and len(path_ref.parts) == 1:
+        try:
+            candidate = data_dir("models/ablations") / f"{ref}.toml"
+        except FileNotFoundError:
+            return path
+        if candidate.exists():
+            return candidate
+    return path
+
+
+@lru_cache(maxsize=64)
+def _world(ref: str, knobs: tuple[tuple[str, float], ...]):
+    from fg_tea.worlds import load_world
+
+    return load_world(ref).with_knobs(**dict(knobs))
+
+
+@lru_cache(maxsize=64)
+def _model(ref: str, overrides: tuple[tuple[str, Any], ...]):
+    from fg_tea.model import load_model
+
+    model = load_model(model_path(ref))
+    return model.with_overrides(**dict(overrides)) if overrides else model
+
+
+def check_jobs(jobs: Sequence[Job]) -> None:
+    """Check every world, model, planner, environment and override a job list names.
+
+    Raises:
+        InputError: naming the first unknown world or model (file not found or invalid), unknown
+            planner or environment, unknown override field, or invalid knob combination.
+    """
+    from fg_tea.env.base import EnvConfig
+    from fg_tea.model import Model
+    from fg_tea.planning import planner_names
+
+    env_fields = {f.name for f in dataclasses.fields(EnvConfig)}
+    model_fields = {f.name for f in dataclasses.fields(Model)} - {"name", "source"}
+    seen: set = set()
+    for job in jobs:
+        if job.planner not in planner_names():
+            raise InputError(_CLI, "planner", f"unknown planner {job.planner!r} "
+                             f"(known: {', '.join(planner_names())})")
+        if job.env not in ENVIRONMENTS:
+            raise InputError(_CLI, "env", f"unknown environment {job.env!r} (known: {', '.join(ENVIRONMENTS)})")
+        for name, _ in job.env_overrides:
+            if name not in env_fields:
+                raise InputError(_CLI, f"env_overrides.{name}", "not a field of EnvConfig")
+        for name, _ in job.model_overrides:
+            if name not in model_fields:
+                raise InputError(_CLI, f"model_overrides.{name}", "not an overridable field of Model")
+        if (job.world, job.knobs) not in seen:
+            seen.add((job.world, job.knobs))
+            if not world_path(job.world).exists():
+                raise InputError(_CLI, "world", f"unknown world {job.world!r}: not a file or a bundled "
+                                 f"world distribution ({', '.join(world_names())})")
+            world = _world(job.world, job.knobs)
+            for rule in world.co_location:
+                if rule.same_site + rule.same_room > 1.0 + 1e-12:
+                    raise InputError(world.source, "knobs", f"same_site + same_room of {rule.object!r} "
+                                     f"exceeds 1 ({rule.same_site} + {rule.same_room})")
+        if (job.model, job.model_overrides) not in seen:
+            seen.add((job.model, job.model_overrides))
+            if not model_path(job.model).exists():
+                raise InputError(_CLI, "model", f"unknown model {job.model!r}: not a file, a bundled model "
+                                 f"({', '.join(model_names())}) or a bundled ablation "
+                                 f"({', '.join(ablation_names())})")
+            _model(job.model, job.model_overrides)
+
+
+def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], planners: Sequence[str], *,
+               first_seed: int = 0, knobs: Mapping[str, float] | None = None,
+               model_overrides: Mapping[str, Any] | None = None,
+               env_overrides: Mapping[str, Any] | None = None, env: str = "pybullet",
+               max_frames: int = 50_000, max_steps: int = 2_000) -> list[Job]:
+    """The paired job list: every (world, model, planner) solves world seeds first_seed.. first_seed+n-1.
+
+    The episode seed equals the world seed, so paired configurations also share sensor noise
+    draws as far as their action sequences agree. For grids over knobs or overrides, call once per
+    grid point and concatenate (keys stay distinct).
+
+    Args:
+        worlds: world distributions (names or paths).
+        n_worlds: worlds per distribution (>= 1).
+        models: model references.
+        planners: planner names.
+        first_seed: the first world seed.
+        knobs: world knobs applied to every job.
+        model_overrides: model fields replaced in every job.
+        env_overrides: environment fields replaced in every job.
+        env: ``"pybullet"`` or ``"fake"``.
+        max_frames: the frame limit of each episode.
+        max_steps: the sweep's step limit of each episode (see :class:`Job`).
+
+    Returns:
+        Jobs ordered by world, world seed, model, planner.
+
+    Raises:
+        InputError: n_worlds < 1, or an empty list of worlds, models or planners.
+    """
+    if n_worlds < 1:
+        raise InputError(_CLI, "n_worlds", f"expected at least 1 world, got {n_worlds}")
+    for name, values in (("worlds", worlds), ("models", models), ("planners", planners)):
+        if not values:
+            raise InputError(_CLI, name, "expected at least one")
+    return [Job(world=w, world_seed=s, model=m, planner=p, knobs=knobs or {},
+                model_overrides=model_overrides or {}, env_overrides=env_overrides or {},
+                env=env, max_frames=max_frames, max_steps=max_steps)
+            for w in worlds for s in range(first_seed, first_seed + n_worlds)
+            for m in models for p in planners]
+
+
+# ---------------------------------------------------------------------------------- one episode
+def entropy_trace(events: Sequence[Mapping]) -> list[float]:
+    """Summed location entropy (nats) of the searched objects at the start and after each inspection.
+
+    An object's entropy is updated by each observation that considered it (``entropy_after``);
+    objects resolved earlier keep their last value.
+    """
+    start = next((e for e in events if e.get("event") == "episode_start"), None)
+    if start is None:
+        return []
+    searched = list(start.get("searched") or start.get("objects", []))
+    current = {o: float(start["belief"]["entropy"][o]) for o in searched}
+    trace = [sum(current.values())]
+    for e in events:
+        if e.get("event") == "observation":
+            for o, h in e.get("entropy_after", {}).items():
+                if o in current:
+                    current[o] = float(h)
+            trace.append(sum(current.values()))
+    return trace
+
+
+def flatten_metrics(metrics: Mapping[str, Any]) -> dict[str, Any]:
+    """Scalar metrics as they are; dicts of scalars as ``name_key`` columns; lists joined by ``;``.
+
+    Nested structures (such as ``goal_conditions``) are left out: they are in the log.
+    """
+    def is_scalar(v: Any) -> bool:
+        return v is None or isinstance(v, (bool, int, float, str))
+
+    out: dict[str, Any] = {}
+    for name, value in metrics.items():
+        if is_scalar(value):
+            out[name] = value
+        elif isinstance(value, (list, tuple)) and all(is_scalar(v) for v in value):
+            out[name] = ";".join(_fmt(v) for v in value)
+        elif isinstance(value, Mapping) and all(is_scalar(v) for v in value.values()):
+            for sub, v in sorted(value.items()):
+                out[f"{name}_{sub}"] = v
+    return out
+
+
+def _quality_columns(events: Sequence[Mapping], scenario, overrides: tuple[tuple[str, Any], ...]
+                     ) -> dict[str, Any]:
+    """``quality_*`` columns from :func:`fg_tea.quality.quality_summary`, when that module exists.
+
+    The KL references (the bundled factorised and joint models) get the job's model overrides, so
+    they assume the same detector as the agent.
+    """
+    try:
+        from fg_tea import quality
+    except ImportError:
+        return {}
+    hook = getattr(quality, "quality_summary", None)
+    if hook is None:
+        return {}
+    values = hook(events, scenario, factorised_model=_model("factorised", overrides),
+                  joint_model=_model("joint", overrides))
+    return {f"quality_{k}": v for k, v in flatten_metrics(values).items()}
+
+
+def _make_env(kind: str, scenario, config):
+    if kind == "fake":
+        from fg_tea.env.fake import FakeHouse
+
+        return FakeHouse(scenario, config)
+    from fg_tea.env.house import PyBulletHouse
+
+    return PyBulletHouse(scenario, config)
+
+
+def run_job(job: Job) -> dict[str, Any]:
+    """Run one headless episode; return its CSV row (configuration, world, truth, metrics).
+
+    Raises:
+        InputError: the job names an unknown world or model.
+        ValueError: a fault other than the optimal planner's site limit (a bug, not a result).
+    """
+    from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+
+    world = _world(job.world, job.knobs)
+    model = _model(job.model, job.model_overrides)
+    scenario = world.sample(job.world_seed)
+    config = env_config_for(model, **dict(job.env_overrides))
+    env = _make_env(job.env, scenario, config)
+    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=job.seed, planner=job.planner,
+                                                            max_frames=job.max_frames))
+    stopped = None
+    try:
+        for _ in range(job.max_steps):
+            runner.step()
+            if runner.done:
+                break
+        else:
+            stopped = (f"{STEP_LIMIT}not finished after {job.max_steps} steps "
+                       f"(frame {runner.state.frame})")
+    except ValueError as exc:
+        if not str(exc).startswith("optimal planner:"):
+            raise
+        stopped = REFUSED + " ".join(str(exc).split())
+    finally:
+        env.close()
+    metrics = runner.metrics()
+    if stopped is not None:
+        metrics.update(success=False, reason=stopped)
+    row: dict[str, Any] = {
+        "key": job.key, "world": world.name, "world_seed": job.world_seed, "seed": job.seed,
+        "knobs": _joined(job.knobs), "model": model.name, "model_ref": job.model,
+        "structure": model.structure, "planner": job.planner, "env": job.env,
+        "model_overrides": _joined(job.model_overrides), "env_overrides": _joined(job.env_overrides),
+        "prior_violation": world.prior_violation, "violation": world.violation,
+    }
+    for rule in world.co_location:
+        row[f"same_site_{rule.object}_{rule.anchor}"] = rule.same_site
+        row[f"same_room_{rule.object}_{rule.anchor}"] = rule.same_room
+    row["miss_likelihood"] = model.miss_likelihood
+    row["detection_miss_rate"] = float(getattr(config, "detection_miss_rate", 0.0))
+    for spec in scenario.objects:
+        row[f"true_site_{spec.name}"] = spec.true_site
+    for spec in scenario.objects:
+        for state, value in sorted(spec.hidden_state_truth.items()):
+            row[f"truth_{spec.name}.{state}"] = bool(value)
+    row.update(flatten_metrics(metrics))
+    row["entropy_trace"] = ";".join(repr(round(h, 6)) for h in entropy_trace(runner.events))
+    row.update(_quality_columns(runner.events, scenario, job.model_overrides))
+    return row
+
+
+# ---------------------------------------------------------------------------------- the CSV
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return "" if math.isnan(value) else repr(value)
+    return " ".join(str(value).split()) if isinstance(value, str) else str(value)
+
+
+def parse_cell(text: str) -> Any:
+    """A CSV cell back to Python: '' -> None, True/False -> bool, numbers -> int/float, else str."""
+    if text == "":
+        return None
+    if text in ("True", "False"):
+        return text == "True"
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _read_good_lines(path: Path) -> tuple[list[str], list[list[str]], int]:
+    """Header, complete rows, and the byte length of the valid prefix of a sweep CSV.
+
+    A last line without its newline (a crash mid-write) and any row with the wrong number of
+    fields are dropped.
+    """
+    data = path.read_bytes()
+    if b"\n" not in data:
+        return [], [], 0
+    good = data if data.endswith(b"\n") else data.rsplit(b"\n", 1)[0] + b"\n"
+    reader = csv.reader(io.StringIO(good.decode("utf-8"), newline=""))
+    try:
+        header = next(reader)
+    except StopIteration:
+        return [], [], 0
+    rows = [r for r in reader if len(r) == len(header)]
+    return header, rows, len(good)
+
+
+def read_rows(path: str | Path) -> list[dict[str, Any]]:
+    """The rows of a sweep CSV, typed with :func:`parse_cell` (a truncated last line is ignored).
+
+    Raises:
+        InputError: the file does not exist or has no ``key`` column.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "$", "file not found")
+    header, rows, _ = _read_good_lines(path)
+    if header and "key" not in header:
+        raise InputError(path, "header", "not a sweep CSV (no 'key' column)")
+    return [{h: parse_cell(v) for h, v in zip(header, r)} for r in rows]
+
+
+def _header(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Columns in the order of the row with the smallest key (else the first row), then others sorted."""
+    if not rows:
+        return []
+    first = min(rows, key=lambda r: str(r["key"])) if all("key" in r for r in rows) else rows[0]
+    header = list(first)
+    extra = sorted({c for r in rows for c in r} - set(header))
+    return header + extra
+
+
+def write_csv_atomic(path: str | Path, rows: Sequence[Mapping[str, Any]],
+                     header: Sequence[str] | None = None) -> Path:
+    """Write rows to a CSV through a temporary file and a rename (all or nothing)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    header = list(header) if header is not None else _header(rows)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    with tmp.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(header)
+        for row in rows:
+            writer.writerow([_cell(row.get(c)) for c in header])
+    tmp.replace(path)
+    return path
+
+
+class CsvSink:
+    """A sweep CSV that grows one flushed row at a time and can be resumed.
+
+    Args:
+        path: the CSV file.
+        resume: keep the rows already in `path` (their keys count as done); otherwise start empty.
+
+    Rows are kept in memory as strings keyed by ``key``; :meth:`finalize` rewrites the file sorted
+    by key. If a new row brings columns the file's header lacks, the file is rewritten with the
+    union of columns before appending.
+    """
+
+    def __init__(self, path: str | Path, resume: bool = True) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.rows: dict[str, dict[str, str]] = {}
+        self.header: list[str] = []
+        if resume and self.path.exists():
+            header, rows, valid = _read_good_lines(self.path)
+            if header and "key" not in header:
+                raise InputError(self.path, "header", "not a sweep CSV (no 'key' column); "
+                                 "choose another output or do not resume")
+            self.header = header
+            for r in rows:
+                row = dict(zip(header, r))
+                self.rows[row["key"]] = row
+            if valid != self.path.stat().st_size:  # drop a truncated last line before appending
+                with self.path.open("r+b") as fh:
+                    fh.truncate(valid)
+        elif self.path.exists():
+            self.path.unlink()
+        self.resumed = len(self.rows)
+        self._fh = None
+
+    def done(self, key: str) -> bool:
+        return key in self.rows
+
+    def write(self, row: Mapping[str, Any]) -> None:
+        """Append one row (flushed to disk)."""
+        cells = {k: _cell(v) for k, v in row.items()}
+        self.rows[cells["key"]] = cells
+        if not self.header or set(cells) - set(self.header):
+            self._close()
+            self.header = _header(list(self.rows.values()))
+            write_csv_atomic(self.path, list(self.rows.values()), self.header)
+            return
+        if self._fh is None:
+            self._fh = self.path.open("a", newline="", encoding="utf-8")
+        csv.writer(self._fh, lineterminator="\n").writerow([cells.get(c, "") for c in self.header])
+        self._fh.flush()
+
+    def _close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+    def finalize(self) -> Path:
+        """Rewrite the CSV sorted by key (atomically); return its path."""
+        self._close()
+        rows = [self.rows[k] for k in sorted(self.rows)]
+        return write_csv_atomic(self.path, rows, _header(rows) if rows else self.header)
+
+
+# ---------------------------------------------------------------------------------- progress
+class Progress:
+    """Sweep progress on stderr: done/total, episodes per second, ETA.
+
+    On a terminal the line is redrawn in place; otherwise one line is written at most every
+    `every` seconds (and at the end).
+    """
+
+    def __init__(self, total: int, resumed: int = 0, stream=None, every: float = 10.0,
+                 label: str = "sweep") -> None:
+        self.total, self.resumed, self.done = total, resumed, resumed
+        self.stream = stream if stream is not None else sys.stderr
+        self.every, self.label = every, label
+        self.t0 = time.monotonic()
+        self._last = -math.inf
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def line(self) -> str:
+        elapsed = time.monotonic() - self.t0
+        ran = self.done - self.resumed
+        rate = ran / elapsed if elapsed > 0 else 0.0
+        left = self.total - self.done
+        eta = left / rate if rate > 0 else math.inf
+        eta_s = "?" if math.isinf(eta) else f"{int(eta // 60)}m{int(eta % 60):02d}s"
+        resumed = f" ({self.resumed} resumed)" if self.resumed else ""
+        return (f"{self.label}: {self.done}/{self.total} episodes{resumed} · {rate:.2f}/s · "
+                f"elapsed {int(elapsed // 60)}m{int(elapsed % 60):02d}s · ETA {eta_s}")
+
+    def update(self, n: int = 1) -> None:
+        self.done += n
+        now = time.monotonic()
+        if self.tty:
+            self.stream.write("\r" + self.line())
+            self.stream.flush()
+        elif now - self._last >= self.every or self.done == self.total:
+            self._last = now
+            self.stream.write(self.line() + "\n")
+            self.stream.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+# ---------------------------------------------------------------------------------- backends
+def _serial(jobs: Sequence[Job], workers: int | None, address: str | None) -> Iterator[dict]:
+    for job in jobs:
+        try:
+            row = run_job(job)
+        except InputError:
+            raise
+        except Exception as exc:
+            raise SweepError(job, exc) from exc
+        yield row
+
+
+def _process(jobs: Sequence[Job], workers: int | None, address: str | None) -> Iterator[dict]:
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    workers = workers or os.cpu_count() or 1
+    context = multiprocessing.get_context("spawn")  # no inherited simulator or BLAS state
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    try:
+        pending = {pool.submit(run_job, job): job for job in jobs}
+        while pending:
+            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in finished:
+                job = pending.pop(future)
+                try:
+                    yield future.result()
+                except Exception as exc:
+                    raise SweepError(job, exc) from exc
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _ray(jobs: Sequence[Job], workers: int | None, address: str | None) -> Iterator[dict]:
+    try:
+        import ray
+    except ImportError:
+        raise InputError("<command line>", "--backend ray", "Ray is not installed; install it with "
+                         "pip install -e \".[ray]\" (or pip install \"ray[default]>=2.9\")") from None
+    import logging
+
+    started = not ray.is_initialized()
+    if started:
+        options: dict[str, Any] = {"include_dashboard": False, "logging_level": logging.WARNING,
+                                   "log_to_driver": False}
+        if address:
+            ray.init(address=address, **options)
+        else:
+            ray.init(num_cpus=workers or os.cpu_count() or 1, **options)
+    try:
+        remote = ray.remote(num_cpus=1)(run_job)
+        refs = {remote.remote(job): job for job in jobs}
+        pending = list(refs)
+        while pending:
+            finished, pending = ray.wait(pending, num_returns=1)
+            try:
+                yield ray.get(finished[0])
+            except Exception as exc:
+                for ref in pending:
+                    ray.cancel(ref)
+                raise SweepError(refs[finished[0]], exc) from exc
+    finally:
+        if started:
+            ray.shutdown()
+
+
+_BACKENDS: dict[str, Callable[[Sequence[Job], int | None, str | None], Iterator[dict]]] = {
+    "serial": _serial, "process": _process, "ray": _ray}
+
+
+class SweepError(RuntimeError):
+    """A job failed for a reason other than a refusal; rows finished before it are in the CSV."""
+
+    def __init__(self, job: Job, cause: BaseException) -> None:
+        self.job = job
+        super().__init__(f"job {job.key} failed: {type(cause).__name__}: {cause}")
+
+
+def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process", *,
+              workers: int | None = None, address: str | None = None, resume: bool = True,
+              progress: bool = True, label: str = "sweep") -> list[dict[str, Any]]:
+    """Run a job list, appending rows to `csv_path`; return the planned jobs' rows, sorted by key.
+
+    Args:
+        jobs: the episodes (duplicates by key are run once).
+        csv_path: the sweep CSV; rows are appended as they finish and the file is finally
+            rewritten sorted by key.
+        backend: ``"serial"``, ``"process"`` (a spawn-context process pool) or ``"ray"``.
+        workers: processes (or Ray CPUs for a local instance); None or 0 = every core.
+        address: a Ray cluster address (``ray`` backend; None starts a local instance).
+        resume: skip jobs whose key is already in the CSV; False discards the existing CSV.
+        progress: report progress on stderr.
+        label: the progress line's prefix.
+
+    Returns:
+        The rows of the planned jobs as read back from the CSV (typed by :func:`parse_cell`).
+        Rows of other jobs already in the CSV stay in the file but are not returned.
+
+    Raises:
+        InputError: unknown backend, world, model, planner or override (checked before any run).
+        SweepError: a job failed; the rows finished before it are kept for a resume.
+    """
+    if backend not in _BACKENDS:
+        raise InputError("<command line>", "--backend", f"unknown backend {backend!r} "
+                         f"(known: {', '.join(BACKENDS)})")
+    unique = list({job.key: job for job in jobs}.values())
+    check_jobs(unique)
+    sink = CsvSink(csv_path, resume=resume)
+    todo = [job for job in unique if not sink.done(job.key)]
+    meter = Progress(len(unique), len(unique) - len(todo), label=label) if progress else None
+    try:
+        if todo:
+            for row in _BACKENDS[backend](todo, workers, address):
+                sink.write(row)
+                if meter is not None:
+                    meter.update()
+    finally:
+        if meter is not None:
+            meter.close()
+        sink.finalize()
+    planned = {job.key for job in unique}
+    return [r for r in read_rows(csv_path) if r["key"] in planned]
+
+
+__all__ = ["BACKENDS", "ENVIRONMENTS", "WORLD_KNOBS", "REFUSED", "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "CsvSink",
+           "Progress", "SweepError", "ablation_names", "model_names", "world_names", "model_path",
+           "world_path", "check_jobs", "plan_sweep",
+           "entropy_trace", "flatten_metrics", "run_job", "run_sweep", "read_rows", "parse_cell",
+           "write_csv_atomic"]
