@@ -439,3 +439,47 @@ def test_planning_never_imports_the_simulator():
     result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                             env={"PYTHONPATH": str(ROOT), "PATH": ""})
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_zero_travel_reinspection_cannot_win_forever():
+    """A missed object (detector miss) must not trap the agent at the site it stands on.
+
+    The mug was missed once at every site (so its belief is spread over six far sites); the agent
+    stands at A, 9 m from the others. A's score with the blueprint's flat indicator is
+    w_a - w_p q_A - w_e I_A ≈ 1 - 0 - 0 = 1, while each far site costs about
+    0.2 * 9 - 3 * (1/6) - 1.5 * I + 1 ≈ 1.9 - 1.5 I: A wins, and keeps winning after every further
+    miss. Counting repeats adds w_a per look, so a far site wins within a few looks.
+    """
+    from fg_tea.beliefs.engine import BeliefEngine
+    from fg_tea.model import load_model
+    from fg_tea.planning.base import DistanceTable
+
+    names = ["A", "B", "C", "D", "E", "F", "G"]
+    scenario = make_scenario([("A", "r", (0.0, 0.0), {"mug": 0.02})]
+                             + [(n, "r", (9.0, float(i)), {"mug": 1.0}) for i, n in enumerate(names[1:])],
+                             [("mug", "mug", "B")])
+    model = load_model("factorised")
+    belief = BeliefEngine(scenario, model)
+    for n in names:
+        belief.observe_site(n, {"mug": False})
+    agent = (0.0,) + tuple(float(np.hypot(9.0, i)) for i in range(6))
+    between = tuple(tuple(abs(a - b) for b in agent) for a in agent)
+    at_a = DistanceTable(tuple(names), agent, between)
+    planner = EFEPlanner(model.planning)
+
+    def loop(count_repeats: bool) -> list[str]:
+        engine, inspected, choices = belief.copy(), {n: 1 for n in names}, []
+        for _ in range(6):
+            decision = planner.choose(engine, ["mug"], {"mug": 1.0}, at_a, inspected)
+            choices.append(decision.site)
+            if decision.site != "A":
+                break
+            engine.observe_site("A", {"mug": False})
+            if count_repeats:
+                inspected["A"] += 1
+        return choices
+
+    counted = loop(count_repeats=True)
+    assert counted[0] == "A" and counted[-1] != "A" and len(counted) <= 3, counted
+    # What the flat indicator does on the same belief: A every time (the loop the sweeps found).
+    assert loop(count_repeats=False) == ["A"] * 6

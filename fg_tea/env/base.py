@@ -18,6 +18,10 @@ from fg_tea.interface import (ActionRequest, ActionResult, InspectionResult, Pos
 class EnvConfig:
     """Embodiment parameters (blueprint Table 3). Units: metres, degrees, pixels.
 
+    ``look_frames`` is how many frames the agent holds still while it takes an inspection image:
+    looking takes time, so even an inspection from where the agent already stands advances the
+    frame count (and the frame limit always ends an episode).
+
     Experiment knobs, off by default: ``failure_rates`` (verb -> probability that the action fails
     with ``injected_failure``) and ``detection_miss_rate``, the probability in [0, 1] that a
     detection the camera would make (eq. 29 satisfied) is dropped, so the object is reported as
@@ -36,6 +40,7 @@ class EnvConfig:
     ego_height: int = 240
     ego_hfov_deg: float = 90.0
     min_visible_pixels: int = 25
+    look_frames: int = 8
     site_association: bool = True
     site_association_radius: float = 0.45
     distance: str = "geodesic"  # or "euclidean" (ablation)

@@ -296,6 +296,7 @@ class TruthBackedAdapter(EnvAdapter):
             return InspectionResult(site, {}, {}, reachable=False, distance=self._travelled(frames),
                                     frames=len(frames), motion=_motion(frames), image_size=size)
         frames += self._face(self.scenario.sites[k].position)
+        frames += [self._pose] * int(self.config.look_frames)  # hold still to take the image
         counts = self._pixel_counts(k, considered)
         detections = {name: bool(counts[name] >= self.config.min_visible_pixels
                                  and self._associated(name, k)) for name in considered}
@@ -323,6 +324,7 @@ class TruthBackedAdapter(EnvAdapter):
             if not arrived:
                 raise RuntimeError(f"site {site!r} became unreachable after the load-time check")
             frames += self._face(self.scenario.sites[k].position)
+        frames += [self._pose] * int(self.config.look_frames)  # reading a state takes time too
         value = self._truth.read_state(name, sensitivity, specificity, self._rng)
         return StateReading(name, value, sensitivity, specificity, distance=self._travelled(frames),
                             frames=len(frames), motion=_motion(frames))

@@ -2,13 +2,20 @@
 
 For each unresolved object o and each site j the score, lower is better, is (eqs. 12, 16)
 
-    G(o, j) = w_d d_j - w_p q(L_o = j) - w_e I(o, j) + w_a [j already inspected] - lambda r_o
+    G(o, j) = w_d d_j - w_p q(L_o = j) - w_e I(o, j) + w_a n_j - lambda r_o
 
 and the decision is (o*, j*) = argmin G (eq. 17); exact ties go to the earlier object in the
 caller's order, then the earlier site in belief order. d_j is the travel distance (metres) from
-the caller's :class:`~fg_tea.planning.base.DistanceModel`; q is the location marginal; the repeat
-indicator is [site inspected with negative evidence at least once in this search]; r_o is the
-task relevance of eq. 15. Weights come from the model file (:class:`~fg_tea.model.PlanningWeights`).
+the caller's :class:`~fg_tea.planning.base.DistanceModel`; q is the location marginal; n_j is the
+number of earlier inspections of site j with negative evidence in this search; r_o is the task
+relevance of eq. 15. Weights come from the model file (:class:`~fg_tea.model.PlanningWeights`).
+
+The repeat term deviates from eq. 12 on purpose. The blueprint's indicator [j already inspected]
+equals n_j for the first repeat, but a flat penalty lets a zero-travel re-inspection win forever:
+once an object has been missed everywhere (a detector miss), the site the agent stands at has
+d_j = 0, q ≈ 0 and I ≈ 0, so its score w_a - lambda r_o can beat every site that costs travel, and
+the agent looks at the same empty surface again and again (found in the detector-miss sweeps).
+Counting repeats makes each further look dearer, so the search moves on.
 
 **Information gain, factorised beliefs** (``belief.correlated`` is False) — the blueprint's
 eqs. 10-11 exactly:
@@ -205,7 +212,7 @@ class EFEPlanner:
         r = np.array([float(relevance[o]) for o in objects])  # (n,)
         base = (w.distance_weight * d[None, :] - w.probability_weight * q
                 - w.information_weight * gain
-                + w.repeat_penalty * (counts > 0)[None, :].astype(float))  # eq. 12
+                + w.repeat_penalty * counts[None, :].astype(float))  # eq. 12 (repeats counted)
         total = base - w.relevance_weight * r[:, None]  # eq. 16
         candidates = [Candidate(o, sites[j], float(d[j]), float(q[i, j]), float(gain[i, j]),
                                 int(counts[j]), float(r[i]), float(base[i, j]), float(total[i, j]))
