@@ -10,7 +10,9 @@ declares how the environment's hidden truth is drawn — never what the agent be
 - a ``co_location`` rule puts an object on its anchor's site with probability ``same_site``,
   else in the anchor's room with probability ``same_room`` (drawn within that room), else as above;
 - a site never receives more objects than its capacity (full sites are removed before drawing);
-- task-state truths are drawn from the scenario's state priors unless a value is pinned.
+- task-state truths: a state listed as ``"prior"`` in ``states`` is drawn from the scenario's
+  state prior, a state listed as true/false is pinned, and every other state keeps the base
+  scenario's hidden truth (so an empty kettle never starts with hot water by accident).
 
 Same distribution, same seed: the same world.
 """
@@ -50,6 +52,7 @@ class WorldDistribution:
     violation: str
     co_location: tuple[CoLocation, ...]
     pinned_states: Mapping[str, bool]
+    drawn_states: frozenset[str] = frozenset()
     source: str = ""
 
     def with_knobs(self, prior_violation: float | None = None, same_site: float | None = None,
@@ -100,10 +103,13 @@ class WorldDistribution:
             load[j] += 1
         objects = []
         for spec in scenario.objects:
-            truth = {}
+            truth = dict(spec.hidden_state_truth)
             for state, p in spec.state_priors.items():
                 full = f"{spec.name}.{state}"
-                truth[state] = self.pinned_states.get(full, bool(rng.random() < p))
+                if full in self.pinned_states:
+                    truth[state] = self.pinned_states[full]
+                elif full in self.drawn_states:
+                    truth[state] = bool(rng.random() < p)
             objects.append(replace(spec, true_site=sites[placed[spec.name]].name if spec.name in placed
                                    else spec.true_site, hidden_state_truth=MappingProxyType(truth)))
         return replace(scenario, name=f"{self.name}#{seed}", objects=tuple(objects))
@@ -133,18 +139,24 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         if same_site + same_room > 1:
             raise c.fail("same_site + same_room must not exceed 1", "same_room")
         rules.append(CoLocation(obj, anchor, same_site, same_room))
-    pinned = {}
+    pinned, drawn = {}, set()
+    declared = {f"{o.name}.{s}" for o in base.objects for s in o.state_priors}
     states = r.child("states", required=False)
     if states is not None:
         for key, value in states.data.items():
+            if key not in declared:
+                raise states.fail(f"state {key!r} is referenced but no object of scenario "
+                                  f"{base.name!r} declares it", key)
             if value == "prior":
-                continue
-            pinned[key] = states._check_type(value, bool, key)
+                drawn.add(key)
+            else:
+                pinned[key] = states._check_type(value, bool, key)
     return WorldDistribution(
         name=r.req("name", str), description=r.opt("description", str, ""), base=base,
         order=tuple(order), prior_violation=placement.probability("prior_violation", 0.0),
         violation=placement.choice("violation", ("inverse", "uniform"), "inverse"),
-        co_location=tuple(rules), pinned_states=MappingProxyType(pinned), source=str(file))
+        co_location=tuple(rules), pinned_states=MappingProxyType(pinned),
+        drawn_states=frozenset(drawn), source=str(file))
 
 
 def load_world(path: str | Path) -> WorldDistribution:
