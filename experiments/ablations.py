@@ -30,11 +30,12 @@ import shlex
 import sys
 from pathlib import Path
 
-from fg_tea.analysis import (METRICS, atomic_write_text, markdown_table, paired_differences,
+from fg_tea.files import atomic_write_text
+from fg_tea.analysis import (METRICS, markdown_table, paired_differences,
                              plot_bars, summary_markdown, summary_table)
 from fg_tea.errors import InputError
 from fg_tea.model import load_model
-from fg_tea.sweep import BACKENDS, ablation_names, model_path, plan_sweep, run_sweep
+from fg_tea.sweep import ablation_names, add_execution_arguments, model_path, plan_sweep, run_sweep
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "ablations"
 #: The six ablations listed in blueprint section 15.4 (the others are extra switches).
@@ -50,13 +51,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--ablations", nargs="+", default=None,
                    help="ablation models (default: every file in models/ablations)")
     p.add_argument("--planner", default="efe", help="planner (default: %(default)s)")
-    p.add_argument("--backend", choices=BACKENDS, default="process")
-    p.add_argument("--address", default=None, help="Ray cluster address")
-    p.add_argument("--workers", type=int, default=0, help="processes (0: every core)")
-    p.add_argument("--env", choices=("pybullet", "fake"), default="pybullet")
+    add_execution_arguments(p, "ablations.csv")
     p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder")
-    p.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
-                   help="skip episodes already in ablations.csv (default: on)")
     return p.parse_args(argv)
 
 

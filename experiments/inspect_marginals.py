@@ -13,13 +13,13 @@ object) and the hidden states (one line each) to a PNG.
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 import numpy as np
 
 from fg_tea.env.house import PyBulletHouse
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+from fg_tea.files import atomic_path
 from fg_tea.model import load_model
 from fg_tea.scenario import load_scenario
 
@@ -83,13 +83,10 @@ def plot(history: list[tuple[np.ndarray, dict[str, float]]], sites: list[str], o
     axes[-1].set(ylim=(-0.02, 1.02), xlabel="step", ylabel="q(true)", title="hidden states")
     axes[-1].xaxis.get_major_locator().set_params(integer=True)
     axes[-1].legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.35))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")   # same folder: os.replace is atomic
     try:
-        fig.savefig(tmp, format="png", dpi=110)
-        os.replace(tmp, out)
+        with atomic_path(out, ".png") as tmp:  # written whole, or not at all
+            fig.savefig(tmp, format="png", dpi=110)
     finally:
-        tmp.unlink(missing_ok=True)
         plt.close(fig)
 
 

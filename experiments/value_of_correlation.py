@@ -13,7 +13,11 @@ joint model searches less) as a function of three knobs, each swept with the oth
     detection is dropped with probability r); both models' ``miss_likelihood`` is set to
     max(0.05, r) so the agent's detector model matches the environment's;
 (c) prior violation: the world knob ``prior_violation`` in {0, 0.25, 0.5} (object sites drawn
-    partly from the inverse of the agent's prior).
+    partly from the inverse of the agent's prior);
+(d) room correlation: ``same_site`` = 0 and ``same_room`` = s in {0, 0.25, 0.5, 0.75, 0.9}: the
+    teabag is kept in the kettle's room but never on its site. Site co-location (a) carries little
+    value because one inspection sees every object on the site; room co-location is what a
+    detection of the kettle can tell about *other* sites.
 
 Writes ``value_of_correlation.csv`` (one row per episode; resumable), ``value_of_correlation.md``
 and one plot per sweep (``voc_correlation.png``, ``voc_miss_rate.png``,
@@ -21,9 +25,6 @@ and one plot per sweep (``voc_correlation.png``, ``voc_miss_rate.png``,
 
     python experiments/value_of_correlation.py              # 30 worlds per point: ~9 min on 2 cores
 
-With a lossy detector, the EFE planner can keep re-inspecting the site it stands at after a missed
-detection (zero travel, so the frame limit never ends the episode); such episodes run to the
-sweep's step limit (2,000 steps, a few seconds each) and dominate the miss-rate sweep's run time.
     python experiments/value_of_correlation.py --worlds 100
 """
 
@@ -34,22 +35,25 @@ import shlex
 import sys
 from pathlib import Path
 
-from fg_tea.analysis import (Interval, atomic_write_text, markdown_table, paired_differences,
+from fg_tea.files import atomic_write_text
+from fg_tea.analysis import (Interval, markdown_table, paired_differences,
                              plot_sweep, step_limited)
 from fg_tea.errors import InputError
-from fg_tea.sweep import BACKENDS, plan_sweep, run_sweep
+from fg_tea.sweep import add_execution_arguments, plan_sweep, run_sweep
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "value_of_correlation"
 METRICS = ("search_distance", "inspections", "total_distance")
 FULL = {"correlation": (0.0, 0.25, 0.5, 0.75, 0.9), "miss_rate": (0.0, 0.1, 0.2, 0.3),
-        "prior_violation": (0.0, 0.25, 0.5)}
-QUICK = {"correlation": (0.0, 0.9), "miss_rate": (0.0, 0.3), "prior_violation": (0.0, 0.5)}
+        "prior_violation": (0.0, 0.25, 0.5), "room_correlation": (0.0, 0.25, 0.5, 0.75, 0.9)}
+QUICK = {"correlation": (0.0, 0.9), "miss_rate": (0.0, 0.3), "prior_violation": (0.0, 0.5),
+         "room_correlation": (0.0, 0.9)}
 TITLES = {"correlation": "(a) correlation strength: world same_site",
           "miss_rate": "(b) detector miss rate (model miss likelihood matched, >= 0.05)",
-          "prior_violation": "(c) prior violation"}
+          "prior_violation": "(c) prior violation",
+          "room_correlation": "(d) room correlation: world same_room, same_site = 0"}
 #: The row column that holds each sweep's knob value.
 X_COLUMN = {"correlation": "same_site_teabag_kettle", "miss_rate": "detection_miss_rate",
-            "prior_violation": "prior_violation"}
+            "prior_violation": "prior_violation", "room_correlation": "same_room_teabag_kettle"}
 
 
 def sweep_jobs(name: str, value: float, world: str, n: int, models: list[str], planner: str, env: str):
@@ -61,6 +65,9 @@ def sweep_jobs(name: str, value: float, world: str, n: int, models: list[str], p
         return plan_sweep([world], n, models, [planner], env=env,
                           env_overrides={"detection_miss_rate": value},
                           model_overrides={"miss_likelihood": max(0.05, value)})
+    if name == "room_correlation":
+        return plan_sweep([world], n, models, [planner], env=env,
+                          knobs={"same_site": 0.0, "same_room": value})
     return plan_sweep([world], n, models, [planner], env=env, knobs={"prior_violation": value})
 
 
@@ -76,13 +83,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--planner", default="efe", help="planner (default: %(default)s)")
     p.add_argument("--sweeps", nargs="+", choices=tuple(FULL), default=list(FULL))
     p.add_argument("--quick", action="store_true", help="two values per sweep (smoke test)")
-    p.add_argument("--backend", choices=BACKENDS, default="process")
-    p.add_argument("--address", default=None, help="Ray cluster address")
-    p.add_argument("--workers", type=int, default=0, help="processes (0: every core)")
-    p.add_argument("--env", choices=("pybullet", "fake"), default="pybullet")
+    add_execution_arguments(p, "value_of_correlation.csv")
     p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder")
-    p.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
-                   help="skip episodes already in value_of_correlation.csv (default: on)")
     return p.parse_args(argv)
 
 

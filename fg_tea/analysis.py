@@ -29,13 +29,13 @@ Every file is written atomically: to a temporary file in the same folder, then r
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.files import atomic_path, atomic_write_text
 from fg_tea.sweep import REFUSED, STEP_LIMIT, write_csv_atomic
 
 #: Metrics summarised by default (search travel first: it is what the planners optimise).
@@ -150,7 +150,9 @@ def summary_table(rows: Sequence[Mapping[str, Any]], by: Sequence[str] = ("model
     Returns:
         One dict per group, in order of first appearance, with the `by` columns, ``n`` (episodes
         in the metric means), ``refused``, ``step_limited``, ``success`` (an :class:`Interval`
-        over every episode not refused) and one :class:`Interval` per metric.
+        over every episode not refused: the task finished by the agent's beliefs),
+        ``true_success`` (finished, and every final goal the agent believes is also true in the
+        world's final truth) and one :class:`Interval` per metric.
     """
     out = []
     for key, group in _groups(rows, by).items():
@@ -161,6 +163,9 @@ def summary_table(rows: Sequence[Mapping[str, Any]], by: Sequence[str] = ("model
         entry["refused"] = len(group) - len(attempted)
         entry["step_limited"] = len(attempted) - len(measured)
         entry["success"] = wilson_interval(sum(bool(r.get("success")) for r in attempted), len(attempted))
+        # Success is judged by the agent's beliefs; "true" also asks the world (goals_true).
+        entry["true_success"] = wilson_interval(
+            sum(bool(r.get("success")) and r.get("goals_true") is True for r in attempted), len(attempted))
         for m in metrics:
             entry[m] = t_interval((r.get(m) for r in measured), confidence)
         out.append(entry)
@@ -289,12 +294,14 @@ def _looks_numeric(v: Any) -> bool:
 def summary_markdown(summary: Sequence[Mapping[str, Any]], by: Sequence[str] = ("model", "planner"),
                      metrics: Sequence[str] = METRICS, digits: int = 2) -> str:
     """The summary table (means [95 % CI]) as markdown."""
-    header = list(by) + ["n"] + [LABELS.get(m, m) for m in metrics] + ["success rate"]
+    header = (list(by) + ["n"] + [LABELS.get(m, m) for m in metrics]
+              + ["success rate", "success, true in the world"])
     body = []
     for s in summary:
         n = (f"{s['n']}" + (f" (+{s['refused']} refused)" if s["refused"] else "")
              + (f" (+{s['step_limited']} step-limited)" if s.get("step_limited") else ""))
-        body.append([s[c] for c in by] + [n] + [s[m].fmt(digits) for m in metrics] + [s["success"].fmt(3)])
+        body.append([s[c] for c in by] + [n] + [s[m].fmt(digits) for m in metrics]
+                    + [s["success"].fmt(3), s["true_success"].fmt(3)])
     return markdown_table(header, body)
 
 
@@ -324,23 +331,11 @@ def ratio_markdown(ratios: Sequence[Mapping[str, Any]], vary: str = "planner",
 
 
 # ---------------------------------------------------------------------------------- files
-def atomic_write_text(path: str | Path, text: str) -> Path:
-    """Write text through a temporary file in the same folder and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
-    return path
-
-
 def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:
     """Save a matplotlib Figure as PNG atomically (temporary file, then rename)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.png")
-    fig.savefig(tmp, format="png", dpi=dpi, bbox_inches="tight")
-    tmp.replace(path)
+    with atomic_path(path, ".png") as tmp:
+        fig.savefig(tmp, format="png", dpi=dpi, bbox_inches="tight")
     return path
 
 
@@ -631,5 +626,5 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
 __all__ = ["METRICS", "LABELS", "PAIR_ON", "Interval", "t_interval", "wilson_interval", "refused",
            "step_limited", "excluded",
            "summary_table", "paired_differences", "ratio_to_reference", "markdown_table",
-           "summary_markdown", "paired_markdown", "ratio_markdown", "atomic_write_text", "save_figure",
+           "summary_markdown", "paired_markdown", "ratio_markdown", "save_figure",
            "plot_bars", "entropy_curves", "plot_entropy", "plot_ratios", "plot_sweep", "comparison_report"]

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from fg_tea.errors import InputError
+from fg_tea.files import atomic_path, atomic_write_text
 from fg_tea.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
@@ -238,7 +239,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         timings["video_frames"] = result["frames"]
         print(f"video: {result['path']} ({result['frames']} frames, "
               f"{result['frames'] / max(timings['video_s'], 1e-9):.1f} frames/s rendered)")
-    (out / "timings.json").write_text(json.dumps(timings, indent=2) + "\n")
+    atomic_write_text(out / "timings.json", json.dumps(timings, indent=2) + "\n")
     return 0 if runner.reason == "complete" else 1
 
 
@@ -283,10 +284,8 @@ def cmd_preview(args: argparse.Namespace) -> int:
     finally:
         house.close()
     out = Path(args.out) if args.out else Path(f"{scenario.name}-preview.png")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.partial.png")
-    cv2.imwrite(str(tmp), frame[:, :, ::-1])
-    tmp.replace(out)
+    with atomic_path(out, ".png") as tmp:
+        cv2.imwrite(str(tmp), frame[:, :, ::-1])
     print(f"preview: {out}")
     return 0
 
@@ -390,7 +389,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def _add_compare_parser(sub) -> None:
     from fg_tea.planning import planner_names
-    from fg_tea.sweep import BACKENDS, ENVIRONMENTS
+    from fg_tea.sweep import add_execution_arguments
 
     p = sub.add_parser("compare", help="compare models and planners over many sampled worlds (paired)",
                        description="Run every model with every planner on the same N sampled worlds "
@@ -407,15 +406,8 @@ def _add_compare_parser(sub) -> None:
     p.add_argument("--planners", nargs="+", choices=planner_names(), default=None,
                    help=f"planners (default: {' '.join(COMPARE_PLANNERS)}; "
                    f"with --quick: {' '.join(COMPARE_QUICK_PLANNERS)})")
-    p.add_argument("--backend", choices=BACKENDS, default="process",
-                   help="serial, a process pool over every core, or Ray (default: %(default)s)")
-    p.add_argument("--address", default=None, help="Ray cluster address (default: a local Ray instance)")
-    p.add_argument("--workers", type=int, default=0, help="processes or local Ray CPUs (0: every core)")
-    p.add_argument("--env", choices=ENVIRONMENTS, default="pybullet",
-                   help="PyBullet house or the fake oracle house (default: %(default)s)")
+    add_execution_arguments(p, "episodes.csv")
     p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
-    p.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
-                   help="skip episodes already in OUT/episodes.csv (default: on; --no-resume discards it)")
     p.add_argument("--quick", action="store_true",
                    help=f"10 worlds and planners {' '.join(COMPARE_QUICK_PLANNERS)} (CI size)")
 # ------------------------------------------------------------------------------ end compare (issue 7)

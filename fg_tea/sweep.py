@@ -48,6 +48,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
+from fg_tea.files import atomic_path
 from fg_tea.errors import InputError
 
 BACKENDS = ("serial", "process", "ray")
@@ -504,15 +505,12 @@ def write_csv_atomic(path: str | Path, rows: Sequence[Mapping[str, Any]],
                      header: Sequence[str] | None = None) -> Path:
     """Write rows to a CSV through a temporary file and a rename (all or nothing)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     header = list(header) if header is not None else _header(rows)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with tmp.open("w", newline="", encoding="utf-8") as fh:
+    with atomic_path(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(header)
         for row in rows:
             writer.writerow([_cell(row.get(c)) for c in header])
-    tmp.replace(path)
     return path
 
 
@@ -694,6 +692,27 @@ _BACKENDS: dict[str, Callable[[Sequence[Job], int | None, str | None], Iterator[
     "serial": _serial, "process": _process, "ray": _ray}
 
 
+def add_execution_arguments(parser, csv_name: str) -> None:
+    """Add the options every sweep shares to an argparse parser: where and how jobs run.
+
+    ``--backend``, ``--address``, ``--workers``, ``--env`` and ``--resume/--no-resume``, with
+    `csv_name` (e.g. ``episodes.csv``) named in the resume help.
+    """
+    import argparse
+
+    parser.add_argument("--backend", choices=BACKENDS, default="process",
+                        help="serial, a process pool over every core, or Ray (default: %(default)s)")
+    parser.add_argument("--address", default=None,
+                        help="Ray cluster address (default: a local Ray instance)")
+    parser.add_argument("--workers", type=int, default=0,
+                        help="processes or local Ray CPUs (0: every core)")
+    parser.add_argument("--env", choices=ENVIRONMENTS, default="pybullet",
+                        help="PyBullet house or the fake oracle house (default: %(default)s)")
+    parser.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
+                        help=f"skip episodes already in OUT/{csv_name} (default: on; --no-resume "
+                        "starts afresh)")
+
+
 class SweepError(RuntimeError):
     """A job failed for a reason other than a refusal; rows finished before it are in the CSV."""
 
@@ -748,7 +767,7 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
     return [r for r in read_rows(csv_path) if r["key"] in planned]
 
 
-__all__ = ["BACKENDS", "ENVIRONMENTS", "WORLD_KNOBS", "REFUSED", "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "CsvSink",
+__all__ = ["add_execution_arguments", "BACKENDS", "ENVIRONMENTS", "WORLD_KNOBS", "REFUSED", "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "CsvSink",
            "Progress", "SweepError", "ablation_names", "model_names", "world_names", "model_path",
            "world_path", "check_jobs", "plan_sweep",
            "entropy_trace", "flatten_metrics", "run_job", "run_sweep", "read_rows", "parse_cell",

@@ -299,11 +299,16 @@ def test_ablations_smoke(tmp_path):
 def test_value_of_correlation_smoke(tmp_path):
     _script("value_of_correlation.py", "--worlds", "2", "--quick", "--workers", "2", "--out", str(tmp_path))
     rows = read_rows(tmp_path / "value_of_correlation.csv")
-    assert len(rows) == 3 * 2 * 2 * 2
+    # 4 sweeps x 2 values x 2 models x 2 worlds, less the room sweep's 0.0 point, which is the same
+    # job as the correlation sweep's 0.0 point (no co-location at all) and is run once.
+    assert len(rows) == 4 * 2 * 2 * 2 - 2 * 2
     assert {r["detection_miss_rate"] for r in rows} == {0.0, 0.3}
+    assert {r["same_room_teabag_kettle"] for r in rows if r["same_site_teabag_kettle"] == 0.0} >= {0.0, 0.9}
     assert {r["miss_likelihood"] for r in rows if r["detection_miss_rate"] == 0.3} == {0.3}
     text = (tmp_path / "value_of_correlation.md").read_text()
-    for section in ("(a) correlation strength", "(b) detector miss rate", "(c) prior violation"):
+    for section in ("(a) correlation strength", "(b) detector miss rate", "(c) prior violation",
+                    "(d) room correlation"):
         assert section in text
-    for png in ("voc_correlation.png", "voc_miss_rate.png", "voc_prior_violation.png"):
+    for png in ("voc_correlation.png", "voc_miss_rate.png", "voc_prior_violation.png",
+                "voc_room_correlation.png"):
         assert (tmp_path / png).exists()

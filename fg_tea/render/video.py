@@ -25,6 +25,7 @@ import numpy as np
 
 from fg_tea.env.base import EnvConfig
 from fg_tea.episode.log import read_log
+from fg_tea.files import atomic_path
 from fg_tea.render.overlay import OverlayState, draw_overlays
 
 VIEWS = ("multi", "first", "third")
@@ -274,8 +275,7 @@ def _concat(segments: Sequence[str], out: Path, fps: int) -> None:
     """Join H.264 segments into one MP4 by remuxing packets with shifted timestamps."""
     import av
 
-    tmp = out.with_name(f".{out.name}.partial.mp4")
-    with av.open(str(tmp), "w", options={"movflags": "faststart"}) as dst:
+    with atomic_path(out, ".mp4") as tmp, av.open(str(tmp), "w", options={"movflags": "faststart"}) as dst:
         stream = None
         offset = 0
         for seg in segments:
@@ -293,7 +293,6 @@ def _concat(segments: Sequence[str], out: Path, fps: int) -> None:
                     packet.stream = stream
                     dst.mux(packet)
                 offset = last
-    os.replace(tmp, out)
 
 
 def render_video(events: list[dict], out: str | Path, options: VideoOptions = VideoOptions(),
