@@ -17,7 +17,7 @@ Each candidate records every term the EFE score would use, with the baseline's o
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -32,6 +32,31 @@ def _fresh_sites(eligible: list[int], counts: np.ndarray) -> list[int]:
     return [j for j in eligible if counts[j] == fewest]
 
 
+def _site_decision(name: str, belief, objects: Sequence[str], relevance: Mapping[str, float],
+                   distances: DistanceModel, inspected: Mapping[str, int],
+                   excluded_sites: frozenset[str], score: Callable[[list[int], np.ndarray], np.ndarray]
+                   ) -> Decision:
+    """A site-level baseline: score the least-inspected eligible sites for the most relevant object.
+
+    Args:
+        score: (pool of site indices, distances d of all sites) -> one total per pool site;
+            the smallest wins (first in site order on ties).
+    """
+    _, eligible = check_inputs(belief, objects, relevance, excluded_sites)
+    sites = list(belief.sites)
+    d = distance_vector(distances, sites)
+    counts = repeat_counts(inspected, sites)
+    pool = _fresh_sites(eligible, counts)
+    totals = score(pool, d)
+    target = most_relevant(objects, relevance)
+    q = belief.location(target)
+    candidates = tuple(Candidate(target, sites[j], float(d[j]), float(q[j]), 0.0, int(counts[j]),
+                                 float(relevance[target]), float(t), float(t))
+                       for j, t in zip(pool, totals))
+    best = min(candidates, key=lambda c: c.total)  # first minimum in site order
+    return Decision(best.object, best.site, best.total, candidates, name)
+
+
 class NearestPlanner:
     """Go to the nearest site not yet inspected in this search (ties: site order).
 
@@ -43,18 +68,8 @@ class NearestPlanner:
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
                excluded_sites: frozenset[str] = frozenset()) -> Decision:
-        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites)
-        sites = list(belief.sites)
-        d = distance_vector(distances, sites)
-        counts = repeat_counts(inspected, sites)
-        pool = _fresh_sites(eligible, counts)
-        target = most_relevant(objects, relevance)
-        q = belief.location(target)
-        candidates = tuple(Candidate(target, sites[j], float(d[j]), float(q[j]), 0.0,
-                                     int(counts[j]), float(relevance[target]), float(d[j]),
-                                     float(d[j])) for j in pool)
-        best = min(candidates, key=lambda c: c.total)  # first minimum in site order
-        return Decision(best.object, best.site, best.total, candidates, self.name)
+        return _site_decision(self.name, belief, objects, relevance, distances, inspected,
+                              excluded_sites, lambda pool, d: d[pool])
 
 
 class GreedyProbabilityPlanner:
@@ -102,19 +117,8 @@ class RandomPlanner:
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
                excluded_sites: frozenset[str] = frozenset()) -> Decision:
-        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites)
-        sites = list(belief.sites)
-        d = distance_vector(distances, sites)
-        counts = repeat_counts(inspected, sites)
-        pool = _fresh_sites(eligible, counts)
-        keys = self.rng.random(len(pool))
-        target = most_relevant(objects, relevance)
-        q = belief.location(target)
-        candidates = tuple(Candidate(target, sites[j], float(d[j]), float(q[j]), 0.0,
-                                     int(counts[j]), float(relevance[target]), float(u), float(u))
-                           for j, u in zip(pool, keys))
-        best = min(candidates, key=lambda c: c.total)
-        return Decision(best.object, best.site, best.total, candidates, self.name)
+        return _site_decision(self.name, belief, objects, relevance, distances, inspected,
+                              excluded_sites, lambda pool, d: self.rng.random(len(pool)))
 
 
 __all__ = ["NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner", "FactorisedEFEPlanner"]
