@@ -99,7 +99,8 @@ def _video_options(args: argparse.Namespace):
                             chase_pitch_deg=args.third_person_pitch,
                             chase_hfov_deg=args.third_person_hfov, hold_seconds=args.hold,
                             workers=args.workers, overlays=not args.no_overlays,
-                            scene_scale=args.scene_scale, frame_stride=args.frame_stride)
+                            scene_scale=args.scene_scale, frame_stride=args.frame_stride,
+                            wall_cutaway=None if args.full_walls else args.wall_cutaway)
     except ValueError as exc:
         raise InputError("<command line>", "video options", str(exc)) from None
 
@@ -305,6 +306,9 @@ def _add_video_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--third-person-pitch", type=float, default=-22.0, help="camera pitch, degrees")
     g.add_argument("--third-person-hfov", type=float, default=78.0, help="horizontal field of view, degrees")
     g.add_argument("--hold", type=float, default=0.8, help="seconds to hold decision frames")
+    g.add_argument("--wall-cutaway", type=float, default=1.0,
+                   help="chase view: draw walls up to this height in metres (default: %(default)s)")
+    g.add_argument("--full-walls", action="store_true", help="chase view: draw walls at full height")
     g.add_argument("--frame-stride", type=int, default=1,
                    help="render every n-th frame of motion, for quick drafts (default: %(default)s)")
     g.add_argument("--workers", type=int, default=0, help="rendering processes (0: one per core)")

@@ -70,3 +70,24 @@ def test_full_size_default_video(logged, tmp_path):
     assert main(["render", str(logged), "--out", str(out)]) == 0
     info = probe(out)
     assert (info["width"], info["height"]) == (960, 540) and info["frames"] > 1500
+
+
+def test_wall_cutaway_is_for_people_only():
+    """Lowered walls change the chase view; the agent's camera and evidence stay as they were."""
+    from fg_tea.env.base import EnvConfig
+    from fg_tea.env.house import PyBulletHouse
+    from fg_tea.scenario import load_scenario
+
+    house = PyBulletHouse(load_scenario("default_apartment"), EnvConfig(ego_width=160, ego_height=120))
+    try:
+        house.reset(0)
+        ego_before = house.render_ego(160, 120)
+        full = house.render_chase(192, 108)
+        cut = house.render_chase(192, 108, wall_cutaway=1.0)
+        ego_after = house.render_ego(160, 120)
+        assert np.abs(full.astype(int) - cut.astype(int)).mean() > 5  # the view opens up
+        for before, after in zip(ego_before, ego_after):
+            assert np.array_equal(before, after)  # walls restored for the agent
+        assert np.array_equal(full, house.render_chase(192, 108))
+    finally:
+        house.close()

@@ -112,10 +112,13 @@ class PyBulletHouse(TruthBackedAdapter):
         self._static.append(assets.box(c, ((x0 + x1) / 2, (y0 + y1) / 2, -0.025),
                                        ((x1 - x0) / 2 + 0.3, (y1 - y0) / 2 + 0.3, 0.025), FLOOR_COLOR))
         h = house.wall_height
+        self._walls: list[tuple[int, tuple[float, float], tuple]] = []
         for wall in wall_boxes(house):
-            self._static.append(assets.box(c, (wall.center[0], wall.center[1], h / 2),
-                                           (wall.half[0], wall.half[1], h / 2), WALL_COLOR,
-                                           yaw=math.atan2(wall.axis[1], wall.axis[0])))
+            yaw = math.atan2(wall.axis[1], wall.axis[0])
+            body = assets.box(c, (wall.center[0], wall.center[1], h / 2),
+                              (wall.half[0], wall.half[1], h / 2), WALL_COLOR, yaw=yaw)
+            self._static.append(body)
+            self._walls.append((body, wall.center, pybullet.getQuaternionFromEuler((0.0, 0.0, yaw))))
         for f in house.furniture:
             self._static.append(assets.box(c, (f.center[0], f.center[1], f.size[2] / 2),
                                            (f.size[0] / 2, f.size[1] / 2, f.size[2] / 2), tuple(f.color)))
@@ -278,7 +281,7 @@ class PyBulletHouse(TruthBackedAdapter):
         return _view(eye, yaw, math.radians(EGO_PITCH_DEG)), _projection(vfov, width, height)
 
     def _chase_camera(self, width: int, height: int, distance: float, height_m: float, pitch_deg: float,
-                      hfov_deg: float) -> tuple[list, list]:
+                      hfov_deg: float, avoid_walls: bool = True) -> tuple[list, list]:
         pose = self._pose
         yaw = math.radians(pose.yaw_deg)
         back = (pose.x - distance * math.cos(yaw), pose.y - distance * math.sin(yaw))
@@ -287,7 +290,7 @@ class PyBulletHouse(TruthBackedAdapter):
         frac = min(grid.clear_fraction((pose.x + s * side[0], pose.y + s * side[1]),
                                        (back[0] + s * side[0], back[1] + s * side[1]), grid.walls)
                    for s in (-1.0, 0.0, 1.0))
-        if frac < 1.0:
+        if frac < 1.0 and avoid_walls:
             distance = max(CHASE_MIN_DISTANCE_M, frac * distance - CHASE_WALL_GAP_M)
             back = (pose.x - distance * math.cos(yaw), pose.y - distance * math.sin(yaw))
         vfov = 2 * math.degrees(math.atan(math.tan(math.radians(hfov_deg) / 2) * height / width))
@@ -325,8 +328,17 @@ class PyBulletHouse(TruthBackedAdapter):
             semantic[seg == body] = sid
         return rgb, depth, semantic
 
+    def _lower_walls(self, top: float | None) -> None:
+        """Show walls with their tops at `top` metres (None: full height). Presentation only."""
+        h = self.scenario.house.wall_height
+        top = h if top is None else min(max(top, 0.05), h)
+        for body, (x, y), orientation in self._walls:
+            pybullet.resetBasePositionAndOrientation(body, [x, y, top - h / 2], orientation,
+                                                     physicsClientId=self._client)
+
     def render_chase(self, width: int, height: int, distance: float = 3.2, height_m: float = 2.2,
-                     pitch_deg: float = -22.0, hfov_deg: float = 78.0) -> np.ndarray:
+                     pitch_deg: float = -22.0, hfov_deg: float = 78.0,
+                     wall_cutaway: float | None = None) -> np.ndarray:
         """The third-person chase camera (Table 3 defaults): for people, never for the agent.
 
         Args:
@@ -335,13 +347,22 @@ class PyBulletHouse(TruthBackedAdapter):
             height_m: camera height above the floor (m).
             pitch_deg: camera pitch (deg, negative looks down).
             hfov_deg: horizontal field of view (deg).
+            wall_cutaway: if given, walls are drawn only up to this height (m) in this image, a
+                dollhouse view for people; the agent's camera always sees full walls.
 
         Returns:
             rgb, uint8 (height, width, 3).
         """
         self._require_reset()
-        camera = self._chase_camera(width, height, distance, height_m, pitch_deg, hfov_deg)
-        return self._render(camera, width, height, segmentation=False)[0]
+        camera = self._chase_camera(width, height, distance, height_m, pitch_deg, hfov_deg,
+                                    avoid_walls=wall_cutaway is None)
+        if wall_cutaway is None:
+            return self._render(camera, width, height, segmentation=False)[0]
+        self._lower_walls(wall_cutaway)
+        try:
+            return self._render(camera, width, height, segmentation=False)[0]
+        finally:
+            self._lower_walls(None)
 
 
 def _view(eye: Sequence[float], yaw: float, pitch: float) -> list:

@@ -47,6 +47,8 @@ class VideoOptions:
         overlays: draw the explanatory panels.
         scene_scale: the 3D views are rendered at this fraction of the output size and scaled
             up, so overlays stay sharp at a fraction of the rendering cost (1.0 = native).
+        wall_cutaway: chase view only: draw walls up to this height (m), a dollhouse view
+            (None = full walls; the first-person view always shows full walls).
     """
 
     width: int = 960
@@ -63,6 +65,7 @@ class VideoOptions:
     workers: int = 0
     overlays: bool = True
     scene_scale: float = 1.0
+    wall_cutaway: float | None = 1.0
 
     def __post_init__(self) -> None:
         if self.view not in VIEWS:
@@ -227,7 +230,7 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
     else:
         frame = _scaled(lambda a, b: house.render_chase(
             a, b, options.chase_distance, options.chase_height, options.chase_pitch_deg,
-            options.chase_hfov_deg), w, h, scale)
+            options.chase_hfov_deg, options.wall_cutaway), w, h, scale)
         if options.view == "multi":
             iw = int(w * options.inset_scale) // 2 * 2
             ih = int(iw * 3 / 4) // 2 * 2
