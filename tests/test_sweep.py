@@ -312,3 +312,17 @@ def test_value_of_correlation_smoke(tmp_path):
     for png in ("voc_correlation.png", "voc_miss_rate.png", "voc_prior_violation.png",
                 "voc_room_correlation.png"):
         assert (tmp_path / png).exists()
+
+
+def test_quick_compare_is_the_ten_world_ci_run(tmp_path):
+    """`fg-tea compare --quick`: 10 paired worlds x 2 models x 4 planners, report and plots."""
+    out = tmp_path / "quick"
+    proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", "compare", "--quick", "--out", str(out)],
+                          capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = read_rows(out / "episodes.csv")
+    assert len(rows) == 10 * 2 * 4
+    assert {r["world_seed"] for r in rows} == set(range(10))
+    assert {r["planner"] for r in rows} == {"efe", "greedy", "nearest", "optimal"}
+    summary = (out / "summary.md").read_text()
+    assert "## Paired differences: joint − factorised" in summary and "Bayes-optimal limit" in summary
