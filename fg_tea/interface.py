@@ -34,10 +34,15 @@ class Pose:
 
 @dataclass(frozen=True)
 class InspectionResult:
-    """What one site inspection observed [28, 29].
+    """What one look from a viewpoint observed [28-30].
 
-    `detections` has an entry only for objects the inspection considered: True = detected at the
-    site, False = looked and not seen. `pixel_counts` gives n_o for the same objects.
+    `site` is the viewpoint's name (a site's name for a close look). `detections` has an entry
+    only for objects the inspection considered: True = seen at one of the sites in view (which
+    one is in `found_at`), False = looked and not seen. `pixel_counts` gives n_o for the same
+    objects: the pixels o covered in the image that faced the in-view site o stands at (0 if it
+    stands at none). `view_pixels` spreads the same counts over every in-view site (object ->
+    site -> pixels). `kind` is ``"site"`` (close look) or ``"room"`` (room glance); `sites` are
+    the sites in view.
     """
 
     site: str
@@ -48,6 +53,14 @@ class InspectionResult:
     frames: int = 0
     motion: tuple[tuple[float, float, float], ...] = ()
     image_size: tuple[int, int] = (0, 0)
+    kind: str = "site"
+    sites: tuple[str, ...] = ()
+    found_at: Mapping[str, str] = field(default_factory=dict)
+    view_pixels: Mapping[str, Mapping[str, int]] = field(default_factory=dict)
+
+    @property
+    def viewpoint(self) -> str:
+        return self.site
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
 
+from fg_tea.detector import DETECTORS, CurveParams, VisibilityCurve
 from fg_tea.errors import InputError, Reader
 
 STRUCTURES = ("factorised", "joint")
@@ -105,6 +106,15 @@ class Model:
     relations: tuple[Relation, ...] = ()
     planning: PlanningWeights = field(default_factory=PlanningWeights)
     source: str = ""
+    detector: str = "threshold"
+    camera_curve: VisibilityCurve | None = None
+    detection_curve: VisibilityCurve | None = None
+    room_glances: bool = False
+
+    @property
+    def close_looks_only(self) -> bool:
+        """The pre-viewpoint behaviour: threshold detector, one close look per site."""
+        return self.detector == "threshold" and not self.room_glances
 
     def sensor(self, name: str = "state") -> Sensor:
         return self.sensors[name]
@@ -165,6 +175,24 @@ def _read_relation(r: Reader) -> Relation:
                     same_room=r.positive("same_room", 1.0))
 
 
+def _read_curve(r: Reader, base: VisibilityCurve | None = None) -> VisibilityCurve:
+    """A visibility curve: ``half_pixels``, ``slope``, ``max_probability``, ``categories``."""
+    d = base or VisibilityCurve()
+    categories = dict(d.categories)
+    cats = r.child("categories", required=False)
+    if cats is not None:
+        for name in cats.data:
+            c = cats.child(name)
+            default = categories.get(name) or CurveParams(d.half_pixels, d.slope)
+            categories[name] = CurveParams(c.positive("half_pixels", default.half_pixels),
+                                           c.positive("slope", default.slope))
+    max_p = r.probability("max_probability", d.max_probability)
+    if max_p <= 0:
+        raise r.fail("max_probability must be positive, or nothing is ever seen", "max_probability")
+    return VisibilityCurve(r.positive("half_pixels", d.half_pixels), r.positive("slope", d.slope),
+                           max_p, MappingProxyType(categories))
+
+
 def parse_model(data: dict, file: str | Path = "<model>") -> Model:
     """Validate a parsed model document (after `extends` merging) and build a :class:`Model`."""
     r = Reader(data, file)
@@ -205,6 +233,15 @@ def parse_model(data: dict, file: str | Path = "<model>") -> Model:
     if miss <= 0:
         raise detection.fail("a miss likelihood of 0 makes a missed detection impossible; "
                              "use a small positive value", "miss_likelihood")
+    detector = perception.choice("detector", DETECTORS, "threshold")
+    camera_r = perception.child("visibility", required=False)
+    camera_curve = _read_curve(camera_r) if camera_r is not None else None
+    if detector == "visibility" and camera_curve is None:
+        camera_curve = VisibilityCurve()
+    assumed_r = detection.child("visibility", required=False)
+    detection_curve = (_read_curve(assumed_r, camera_curve) if assumed_r is not None
+                       else camera_curve)
+    viewpoints = r.child("viewpoints", required=False) or Reader({}, file, "$.viewpoints")
     floor = beliefs.probability("prior_floor")
     if floor <= 0:
         raise beliefs.fail("the prior floor must be positive (eq. 2)", "prior_floor")
@@ -224,6 +261,10 @@ def parse_model(data: dict, file: str | Path = "<model>") -> Model:
         relations=relations,
         planning=planning,
         source=str(file),
+        detector=detector,
+        camera_curve=camera_curve,
+        detection_curve=detection_curve,
+        room_glances=viewpoints.opt("room_glances", bool, False),
     )
 
 

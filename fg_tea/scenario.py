@@ -87,6 +87,35 @@ class Site:
 
 
 @dataclass(frozen=True)
+class RoomVantage:
+    """A declared floor point (a doorway or the room's centre) from which one look, a *room
+    glance*, covers every site of `room` (see docs/design.md, "Viewpoints")."""
+
+    name: str
+    room: str
+    position: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Viewpoint:
+    """Where an inspection is made from, and which sites one look there covers.
+
+    ``kind`` is ``"site"`` (the close vantage of one site; its name is the site's name) or
+    ``"room"`` (a room glance from a :class:`RoomVantage`, covering every site of the room).
+    ``sites`` are the sites in view, in scenario order.
+    """
+
+    name: str
+    kind: str
+    position: tuple[float, float]
+    sites: tuple[str, ...]
+    room: str
+
+
+VIEWPOINT_KINDS = ("site", "room")
+
+
+@dataclass(frozen=True)
 class ObjectSpec:
     """A task object. `true_site` and `hidden_state_truth` are environment truth, never beliefs."""
 
@@ -114,6 +143,7 @@ class Scenario:
     start_yaw_deg: float
     preparation_site: str
     source: str = ""
+    room_vantages: tuple[RoomVantage, ...] = ()
     _site_index: Mapping[str, int] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -131,6 +161,21 @@ class Scenario:
     @property
     def rooms(self) -> tuple[str, ...]:
         return tuple(dict.fromkeys(s.room for s in self.sites))
+
+    @property
+    def viewpoints(self) -> tuple[Viewpoint, ...]:
+        """Every viewpoint: one close look per site (scenario order), then every room glance."""
+        close = tuple(Viewpoint(s.name, "site", s.vantage, (s.name,), s.room) for s in self.sites)
+        glances = tuple(Viewpoint(v.name, "room", v.position,
+                                  tuple(s.name for s in self.sites if s.room == v.room), v.room)
+                        for v in self.room_vantages)
+        return close + glances
+
+    def viewpoint(self, name: str) -> Viewpoint:
+        for v in self.viewpoints:
+            if v.name == name:
+                return v
+        raise KeyError(f"no viewpoint named {name!r} in scenario {self.name!r}")
 
     def site(self, name: str) -> Site:
         return self.sites[self.site_index(name)]
@@ -289,6 +334,17 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
             raise o.fail(f"every site's affordance weight for category {spec.category!r} is zero "
                          "or missing, so the location prior has no information", "category")
 
+    room_vantages, rooms = [], {site.room for site in sites}
+    for v in r.items("room_vantages", required=False):
+        name = v.req("name", str)
+        if name in names or any(name == x.name for x in room_vantages):
+            raise v.fail(f"duplicate viewpoint name {name!r} (site and room-vantage names share "
+                         "one namespace)", "name")
+        room = v.req("room", str)
+        if room not in rooms:
+            raise v.fail(f"room {room!r} has no site", "room")
+        room_vantages.append(RoomVantage(name, room, v.vector("position", 2)))
+
     start = r.child("start_pose")
     prep = r.opt("preparation_site", str, sites[0].name)
     if prep not in names:
@@ -304,6 +360,7 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
         start_yaw_deg=start.opt("yaw_deg", float, 0.0),
         preparation_site=prep,
         source=str(file),
+        room_vantages=tuple(room_vantages),
     )
 
 

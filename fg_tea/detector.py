@@ -1,0 +1,76 @@
+"""The visibility detector: how likely is an object to be seen, given how many pixels it covers?
+
+This module answers one question for both sides of the agent/environment boundary (see
+docs/design.md, "Detection from visibility"): the probability that the detector reports an object
+that stands in the camera's view, as a function of the number of segmentation pixels n it covers,
+
+    P(seen | n) = p_max / (1 + (n_50 / n) ** s)        for n > 0,     P(seen | 0) = 0,
+
+a logistic curve in log-pixels with half-probability pixel count n_50 (where P = p_max / 2),
+slope s (per unit of ln n) and asymptote p_max (the best a clear close look achieves). Each
+object category may declare its own n_50 and s.
+
+The environment draws every detection from this curve with the pixel count it really rendered;
+the agent evaluates the same family of curves (its own assumed parameters) at the pixel count it
+*expects* for a category on a site from a viewpoint, computed from the house geometry alone.
+Nothing here imports a simulator.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+DETECTORS = ("threshold", "visibility")
+
+
+@dataclass(frozen=True)
+class CurveParams:
+    """n_50 (pixels, > 0) and slope s (> 0) of one category's curve."""
+
+    half_pixels: float
+    slope: float
+
+
+@dataclass(frozen=True)
+class VisibilityCurve:
+    """P(seen | n pixels) per object category (eq. 30 with a declared visibility curve).
+
+    Attributes:
+        half_pixels: n_50, the pixel count at which P(seen) = max_probability / 2 (default curve).
+        slope: s, per unit of ln(pixels) (default curve).
+        max_probability: p_max in (0, 1], the asymptote for a large, clear view.
+        categories: category -> :class:`CurveParams` overriding the default curve.
+    """
+
+    half_pixels: float = 150.0
+    slope: float = 2.0
+    max_probability: float = 0.95
+    categories: Mapping[str, CurveParams] = field(default_factory=lambda: MappingProxyType({}))
+
+    def params(self, category: str) -> CurveParams:
+        """The curve parameters used for `category`."""
+        return self.categories.get(category) or CurveParams(self.half_pixels, self.slope)
+
+    def probability(self, category: str, pixels: float) -> float:
+        """P(seen | `pixels`) for an object of `category`, in [0, max_probability]."""
+        n = float(pixels)
+        if not n > 0.0:
+            return 0.0
+        c = self.params(category)
+        # p_max / (1 + (n50 / n)^s), written through exp/log so huge ratios cannot overflow.
+        z = c.slope * (math.log(c.half_pixels) - math.log(n))
+        if z > 700.0:
+            return 0.0
+        return self.max_probability / (1.0 + math.exp(z))
+
+    def to_json(self) -> dict:
+        return {"half_pixels": self.half_pixels, "slope": self.slope,
+                "max_probability": self.max_probability,
+                "categories": {k: {"half_pixels": v.half_pixels, "slope": v.slope}
+                               for k, v in sorted(self.categories.items())}}
+
+
+__all__ = ["DETECTORS", "CurveParams", "VisibilityCurve"]
