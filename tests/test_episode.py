@@ -128,11 +128,11 @@ def test_crash_leaves_a_valid_log(tmp_path):
     class Crashing(FakeHouse):
         calls = 0
 
-        def inspect_site(self, site, objects):
+        def inspect_viewpoint(self, site, objects):
             Crashing.calls += 1
             if Crashing.calls == 3:
                 raise RuntimeError("simulator crashed")
-            return super().inspect_site(site, objects)
+            return super().inspect_viewpoint(site, objects)
 
     with pytest.raises(RuntimeError):
         with EventLog(path) as log:

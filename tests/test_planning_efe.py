@@ -104,8 +104,9 @@ def test_decision_record_is_complete_json(hand):
     assert [(c["object"], c["site"]) for c in record["candidates"]] == \
         [(o, s) for o in ("kettle", "mug") for s in ("A", "B", "C")]
     for c in record["candidates"]:
-        assert set(c) == {"object", "site", "distance", "probability", "information_gain",
-                          "repeat", "relevance", "base", "total"}
+        assert set(c) == {"object", "site", "viewpoint", "viewpoint_kind", "distance",
+                          "probability", "information_gain", "repeat", "relevance", "base", "total"}
+        assert c["viewpoint"] == c["site"] and c["viewpoint_kind"] == "site"
 
 
 def test_ties_break_by_object_then_site_order():

@@ -31,7 +31,7 @@ import numpy as np
 
 from fg_tea.beliefs.factors import (Factor, collapse_factor, collapse_target, detection_factor,
                                     effect_factor, location_var, miss_factor, state_observation,
-                                    state_prior)
+                                    state_prior, view_miss_factor)
 from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, build_graph
 from fg_tea.beliefs.solvers import GtsamSolver, NumpySolver
 from fg_tea.beliefs.structured import (MAX_OBJECTS, NumericalGuardError, PairWeights,
@@ -442,11 +442,13 @@ class BeliefEngine:
             for key in ("locations", "joint", "pairwise", "structured"):
                 self._cache.pop(key, None)
 
-    def _detection_factor(self, obj: str, j: int) -> Factor:
-        """The factor of "obj seen at site j": eq. 4's collapse, or the detection likelihood."""
+    def _detection_factor(self, obj: str, j: int, miss: float | None = None) -> Factor:
+        """The factor of "obj seen at site j": eq. 4's collapse, or the detection likelihood
+        (miss likelihood `miss`, default the model's mu)."""
         if self.model.positive_update == "blueprint":
             return collapse_factor(obj, j, self.location(obj), self.model.prior_floor)
-        return detection_factor(obj, j, len(self.sites), self.model.miss_likelihood,
+        return detection_factor(obj, j, len(self.sites),
+                                self.model.miss_likelihood if miss is None else miss,
                                 self.model.false_positive_rate)
 
     def observe_site(self, site: str, detections: Mapping[str, bool]) -> SiteUpdate:
@@ -479,6 +481,50 @@ class BeliefEngine:
             raise
         detected = tuple(o for o in self.objects if detections.get(o) is True)
         return SiteUpdate(site, dict(detections), before, after, detected)
+
+    def observe_view(self, view, found: Mapping[str, str | None]) -> SiteUpdate:
+        """Absorb one look from a viewpoint (docs/design.md eq. 30 over every site in view).
+
+        Args:
+            view: the :class:`~fg_tea.beliefs.detection.View` looked from (its sites in view and
+                p_{o,j}).
+            found: object -> the in-view site it was seen at, or None for "looked, not seen
+                anywhere in view". Objects absent are "no observation".
+
+        Misses multiply L_o by l(a) = 1 - p_{o,a} on the sites in view (they commute); then
+        detections apply eq. 4 at the site seen (or, with ``positive_update = "likelihood"``,
+        l(a) = p_{o,j} at that site and the false-positive rate elsewhere), in object order.
+
+        Raises:
+            ContradictionError: the evidence has probability zero; the belief is left unchanged.
+        """
+        k = len(self.sites)
+        in_view = {self.sites[j] for j in view.sites}
+        for obj, site in found.items():
+            if obj not in self._obj_index:
+                raise KeyError(f"no object named {obj!r}")
+            if site is not None and site not in in_view:
+                raise KeyError(f"site {site!r} is not in view of {view.name!r}")
+        label = str(view.sites[0]) if view.kind == "site" else view.name
+        before = self.locations()
+        saved = (self._unary.copy(), list(self._loc_factors), dict(self._cache))
+        try:
+            misses = [view_miss_factor(o, view.sites, view.miss[self._obj_index[o]], k, label)
+                      for o in self.objects if o in found and found[o] is None]
+            self._commit_location(misses)
+            for o in self.objects:
+                site = found.get(o)
+                if site is not None:
+                    j = self._site_index[site]
+                    miss = float(view.miss[self._obj_index[o], view.sites.index(j)])
+                    self._commit_location([self._detection_factor(o, j, miss)])
+            after = self.locations()
+        except BaseException:
+            self._unary, self._loc_factors, self._cache = saved
+            raise
+        detected = tuple(o for o in self.objects if found.get(o) is not None)
+        return SiteUpdate(view.name, {o: found[o] is not None for o in found}, before, after,
+                          detected)
 
     # ------------------------------------------------------------------ hypothetical evidence
     def hypothetical(self, site: str, detections: Mapping[str, bool]) -> dict[str, np.ndarray]:

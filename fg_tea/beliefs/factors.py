@@ -68,6 +68,15 @@ def miss_factor(obj: str, site_index: int, n_sites: int, mu: float) -> Factor:
     return Factor((location_var(obj),), table, f"miss {location_var(obj)}@{site_index}")
 
 
+def view_miss_factor(obj: str, sites: tuple[int, ...], miss: np.ndarray, n_sites: int,
+                     label: str) -> Factor:
+    """"o not seen in a look covering `sites`": l(a) = miss[c] at the c-th in-view site a, 1
+    elsewhere (eqs. 5-6 over every site in view; docs/design.md eq. 30)."""
+    table = np.ones(n_sites)
+    table[list(sites)] = miss
+    return Factor((location_var(obj),), table, f"miss {location_var(obj)}@{label}")
+
+
 def detection_factor(obj: str, site_index: int, n_sites: int, mu: float, fp: float) -> Factor:
     """The likelihood of 'seen at site j': 1 - mu at j, false-positive rate fp elsewhere."""
     table = np.full(n_sites, fp)

@@ -11,6 +11,7 @@ import abc
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
+from fg_tea.detector import VisibilityCurve
 from fg_tea.interface import (ActionRequest, ActionResult, InspectionResult, Pose, StateReading)
 
 
@@ -46,6 +47,7 @@ class EnvConfig:
     distance: str = "geodesic"  # or "euclidean" (ablation)
     failure_rates: Mapping[str, float] = field(default_factory=dict)  # verb -> P(fail), injected
     detection_miss_rate: float = 0.0  # P(a would-be detection is dropped), injected
+    camera_curve: VisibilityCurve | None = None  # None: threshold detector (eq. 29)
 
 
 class EnvAdapter(abc.ABC):
@@ -72,6 +74,24 @@ class EnvAdapter(abc.ABC):
     @abc.abstractmethod
     def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
         """Go to the site's vantage point, face it, look once, report on `objects` only."""
+
+    def inspect_viewpoint(self, viewpoint: str, objects: Sequence[str]) -> InspectionResult:
+        """Go to the viewpoint, face each site in view in turn, look, report on `objects` only.
+
+        A site's close look is the viewpoint named after the site; adapters without room
+        glances need only :meth:`inspect_site`.
+        """
+        return self.inspect_site(viewpoint, objects)
+
+    def expected_pixel_counts(self, categories: Sequence[str]) -> Mapping[str, Mapping[str, Mapping[str, float]]]:
+        """Pixels an object of each category would cover on each site in view of each viewpoint.
+
+        House geometry and object models only, never where objects truly are (see
+        docs/design.md, "Detection from visibility"). Returns viewpoint -> site -> category ->
+        pixels.
+        """
+        raise NotImplementedError(f"{type(self).__name__} cannot predict visibility; use the "
+                                  "threshold detector with close looks only")
 
     @abc.abstractmethod
     def observe_state(self, obj: str, state: str, site: str | None,

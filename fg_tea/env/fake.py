@@ -8,8 +8,9 @@ replaces geometry and perception by the simplest stand-ins:
 * distance d_j (eq. 12): Euclidean, from the agent to the site's vantage point;
 * motion: a straight line to the vantage point, followed frame by frame with the same follower
   (at most ``movement_step`` per frame, turning at most ``turn_step_deg``);
-* perception [28, 29]: n_o = 100 pixels if object o truly stands at the inspected site, else 0;
-  no occlusion and no field of view.
+* perception [28, 29]: n_o = 100 pixels if object o truly stands at the inspected site and the
+  agent looks from the site's own vantage, fewer with the square of the distance from farther away
+  (a room glance), 0 if o stands elsewhere; no occlusion and no field of view.
 """
 
 from __future__ import annotations
@@ -37,13 +38,29 @@ class FakeHouse(TruthBackedAdapter):
         """Nothing to build: the fake world is the truth plus object positions."""
 
     def _route(self, k: int) -> list[Pose] | None:
-        vantage = tuple(map(float, self.scenario.sites[k].vantage))
-        return follow_path(self._pose, [vantage], self.config)
+        target = tuple(map(float, self._viewpoints[k].position))
+        return follow_path(self._pose, [target], self.config)
 
     def _distance_from(self, k: int, xy: Sequence[float]) -> float:
-        vx, vy = self.scenario.sites[k].vantage
+        vx, vy = self._viewpoints[k].position
         return math.hypot(vx - xy[0], vy - xy[1])
 
     def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
-        site = self.scenario.sites[k].name
-        return {name: FAKE_PIXELS if self._truth.site_of.get(name) == site else 0 for name in objects}
+        site = self.scenario.sites[k]
+        n = fake_pixels(site.vantage, site.position, (self._pose.x, self._pose.y))
+        return {name: n if self._truth.site_of.get(name) == site.name else 0 for name in objects}
+
+    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, float]:
+        s = self.scenario.sites[site]
+        n = fake_pixels(s.vantage, s.position, self._viewpoints[target].position)
+        return {c: float(n) for c in categories}
+
+
+def fake_pixels(vantage: Sequence[float], surface: Sequence[float], eye: Sequence[float]) -> int:
+    """The fake camera: FAKE_PIXELS from the site's own vantage point, falling with the square of
+    the distance to the surface from anywhere farther away (a room glance)."""
+    close = math.hypot(surface[0] - vantage[0], surface[1] - vantage[1])
+    far = math.hypot(surface[0] - eye[0], surface[1] - eye[1])
+    if far <= close + 1e-9:
+        return FAKE_PIXELS
+    return int(round(FAKE_PIXELS * (close / far) ** 2))

@@ -21,7 +21,12 @@ only fg_tea module that imports pybullet besides :mod:`fg_tea.env.assets`.
 
 from __future__ import annotations
 
+import copy
+import hashlib
+import json
 import math
+import os
+from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -32,6 +37,7 @@ from fg_tea.env.base import EnvConfig
 from fg_tea.interface import Pose
 from fg_tea.env.navigation import Navigator, follow_path, wall_boxes
 from fg_tea.env.truth import TruthBackedAdapter, held_position
+from fg_tea.files import atomic_write_text
 from fg_tea.scenario import Scenario
 
 #: Fixed downward tilt (deg) of the egocentric camera, so surfaces from 0.45 m to 1.05 m high are
@@ -52,6 +58,13 @@ WALL_COLOR = (0.97, 0.94, 0.86, 1.0)
 LIGHT_DIRECTION = (0.4, -0.6, 1.0)
 #: TinyRenderer lighting: ambient, diffuse and specular coefficients.
 LIGHT_COEFFS = (0.6, 0.45, 0.05)
+
+#: Where bodies wait out of every camera's sight (m): below the floor, far from the house.
+PARKED = (0.0, 0.0, -50.0)
+#: Bump when the expected-visibility computation changes, so cached tables are recomputed.
+VISIBILITY_VERSION = 1
+#: Expected-visibility tables already computed in this process (cache key -> table).
+_VISIBILITY_CACHE: dict[str, dict] = {}
 
 FrameSink = Callable[["PyBulletHouse", Pose], None]
 
@@ -94,6 +107,7 @@ class PyBulletHouse(TruthBackedAdapter):
         self._obstacles: list[int] = []
         self._drone = -1
         self._built = False
+        self._probes: dict[str, tuple[int, np.ndarray]] = {}
 
     # --- scene -----------------------------------------------------------------------------
 
@@ -126,9 +140,7 @@ class PyBulletHouse(TruthBackedAdapter):
         for spec in self.scenario.objects:
             parts = assets.object_parts(spec.asset, spec.category)
             self._bodies[spec.name] = assets.create_compound(c, parts)
-            lo, hi = assets.local_bounds(parts)
-            self._bounds[spec.name] = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0])
-                                                for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]).T
+            self._bounds[spec.name] = _corners(parts)
         self._drone = assets.create_compound(c, assets.drone_parts())
         self._body_to_object = {body: name for name, body in self._bodies.items()}
         self._semantic = {self._bodies[s.name]: s.semantic_id for s in self.scenario.objects}
@@ -173,34 +185,42 @@ class PyBulletHouse(TruthBackedAdapter):
 
     def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
         self._sync()
-        width, height = self.config.ego_width, self.config.ego_height
-        view, proj = self._ego_camera(width, height)
         if not objects:
             return {}
+        return self._count_pixels({name: (self._bodies[name], self._bounds[name]) for name in objects})
+
+    def _count_pixels(self, bodies: Mapping[str, tuple[int, np.ndarray]]) -> dict[str, int]:
+        """Segmentation pixels of each body in the egocentric image at the current pose [28].
+
+        Args:
+            bodies: label -> (body id, its 8 local bounding-box corners as a (4, 8) array).
+        """
+        width, height = self.config.ego_width, self.config.ego_height
+        view, proj = self._ego_camera(width, height)
         if self.roi:
-            window = self._window(view, proj, width, height, objects)
+            window = self._window(view, proj, width, height, list(bodies.values()))
             if window is None:
-                return {name: 0 for name in objects}
+                return {label: 0 for label in bodies}
             c0, r0, c1, r1 = window
             proj = _sub_projection(proj, width, height, window)
             width, height = c1 - c0, r1 - r0
         seg = self._render((view, proj), width, height, segmentation=True)[2]
-        return {name: int(np.count_nonzero(seg == self._bodies[name])) for name in objects}
+        return {label: int(np.count_nonzero(seg == body)) for label, (body, _) in bodies.items()}
 
     def _window(self, view: Sequence[float], proj: Sequence[float], width: int, height: int,
-                objects: Sequence[str]) -> tuple[int, int, int, int] | None:
-        """Pixel window (col0, row0, col1, row1) covering every object's projected bounds.
+                bodies: Sequence[tuple[int, np.ndarray]]) -> tuple[int, int, int, int] | None:
+        """Pixel window (col0, row0, col1, row1) covering every body's projected bounds.
 
-        None if no object can be in view; the whole image if a bound reaches behind the camera.
+        None if no body can be in view; the whole image if a bound reaches behind the camera.
         """
         clip_from_world = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T
         boxes = []
-        for name in objects:
-            pos, orn = pybullet.getBasePositionAndOrientation(self._bodies[name], physicsClientId=self._client)
+        for body, bounds in bodies:
+            pos, orn = pybullet.getBasePositionAndOrientation(body, physicsClientId=self._client)
             rot = np.reshape(pybullet.getMatrixFromQuaternion(orn), (3, 3))
             world = np.eye(4)
             world[:3, :3], world[:3, 3] = rot, pos
-            clip = clip_from_world @ world @ self._bounds[name]
+            clip = clip_from_world @ world @ bounds
             if (clip[3] <= NEAR_M).any():
                 return (0, 0, width, height)
             ndc = clip[:2] / clip[3]
@@ -214,6 +234,76 @@ class PyBulletHouse(TruthBackedAdapter):
         if c1 <= c0 or r1 <= r0:
             return None
         return (c0, r0, c1, r1)
+
+    # --- expected visibility ---------------------------------------------------------------
+
+    def _probe(self, category: str) -> tuple[int, np.ndarray]:
+        """A body of `category` (the scenario's asset for it) parked out of sight, and its bounds."""
+        if category not in self._probes:
+            asset = next((s.asset for s in self.scenario.objects if s.category == category), category)
+            parts = assets.object_parts(asset, category)
+            body = assets.create_compound(self._client, parts, PARKED)
+            self._probes[category] = (body, _corners(parts))
+        return self._probes[category]
+
+    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, float]:
+        vx, vy = self._viewpoints[target].position
+        px, py, _ = self.scenario.sites[site].position
+        saved = self._pose
+        self._pose = Pose(float(vx), float(vy), math.degrees(math.atan2(py - vy, px - vx)))
+        try:
+            for body in self._bodies.values():  # the house alone: no task object in the way
+                self._place_body(body, PARKED, 0.0)
+            self._place_drone(self._pose)
+            slot = self._slot_position(self.scenario.sites[site].name, 0)
+            out = {}
+            for category in categories:
+                body, bounds = self._probe(category)
+                self._place_body(body, slot, 0.0)
+                out[category] = float(self._count_pixels({category: (body, bounds)})[category])
+                self._place_body(body, PARKED, 0.0)
+            return out
+        finally:
+            self._pose = saved
+            self._sync()
+
+    def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, float]]]:
+        """See :meth:`TruthBackedAdapter.expected_pixel_counts`; cached per house and camera.
+
+        The cache key is a hash of everything the numbers depend on (walls, furniture, sites,
+        viewpoints, object models, camera parameters); the cache lives in memory and in
+        ``$FG_TEA_CACHE_DIR`` (default ``~/.cache/fg_tea``), so a second run pays nothing.
+        """
+        key = self._visibility_key(categories)
+        if key in _VISIBILITY_CACHE:
+            return copy.deepcopy(_VISIBILITY_CACHE[key])
+        path = cache_dir() / "visibility" / f"{key}.json"
+        table = None
+        if path.is_file():
+            try:
+                table = json.loads(path.read_text(encoding="utf-8"))
+            except (OSError, ValueError):
+                table = None
+        if table is None:
+            table = super().expected_pixel_counts(categories)
+            try:
+                atomic_write_text(path, json.dumps(table, sort_keys=True))
+            except OSError:
+                pass  # an unwritable cache only costs time
+        _VISIBILITY_CACHE[key] = table
+        return copy.deepcopy(table)
+
+    def _visibility_key(self, categories: Sequence[str]) -> str:
+        sc, cfg = self.scenario, self.config
+        assets_used = {c: repr(assets.object_parts(
+            next((s.asset for s in sc.objects if s.category == c), c), c)) for c in sorted(categories)}
+        doc = {"version": VISIBILITY_VERSION, "house": repr(sc.house),
+               "sites": [[s.name, s.position, s.vantage, s.furniture] for s in sc.sites],
+               "viewpoints": [[v.name, v.kind, v.position, v.sites] for v in sc.viewpoints],
+               "assets": assets_used,
+               "camera": [cfg.ego_width, cfg.ego_height, cfg.ego_hfov_deg, cfg.sensor_height,
+                          EGO_PITCH_DEG, NEAR_M, FAR_M, assets.CAMERA_FORWARD_M, self.roi]}
+        return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:32]
 
     def _sync(self) -> None:
         held = self._truth.held if self._truth is not None else None
@@ -363,6 +453,19 @@ class PyBulletHouse(TruthBackedAdapter):
             return self._render(camera, width, height, segmentation=False)[0]
         finally:
             self._lower_walls(None)
+
+
+def _corners(parts) -> np.ndarray:
+    """The 8 corners of the parts' local bounding box, homogeneous, shape (4, 8)."""
+    lo, hi = assets.local_bounds(parts)
+    return np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                     for z in (lo[2], hi[2])]).T
+
+
+def cache_dir() -> Path:
+    """Where computed tables are cached: ``$FG_TEA_CACHE_DIR``, else ``~/.cache/fg_tea``."""
+    env = os.environ.get("FG_TEA_CACHE_DIR")
+    return Path(env) if env else Path.home() / ".cache" / "fg_tea"
 
 
 def _view(eye: Sequence[float], yaw: float, pitch: float) -> list:

@@ -224,22 +224,26 @@ class Navigator:
                              f"start ({start[0]:.2f}, {start[1]:.2f}) is not on free floor "
                              f"(inside a wall or furniture, or within the agent radius "
                              f"{grid.agent_radius:.2f} m of one); nearest free cell at {_fmt(near)}")
-        self.vantages: list[Point] = [(float(s.vantage[0]), float(s.vantage[1])) for s in scenario.sites]
+        # Targets: every viewpoint's floor point, site vantages first (target k = site k), then
+        # the room vantages.
+        self.vantages: list[Point] = [(float(v.position[0]), float(v.position[1]))
+                                      for v in scenario.viewpoints]
+        wheres = ([f"$.sites[{i}].vantage_position" for i in range(len(scenario.sites))]
+                  + [f"$.room_vantages[{i}].position" for i in range(len(scenario.room_vantages))])
         start_node = self._node[grid.cell(start)]
         start_field = dijkstra(graph, directed=False, indices=[start_node])[0]
         reachable = np.zeros_like(grid.free)
         reachable[free_r, free_c] = np.isfinite(start_field)
-        for i, (site, v) in enumerate(zip(scenario.sites, self.vantages)):
-            where = f"$.sites[{i}].vantage_position"
+        for where, site, v in zip(wheres, scenario.viewpoints, self.vantages):
             if not grid.is_free(v):
                 raise InputError(source, where,
-                                 f"site {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f}) is not on free "
+                                 f"{site.kind if site.kind == 'site' else 'room vantage'} {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f}) is not on free "
                                  f"floor (inside a wall or furniture, or within the agent radius "
                                  f"{grid.agent_radius:.2f} m of one); nearest free cell at "
                                  f"{_fmt(grid.nearest(v, reachable))}")
             if not reachable[grid.cell(v)]:
                 raise InputError(source, where,
-                                 f"site {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f}) is not reachable "
+                                 f"{site.kind if site.kind == 'site' else 'room vantage'} {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f}) is not reachable "
                                  f"from the start ({start[0]:.2f}, {start[1]:.2f}); nearest free cell "
                                  f"reachable from the start at {_fmt(grid.nearest(v, reachable))}")
         sources = [int(self._node[grid.cell(v)]) for v in self.vantages]

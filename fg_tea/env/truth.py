@@ -216,6 +216,10 @@ class TruthBackedAdapter(EnvAdapter):
         self._pose: Pose | None = None
         self._start: Pose | None = None  # agent pose when the current call began
         self._positions: dict[str, tuple[float, float, float]] = {}
+        # Navigation targets: every viewpoint's floor point, sites' close vantages first (index k
+        # of site k), then room vantages (scenario.viewpoints order).
+        self._viewpoints = scenario.viewpoints
+        self._target_of = {v.name: i for i, v in enumerate(self._viewpoints)}
 
     # --- hooks -----------------------------------------------------------------------------
 
@@ -225,18 +229,24 @@ class TruthBackedAdapter(EnvAdapter):
 
     @abc.abstractmethod
     def _route(self, k: int) -> list[Pose] | None:
-        """Per-frame poses from the current pose to site k's vantage point; None if unreachable.
+        """Per-frame poses from the current pose to target k's floor point; None if unreachable.
 
+        Target k is viewpoint k of ``scenario.viewpoints`` (site k's close vantage for k < K).
         Must not change state: the caller moves the agent along the returned frames.
         """
 
     @abc.abstractmethod
-    def _distance_from(self, goal_site: int, xy: Sequence[float]) -> float:
-        """Planner travel distance (m) from floor point `xy` to site `goal_site`'s vantage; inf if none."""
+    def _distance_from(self, goal: int, xy: Sequence[float]) -> float:
+        """Planner travel distance (m) from floor point `xy` to target `goal`; inf if none."""
 
     @abc.abstractmethod
     def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
         """Segmentation pixels n_o [28] of each object, looking at site k from the current pose."""
+
+    @abc.abstractmethod
+    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, float]:
+        """Pixels an object of each category would cover standing alone at `site`'s first slot,
+        seen from target `target`'s floor point facing the site (house geometry only)."""
 
     def _sync(self) -> None:
         """Mirror `_positions` and the agent pose into the simulator (no-op without one)."""
@@ -268,48 +278,124 @@ class TruthBackedAdapter(EnvAdapter):
 
     def distance_to_site(self, site: str) -> float:
         self._require_reset()
-        k = self._site_index(site)
+        k = self._target_index(site)
         if self.config.distance == "euclidean":
-            vx, vy = self.scenario.sites[k].vantage
+            vx, vy = self._viewpoints[k].position
             return math.hypot(vx - self._pose.x, vy - self._pose.y)
         return self._distance_from(k, (self._pose.x, self._pose.y))
 
     def distance_between_sites(self, a: str, b: str) -> float:
         self._require_reset()
-        ka, kb = self._site_index(a), self._site_index(b)
-        start = self.scenario.sites[ka].vantage
+        ka, kb = self._target_index(a), self._target_index(b)
+        start = self._viewpoints[ka].position
         if self.config.distance == "euclidean":
-            vx, vy = self.scenario.sites[kb].vantage
+            vx, vy = self._viewpoints[kb].position
             return math.hypot(vx - start[0], vy - start[1])
         return self._distance_from(kb, start)
 
     def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
+        return self.inspect_viewpoint(site, objects)
+
+    def inspect_viewpoint(self, viewpoint: str, objects: Sequence[str]) -> InspectionResult:
         self._require_reset()
         self._start = self._pose
-        k = self._site_index(site)
+        k = self._target_index(viewpoint)
+        view = self._viewpoints[k]
         considered = tuple(dict.fromkeys(objects))
         for name in considered:
             self._spec(name)
         size = (self.config.ego_width, self.config.ego_height)
-        frames, arrived = self._go_to_site(k)
+        frames, arrived = self._go_to(k)
         if not arrived:
-            return InspectionResult(site, {}, {}, reachable=False, distance=self._travelled(frames),
-                                    frames=len(frames), motion=_motion(frames), image_size=size)
-        frames += self._face(self.scenario.sites[k].position)
-        frames += [self._pose] * int(self.config.look_frames)  # hold still to take the image
-        counts = self._pixel_counts(k, considered)
-        detections = {name: bool(counts[name] >= self.config.min_visible_pixels
-                                 and self._associated(name, k)) for name in considered}
-        miss_rate = float(self.config.detection_miss_rate)
-        if miss_rate > 0.0:
-            # Injected detector misses: one draw per would-be detection, in `objects` order. The
-            # pixel counts stay as rendered; only the detector's verdict is dropped.
-            for name in considered:
-                if detections[name] and float(self._rng.random()) < miss_rate:
-                    detections[name] = False
-        return InspectionResult(site, detections, {n: int(counts[n]) for n in considered},
+            return InspectionResult(viewpoint, {}, {}, reachable=False, distance=self._travelled(frames),
+                                    frames=len(frames), motion=_motion(frames), image_size=size,
+                                    kind=view.kind, sites=view.sites)
+        in_view = [self._site_index(s) for s in view.sites]
+        # Which in-view site each considered object stands at (eq. 29's association), if any.
+        at_site = {name: next((j for j in in_view if self._associated(name, j)), None)
+                   for name in considered}
+        counts = {name: 0 for name in considered}
+        for j in self._sweep_order(in_view):
+            frames += self._face(self.scenario.sites[j].position)
+            frames += [self._pose] * int(self.config.look_frames)  # hold still to take the image
+            if view.kind == "site":
+                # A close look counts every considered object in its one image, as eq. 28 reads.
+                counts = self._pixel_counts(j, considered)
+            else:
+                here = [name for name in considered if at_site[name] == j]
+                if here:
+                    counts.update(self._pixel_counts(j, here))
+        detections = self._detect(considered, counts, at_site)
+        found_at = {name: self.scenario.sites[at_site[name]].name for name in considered
+                    if detections[name] and at_site[name] is not None}
+        view_pixels = {name: {s: (int(counts[name]) if at_site[name] is not None
+                                  and self.scenario.sites[at_site[name]].name == s else 0)
+                              for s in view.sites} for name in considered}
+        return InspectionResult(viewpoint, detections, {n: int(counts[n]) for n in considered},
                                 reachable=True, distance=self._travelled(frames), frames=len(frames),
-                                motion=_motion(frames), image_size=size)
+                                motion=_motion(frames), image_size=size, kind=view.kind,
+                                sites=view.sites, found_at=found_at, view_pixels=view_pixels)
+
+    def _sweep_order(self, sites: Sequence[int]) -> list[int]:
+        """In-view sites in the order a glance faces them: each time the one needing the least turn."""
+        from fg_tea.env.navigation import wrap_deg
+
+        left, order, yaw = list(sites), [], self._pose.yaw_deg
+        while left:
+            def turn(j: int) -> float:
+                px, py, _ = self.scenario.sites[j].position
+                return abs(wrap_deg(math.degrees(math.atan2(py - self._pose.y, px - self._pose.x)) - yaw))
+            j = min(left, key=lambda j: (turn(j), j))
+            px, py, _ = self.scenario.sites[j].position
+            yaw = math.degrees(math.atan2(py - self._pose.y, px - self._pose.x))
+            left.remove(j)
+            order.append(j)
+        return order
+
+    def _detect(self, considered: Sequence[str], counts: Mapping[str, int],
+                at_site: Mapping[str, int | None]) -> dict[str, bool]:
+        """The detector's verdict per object (eqs. 29, 30), drawn from the episode's RNG.
+
+        Threshold detector (``config.camera_curve`` None): seen iff n_o >= min_visible_pixels and
+        o stands at an in-view site; then the optional injected misses, one draw per would-be
+        detection in `considered` order. Visibility detector: one draw per object standing at an
+        in-view site, seen with probability P(seen | n_o) of the camera's curve.
+        """
+        curve = self.config.camera_curve
+        if curve is None:
+            detections = {name: bool(counts[name] >= self.config.min_visible_pixels
+                                     and (at_site[name] is not None
+                                          or not self.config.site_association))
+                          for name in considered}
+            miss_rate = float(self.config.detection_miss_rate)
+            if miss_rate > 0.0:
+                # The pixel counts stay as rendered; only the detector's verdict is dropped.
+                for name in considered:
+                    if detections[name] and float(self._rng.random()) < miss_rate:
+                        detections[name] = False
+            return detections
+        detections = {}
+        for name in considered:
+            if at_site[name] is None:
+                detections[name] = False
+                continue
+            p = curve.probability(self._specs[name].category, counts[name])
+            detections[name] = bool(float(self._rng.random()) < p)
+        return detections
+
+    def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, float]]]:
+        """Pixels an object of each category would cover on each in-view site of each viewpoint.
+
+        Computed from the house geometry and the object models alone (one object of the category
+        standing alone at the site's first slot, seen from the viewpoint facing the site), never
+        from where objects truly are. Returns viewpoint -> site -> category -> pixels.
+        """
+        self._require_reset()
+        out: dict[str, dict[str, dict[str, float]]] = {}
+        for k, view in enumerate(self._viewpoints):
+            out[view.name] = {s: self._expected_pixels(k, self._site_index(s), list(categories))
+                              for s in view.sites}
+        return out
 
     def observe_state(self, obj: str, state: str, site: str | None,
                       sensitivity: float, specificity: float) -> StateReading:
@@ -320,7 +406,7 @@ class TruthBackedAdapter(EnvAdapter):
         frames: list[Pose] = []
         if site is not None:
             k = self._site_index(site)
-            frames, arrived = self._go_to_site(k)
+            frames, arrived = self._go_to(k)
             if not arrived:
                 raise RuntimeError(f"site {site!r} became unreachable after the load-time check")
             frames += self._face(self.scenario.sites[k].position)
@@ -492,7 +578,11 @@ class TruthBackedAdapter(EnvAdapter):
                             motion=_motion(frames), placements=self.placements())
 
     def _go_to_site(self, k: int) -> tuple[list[Pose], bool]:
-        vx, vy = self.scenario.sites[k].vantage
+        return self._go_to(k)
+
+    def _go_to(self, k: int) -> tuple[list[Pose], bool]:
+        """Walk to target k's floor point (site k's vantage for k < K); (frames, arrived)."""
+        vx, vy = self._viewpoints[k].position
         if math.hypot(vx - self._pose.x, vy - self._pose.y) < 1e-9:
             return [], True
         frames = self._route(k)
@@ -583,6 +673,13 @@ class TruthBackedAdapter(EnvAdapter):
         if request.site is None:
             raise ValueError(f"{request.verb} needs a site")
         return self._site_index(request.site)
+
+    def _target_index(self, name: str) -> int:
+        try:
+            return self._target_of[name]
+        except KeyError:
+            raise ValueError(f"no site or viewpoint named {name!r} in scenario "
+                             f"{self.scenario.name!r}") from None
 
     def _site_index(self, site: str) -> int:
         try:

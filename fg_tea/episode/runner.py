@@ -26,6 +26,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from fg_tea import __version__
+from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.interface import ActionRequest
@@ -60,6 +61,7 @@ def env_config_for(model: Model, base: EnvConfig | None = None, **overrides) -> 
 
     base = base or EnvConfig()
     fields = {"min_visible_pixels": model.min_visible_pixels, "site_association": model.site_association,
+              "camera_curve": model.camera_curve if model.detector == "visibility" else None,
               **overrides}
     return replace(base, **fields)
 
@@ -120,6 +122,7 @@ class EpisodeRunner:
         self.planner = make_planner(config.planner, model,
                                     rng=np.random.default_rng([config.seed, 0x9E7]))
         self.state = EpisodeState()
+        self.views: ViewModel | None = None  # built at start, from the environment's geometry
         self.last_decision = None
         self._seen_executor_events = 0
         self._started = False
@@ -161,6 +164,11 @@ class EpisodeRunner:
         pose = self.env.reset(self.config.seed)
         self._started = True
         model = self.model
+        expected = None
+        if not model.close_looks_only:
+            categories = sorted({self.scenario.object(o).category for o in self.belief.objects})
+            expected = self.env.expected_pixel_counts(categories)
+        self.views = ViewModel(self.scenario, model, self.belief.objects, expected)
         return self._write({
             "event": "episode_start",
             "scenario": self.scenario.name, "scenario_file": self.scenario.source,
@@ -173,10 +181,17 @@ class EpisodeRunner:
                            "detection": {"miss_likelihood": model.miss_likelihood,
                                          "false_positive_rate": model.false_positive_rate,
                                          "positive_update": model.positive_update,
-                                         "prior_floor": model.prior_floor},
+                                         "prior_floor": model.prior_floor,
+                                         "detector": model.detector,
+                                         "visibility": (model.detection_curve.to_json()
+                                                        if model.detection_curve else None),
+                                         "room_glances": model.room_glances},
                            "transition_form": model.transition_form},
             "sites": [{"name": s.name, "room": s.room, "vantage": list(s.vantage),
                        "position": list(s.position)} for s in self.scenario.sites],
+            "viewpoints": [{"name": v.name, "kind": v.kind, "position": list(v.position),
+                            "sites": list(v.sites), "room": v.room}
+                           for v in self.scenario.viewpoints if v.name in self.views.names],
             "objects": list(self.scenario.object_names),
             "searched": self.executor.pending_search_objects(),
             "graph": self.graph.to_json(),
@@ -236,26 +251,40 @@ class EpisodeRunner:
         distances = distances_for(self.model, self.scenario, (pose.x, pose.y),
                                   geodesic=_EnvDistances(self.env))
         excluded = frozenset(self.executor.excluded_sites)
+        views = None if self.model.close_looks_only else self.views
+        extra = {"views": views} if views is not None else {}
         decision = self.planner.choose(self.belief, objects, relevance, distances,
-                                       dict(self.state.inspected), excluded)
+                                       dict(self.state.inspected), excluded, **extra)
         self.last_decision = decision
+        viewpoint = decision.site
+        view = self.views.view(viewpoint)
         self._write({"event": "decision", "serving": action.id, "objects": objects,
                      "relevance": relevance, "inspected": dict(self.state.inspected),
                      "excluded": sorted(excluded), **decision.to_json()})
-        result = self.env.inspect_site(decision.site, objects)
+        result = self.env.inspect_viewpoint(viewpoint, objects)
         moved = self._advance(result)
         if not result.reachable:
-            self.executor.fail(action, "unreachable", site=decision.site)
+            self.executor.fail(action, "unreachable", site=viewpoint)
             event = self._flush_executor(merge_last=True) or {}
             self._write({**event, "event": "action_failed", "action": action.id,
-                         "site": decision.site, "reason": "unreachable", **moved})
+                         "site": viewpoint, "reason": "unreachable", **moved})
             return
-        update = self.belief.observe_site(decision.site, result.detections)
+        found = {o: (result.found_at.get(o) if seen else None)
+                 for o, seen in result.detections.items()}
+        update = self.belief.observe_view(view, found)
         if any(v is False for v in result.detections.values()):
-            self.state.inspected[decision.site] = self.state.inspected.get(decision.site, 0) + 1
+            self.state.inspected[viewpoint] = self.state.inspected.get(viewpoint, 0) + 1
+        in_view = [self.belief.sites[j] for j in view.sites]
+        probability = self.views.probabilities(viewpoint)
         self._write({
-            "event": "observation", "site": decision.site, "objects": objects,
-            "detections": dict(result.detections), "pixel_counts": dict(result.pixel_counts),
+            "event": "observation", "site": viewpoint, "viewpoint": viewpoint,
+            "viewpoint_kind": view.kind, "sites_in_view": in_view, "objects": objects,
+            "detections": dict(result.detections), "found_at": dict(result.found_at),
+            "pixel_counts": dict(result.pixel_counts),
+            "detection_probability": {o: probability[o] for o in objects},
+            "site_pixel_counts": {o: dict(result.view_pixels.get(o, {s: result.pixel_counts.get(o, 0)
+                                                                   for s in in_view}))
+                                  for o in objects},
             "resolved": list(update.detected),
             "before": {o: update.before[o] for o in objects},
             "after": {o: update.after[o] for o in objects},
@@ -263,7 +292,7 @@ class EpisodeRunner:
             "entropy_after": {o: entropy(update.after[o]) for o in objects},
             **moved})
         for obj in update.detected:
-            self.executor.confirm_search(obj, decision.site)
+            self.executor.confirm_search(obj, found[obj])
         self._flush_executor()
 
     # ------------------------------------------------------------------ state inspections
@@ -355,6 +384,9 @@ class EpisodeRunner:
 
 
 def _env_params(config: EnvConfig) -> dict:
-    out = asdict(config)
+    from dataclasses import fields
+
+    out = {f.name: getattr(config, f.name) for f in fields(config)}
     out["failure_rates"] = dict(config.failure_rates)
+    out["camera_curve"] = config.camera_curve.to_json() if config.camera_curve else None
     return out

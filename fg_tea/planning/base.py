@@ -88,20 +88,21 @@ class DistanceTable:
 
 
 def euclidean_distances(scenario: Scenario, agent_xy: Sequence[float]) -> DistanceTable:
-    """Straight-line distances between the agent and the sites' vantage points (ablation, 15.4).
+    """Straight-line distances between the agent and every viewpoint's floor point (ablation, 15.4).
 
     Args:
-        scenario: the house; only site vantage coordinates are read.
+        scenario: the house; only viewpoint coordinates (site and room vantages) are read.
         agent_xy: the agent's floor position (x, y) in metres.
 
     Returns:
         A :class:`DistanceTable` of kind ``"euclidean"``.
     """
-    pts = np.array([s.vantage for s in scenario.sites], dtype=float)  # (K, 2)
+    viewpoints = scenario.viewpoints  # every site's close vantage, then the room vantages
+    pts = np.array([v.position for v in viewpoints], dtype=float)  # (K + R, 2)
     agent = np.asarray(agent_xy, dtype=float).reshape(2)
     to_agent = np.linalg.norm(pts - agent[None, :], axis=1)
     matrix = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
-    return DistanceTable(scenario.site_names, tuple(float(x) for x in to_agent),
+    return DistanceTable(tuple(v.name for v in viewpoints), tuple(float(x) for x in to_agent),
                          tuple(tuple(float(x) for x in row) for row in matrix), "euclidean")
 
 
@@ -118,18 +119,21 @@ def distance_matrix(distances: DistanceModel, sites: Sequence[str]) -> np.ndarra
 # ---------------------------------------------------------------------------------- decisions
 @dataclass(frozen=True)
 class Candidate:
-    """One scored inspection "look at `site` for `object`" (eqs. 12, 16).
+    """One scored inspection "look from `site` for `object`" (eqs. 12, 16).
 
     Attributes:
         object: the object whose belief and relevance are scored.
-        site: the site to inspect.
-        distance: d_j, metres from the agent to the site's vantage point.
-        probability: q(L_o = j) in [0, 1].
+        site: the viewpoint to look from: a site's name (its close look) or a room vantage.
+        distance: d_j, metres from the agent to the viewpoint's floor point.
+        probability: q(L_o = j) in [0, 1] for a close look; for a viewpoint scored over what it
+            sees, the chance the look finds o relative to a clear close look (docs/design.md,
+            "Planning over viewpoints").
         information_gain: I(o, j) in nats (eq. 11, or the joint form of :mod:`.efe`).
         repeat: how many times `site` was already inspected with negative evidence in this search.
         relevance: r_o in [0, 1] (eq. 15).
         base: G_base(o, j) of eq. 12 (planners that are not EFE put their own score here).
         total: the score the planner minimises (eq. 16 for EFE); lower is better.
+        kind: ``"site"`` (close look) or ``"room"`` (room glance).
     """
 
     object: str
@@ -141,9 +145,15 @@ class Candidate:
     relevance: float
     base: float
     total: float
+    kind: str = "site"
+
+    @property
+    def viewpoint(self) -> str:
+        return self.site
 
     def to_json(self) -> dict:
-        return {"object": self.object, "site": self.site, "distance": float(self.distance),
+        return {"object": self.object, "site": self.site, "viewpoint": self.site,
+                "viewpoint_kind": self.kind, "distance": float(self.distance),
                 "probability": float(self.probability),
                 "information_gain": float(self.information_gain), "repeat": int(self.repeat),
                 "relevance": float(self.relevance), "base": float(self.base),
@@ -177,9 +187,20 @@ class Decision:
                 return c
         raise LookupError(f"decision ({self.object}, {self.site}) is not among its candidates")
 
+    @property
+    def viewpoint(self) -> str:
+        """The viewpoint to look from (the chosen site's name for a close look)."""
+        return self.site
+
+    @property
+    def kind(self) -> str:
+        """``"site"`` (close look) or ``"room"`` (room glance)."""
+        return self.chosen.kind
+
     def to_json(self) -> dict:
         """A JSON-serialisable record: the choice, planner info and every candidate with every term."""
         return {"planner": self.planner, "object": self.object, "site": self.site,
+                "viewpoint": self.site, "viewpoint_kind": self.kind,
                 "total": float(self.total), "info": dict(self.info),
                 "candidates": [c.to_json() for c in self.candidates]}
 
@@ -192,8 +213,8 @@ class Planner(Protocol):
 
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
-               excluded_sites: frozenset[str] = frozenset()) -> Decision:
-        """Pick the next (object, site).
+               excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
+        """Pick the next (object, viewpoint).
 
         Args:
             belief: a :class:`~fg_tea.beliefs.engine.BeliefEngine` (read only).
@@ -201,7 +222,10 @@ class Planner(Protocol):
             relevance: object -> r_o in [0, 1] (eq. 15) for every object in `objects`.
             distances: travel distances from the agent's current position (metres).
             inspected: site -> times inspected with negative evidence in the current search.
-            excluded_sites: sites that must not be chosen (e.g. unreachable).
+            excluded_sites: sites and viewpoints that must not be chosen (e.g. unreachable).
+            views: the agent's :class:`~fg_tea.beliefs.detection.ViewModel` (viewpoints and
+                detection probabilities), or None for one close look per site with the
+                threshold detector. Planners that search by site may choose only close looks.
 
         Returns:
             The :class:`Decision`.
@@ -211,7 +235,7 @@ class Planner(Protocol):
 
 # ---------------------------------------------------------------------------------- shared checks
 def check_inputs(belief, objects: Sequence[str], relevance: Mapping[str, float],
-                 excluded_sites: frozenset[str]) -> tuple[list[int], list[int]]:
+                 excluded_sites: frozenset[str], views=None) -> tuple[list[int], list[int]]:
     """Validate a planner call; return object indices (caller's order) and eligible site indices.
 
     Raises:
@@ -234,8 +258,9 @@ def check_inputs(belief, objects: Sequence[str], relevance: Mapping[str, float],
             raise ValueError(f"planner: relevance of {o!r} is {r}, outside [0, 1] (eq. 15)")
         obj_idx.append(known.index(o))
     sites = list(belief.sites)
+    viewpoints = set(views.names) if views is not None else set()
     for s in excluded_sites:
-        if s not in sites:
+        if s not in sites and s not in viewpoints:
             raise ValueError(f"planner: unknown excluded site {s!r}")
     eligible = [j for j, s in enumerate(sites) if s not in excluded_sites]
     if not eligible:

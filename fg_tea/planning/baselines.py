@@ -34,15 +34,15 @@ def _fresh_sites(eligible: list[int], counts: np.ndarray) -> list[int]:
 
 def _site_decision(name: str, belief, objects: Sequence[str], relevance: Mapping[str, float],
                    distances: DistanceModel, inspected: Mapping[str, int],
-                   excluded_sites: frozenset[str], score: Callable[[list[int], np.ndarray], np.ndarray]
-                   ) -> Decision:
+                   excluded_sites: frozenset[str], score: Callable[[list[int], np.ndarray], np.ndarray],
+                   views=None) -> Decision:
     """A site-level baseline: score the least-inspected eligible sites for the most relevant object.
 
     Args:
         score: (pool of site indices, distances d of all sites) -> one total per pool site;
             the smallest wins (first in site order on ties).
     """
-    _, eligible = check_inputs(belief, objects, relevance, excluded_sites)
+    _, eligible = check_inputs(belief, objects, relevance, excluded_sites, views)
     sites = list(belief.sites)
     d = distance_vector(distances, sites)
     counts = repeat_counts(inspected, sites)
@@ -67,9 +67,9 @@ class NearestPlanner:
 
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
-               excluded_sites: frozenset[str] = frozenset()) -> Decision:
+               excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
         return _site_decision(self.name, belief, objects, relevance, distances, inspected,
-                              excluded_sites, lambda pool, d: d[pool])
+                              excluded_sites, lambda pool, d: d[pool], views)
 
 
 class GreedyProbabilityPlanner:
@@ -83,8 +83,8 @@ class GreedyProbabilityPlanner:
 
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
-               excluded_sites: frozenset[str] = frozenset()) -> Decision:
-        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites)
+               excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
+        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites, views)
         sites = list(belief.sites)
         q = belief.location_matrix()[obj_idx]
         d = distance_vector(distances, sites)
@@ -116,9 +116,9 @@ class RandomPlanner:
 
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
-               excluded_sites: frozenset[str] = frozenset()) -> Decision:
+               excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
         return _site_decision(self.name, belief, objects, relevance, distances, inspected,
-                              excluded_sites, lambda pool, d: self.rng.random(len(pool)))
+                              excluded_sites, lambda pool, d: self.rng.random(len(pool)), views)
 
 
 __all__ = ["NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner", "FactorisedEFEPlanner"]

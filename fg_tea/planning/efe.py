@@ -162,6 +162,87 @@ def joint_information_gain(joint: np.ndarray, unresolved: Sequence[int], mu: flo
     return out
 
 
+def view_factorised_information_gain(q: np.ndarray, prob: np.ndarray, miss: np.ndarray,
+                                    p_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eqs. 10-11 over what one look sees, for every object (docs/design.md, "Planning over
+    viewpoints").
+
+    Args:
+        q: location marginals, shape (n, K).
+        prob: p_{o,a}, shape (n, K): the chance the look shows o if o stands at site a (0 for
+            sites out of view).
+        miss: the miss likelihood l(a) of the look, shape (n, K) (1 for sites out of view).
+        p_max: the detector's best detection probability (a clear close look).
+
+    Returns:
+        (find, gain), each shape (n,): find = sum_a q(a) p(a) / p_max, the chance the look finds
+        o relative to a clear close look (q(L_o = j) for a close look at j with the threshold
+        detector); gain = H(q) - (1 - find) H(q^{-v}) with q^{-v} ∝ q l, the miss posterior.
+    """
+    find = (q * prob).sum(axis=1) / p_max
+    post = q * miss
+    post = post / post.sum(axis=1, keepdims=True)
+    return find, entropies(q) - (1.0 - find) * entropies(post)
+
+
+def view_joint_information_gain(joint: np.ndarray, unresolved: Sequence[int], sites: Sequence[int],
+                                prob: np.ndarray, fp: float) -> np.ndarray:
+    """Exact I(L_o; D_v) over the joint outcome of one look covering `sites`.
+
+    Each unresolved object u's outcome D_u is "seen at in-view site c" (c = 1..m) or "not seen"
+    (0), independently given the locations:
+
+        P(D_u = c | L_u = a) = p_{u,c} if a = s_c, else fp;   P(D_u = 0 | a) = 1 - sum_c P(D_u = c | a).
+
+    I(L_o; D_v) = H(L_o) + H(D_v) - H(L_o, D_v), with D_v = (D_u)_u. The outcome model depends on
+    every other object's site only through its class (which in-view site, or outside), so each
+    other axis of P(L_U) is contracted against its (K, m + 1) outcome table once.
+
+    Args:
+        joint: P(L_1, ..., L_N), shape (K,) * N, belief order.
+        unresolved: object axes whose outcome the look reports; the result follows this order.
+        sites: in-view site indices s_1..s_m.
+        prob: p_{u,c}, shape (len(unresolved), m).
+        fp: P(seen at one in-view site | elsewhere), per site.
+
+    Returns:
+        I, shape (len(unresolved),), nats.
+    """
+    joint = np.asarray(joint, dtype=float)
+    n_all, k = joint.ndim, joint.shape[0]
+    unresolved = list(unresolved)
+    n, m = len(unresolved), len(sites)
+    others = tuple(a for a in range(n_all) if a not in unresolved)
+    p_u = joint.sum(axis=others) if others else joint
+    order = sorted(unresolved)
+    p_u = np.transpose(p_u, [order.index(u) for u in unresolved])
+    # F[u][a, d] = P(D_u = d | L_u = a), shape (K, m + 1).
+    tables = []
+    for u in range(n):
+        f = np.zeros((k, m + 1))
+        f[:, 1:] = fp
+        for c, s in enumerate(sites):
+            f[s, 1:] = fp
+            f[s, 1 + c] = prob[u, c]
+        f[:, 0] = 1.0 - f[:, 1:].sum(axis=1)
+        tables.append(np.clip(f, 0.0, 1.0))
+    out = np.empty(n)
+    for u in range(n):
+        r = p_u
+        # Contract every other axis against its outcome table; the object's own axis stays first.
+        r = np.moveaxis(r, u, 0)
+        rest = [b for b in range(n) if b != u]
+        for b in rest:
+            r = np.tensordot(r, tables[b], axes=([1], [0]))  # consumes axis 1, appends outcome axis
+        r = r.reshape(k, -1)                                   # P(L_o = a, D_{-o})
+        full = tables[u][:, :, None] * r[:, None, :]           # P(L_o = a, D_o, D_{-o})
+        h_joint = entropies(full.reshape(1, -1))[0]
+        h_d = entropies(full.sum(axis=0).reshape(1, -1))[0]
+        h_o = entropies(full.sum(axis=(1, 2)).reshape(1, -1))[0]
+        out[u] = h_o + h_d - h_joint
+    return out
+
+
 class EFEPlanner:
     """The EFE-style planner of eqs. 12-17.
 
@@ -200,8 +281,15 @@ class EFEPlanner:
 
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
-               excluded_sites: frozenset[str] = frozenset()) -> Decision:
-        """Score every (object, eligible site) pair by eq. 16 and return the argmin (eq. 17)."""
+               excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
+        """Score every (object, eligible site) pair by eq. 16 and return the argmin (eq. 17).
+
+        With `views` (a :class:`~fg_tea.beliefs.detection.ViewModel`), candidates are
+        (object, viewpoint) pairs scored over what each look sees (:meth:`choose_view`).
+        """
+        if views is not None:
+            return self.choose_view(belief, objects, relevance, distances, inspected,
+                                    excluded_sites, views)
         obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites)
         w = self.weights
         sites = list(belief.sites)
@@ -226,6 +314,64 @@ class EFEPlanner:
                         self.name, info)
 
 
+    def choose_view(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
+                    distances: DistanceModel, inspected: Mapping[str, int],
+                    excluded: frozenset[str], views) -> Decision:
+        """Eq. 16 over viewpoints (docs/design.md, "Planning over viewpoints"):
+
+            G(o, v) = w_d d_v - w_p find(o, v) - w_e I(o, v) + w_a n_v - lambda r_o,
+
+        find(o, v) = sum_{j in view} q(L_o = j) p_{o,j} / p_max; I from
+        :func:`view_factorised_information_gain` (factorised mode) or the exact mutual
+        information of :func:`view_joint_information_gain` (joint mode); n_v counts earlier
+        looks from v that left an object unseen.
+        """
+        obj_idx, _ = check_inputs(belief, objects, relevance, excluded, views)
+        w = self.weights
+        sites = list(belief.sites)
+        k = len(sites)
+        eligible = [v for v in views.views if v.name not in excluded]
+        if not eligible:
+            raise ValueError("planner: every viewpoint is excluded")
+        mode = self.information
+        if mode == "auto":
+            mode = "joint" if belief.correlated else "factorised"
+        q_all = belief.location_matrix()
+        q = q_all[obj_idx]
+        joint = belief.location_joint() if mode == "joint" else None
+        fp = belief.model.false_positive_rate
+        n, m = len(objects), len(eligible)
+        find, gain = np.empty((n, m)), np.empty((n, m))
+        for c, v in enumerate(eligible):
+            prob = v.probability_over_sites(k)[obj_idx]
+            miss = np.ones((n, k))
+            miss[:, list(v.sites)] = v.miss[obj_idx]
+            find[:, c], factorised = view_factorised_information_gain(q, prob, miss, views.max_probability)
+            if mode == "joint":
+                gain[:, c] = view_joint_information_gain(joint, obj_idx, v.sites,
+                                                         v.probability[obj_idx], fp)
+            else:
+                gain[:, c] = factorised
+        d = np.array([float(distances.from_agent(v.name)) for v in eligible])
+        counts = np.array([int(inspected.get(v.name, 0)) for v in eligible])
+        if np.any(counts < 0):
+            raise ValueError("planner: inspection counts must be non-negative")
+        r = np.array([float(relevance[o]) for o in objects])
+        base = (w.distance_weight * d[None, :] - w.probability_weight * find
+                - w.information_weight * gain + w.repeat_penalty * counts[None, :].astype(float))
+        total = base - w.relevance_weight * r[:, None]
+        candidates = [Candidate(o, v.name, float(d[c]), float(find[i, c]), float(gain[i, c]),
+                                int(counts[c]), float(r[i]), float(base[i, c]), float(total[i, c]),
+                                v.kind)
+                      for i, o in enumerate(objects) for c, v in enumerate(eligible)]
+        i, c = np.unravel_index(int(np.argmin(total)), total.shape)
+        info = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
+                "w_e": w.information_weight, "w_a": w.repeat_penalty, "lambda": w.relevance_weight,
+                "distance": str(getattr(distances, "kind", w.distance)), "viewpoints": m}
+        return Decision(objects[i], eligible[c].name, float(total[i, c]), tuple(candidates),
+                        self.name, info)
+
+
 class FactorisedEFEPlanner(EFEPlanner):
     """The blueprint's agent: eqs. 10-11 on the marginals, even when the belief is joint."""
 
@@ -236,4 +382,5 @@ class FactorisedEFEPlanner(EFEPlanner):
 
 
 __all__ = ["EFEPlanner", "FactorisedEFEPlanner", "factorised_information_gain",
-           "joint_information_gain", "entropies"]
+           "joint_information_gain", "view_factorised_information_gain",
+           "view_joint_information_gain", "entropies"]

@@ -169,14 +169,14 @@ class OptimalPlanner:
 
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
-               excluded_sites: frozenset[str] = frozenset()) -> Decision:
+               excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
         """The first inspection of an optimal search; candidates carry each first site's expected travel.
 
         Raises:
             ValueError: more open sites than `max_sites`, more truths than `max_truths`, or
                 the usual input faults of :func:`~fg_tea.planning.base.check_inputs`.
         """
-        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites)
+        obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites, views)
         sites = list(belief.sites)
         counts = repeat_counts(inspected, sites)
         fewest = min(int(counts[j]) for j in eligible)

@@ -1,0 +1,149 @@
+"""The agent's observation model of a look: which sites a viewpoint sees, and how well.
+
+This module answers, for the agent, *what can one look show?* (docs/design.md, "Viewpoints" and
+"Detection from visibility"). A viewpoint is a site's close vantage or a room glance; one look
+from it covers its sites in view, and for every object o and in-view site j the model expects
+
+    p_{o,j} = P(o seen | o stands at j, look from v)
+
+— the probability the detector reports o if o is there. It enters the miss factor
+l(a) = 1 - p_{o,a} for a in view (1 elsewhere) and the planner's score. Where p comes from:
+
+- ``detector = "threshold"`` (eq. 29; the pre-viewpoint model): a close look shows every object
+  on its site, p = 1 - mu (mu the miss likelihood of eqs. 5-6). A room glance shows an object
+  with p = 1 - mu where its expected pixel count reaches ``min_visible_pixels``, else 0.
+- ``detector = "visibility"`` (eq. 30): p = the agent's assumed visibility curve evaluated at the
+  pixel count n^(c, j, v) that an object of o's category c would cover standing alone at j seen
+  from v. That count is computed by the environment from the house geometry and the object
+  models alone, never from where objects truly are, and handed over once per house.
+
+Nothing here imports a simulator: the expected pixel counts arrive as numbers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from fg_tea.model import Model
+from fg_tea.scenario import Scenario
+
+#: Expected pixels: viewpoint -> site -> object category -> pixels.
+PixelTable = Mapping[str, Mapping[str, Mapping[str, float]]]
+
+
+@dataclass(frozen=True)
+class View:
+    """One viewpoint as the agent models it.
+
+    Attributes:
+        name: the viewpoint's name (a site's name for its close look).
+        kind: ``"site"`` (close look) or ``"room"`` (room glance).
+        room: the room the viewpoint looks into.
+        sites: belief indices of the sites in view.
+        probability: shape (N objects in belief order, len(sites)); p_{o,j} in [0, 1].
+        miss: the same shape; the miss likelihood 1 - p_{o,j} of eqs. 5-6 (mu itself for the
+            threshold detector's close look, so the pre-viewpoint factors are reproduced exactly).
+        pixels: expected pixel counts of the same shape (NaN where none were computed).
+    """
+
+    name: str
+    kind: str
+    room: str
+    sites: tuple[int, ...]
+    probability: np.ndarray
+    miss: np.ndarray
+    pixels: np.ndarray
+
+    def probability_over_sites(self, n_sites: int) -> np.ndarray:
+        """p_{o,a} over all K sites, shape (N, K): zero outside the view."""
+        out = np.zeros((self.probability.shape[0], n_sites))
+        out[:, list(self.sites)] = self.probability
+        return out
+
+
+class ViewModel:
+    """Every viewpoint the agent may look from, with its detection probabilities.
+
+    Args:
+        scenario: the house (sites, room vantages, object categories; never truth).
+        model: the agent's model (detector kind, assumed curve, miss likelihood, glances switch).
+        objects: belief object order (default: the scenario's).
+        expected_pixels: viewpoint -> site -> category -> expected pixels, from the environment's
+            :meth:`~fg_tea.env.base.EnvAdapter.expected_pixel_counts`. Needed unless the model
+            uses the threshold detector with close looks only.
+
+    Raises:
+        ValueError: expected pixels are needed but missing, or lack a viewpoint, site or category.
+    """
+
+    def __init__(self, scenario: Scenario, model: Model, objects: Sequence[str] | None = None,
+                 expected_pixels: PixelTable | None = None) -> None:
+        self.model = model
+        self.sites = scenario.site_names
+        self.objects = tuple(objects) if objects is not None else scenario.object_names
+        categories = [scenario.object(o).category for o in self.objects]
+        site_index = {s: i for i, s in enumerate(self.sites)}
+        mu = model.miss_likelihood
+        if model.detector == "visibility":
+            self.max_probability = float(model.detection_curve.max_probability)
+        else:
+            self.max_probability = 1.0 - mu
+        needs_pixels = not model.close_looks_only
+        if needs_pixels and expected_pixels is None:
+            raise ValueError(f"model {model.name!r} needs the expected pixel counts of every "
+                             "viewpoint (room glances or the visibility detector)")
+        views = []
+        for vp in scenario.viewpoints:
+            if vp.kind == "room" and not model.room_glances:
+                continue
+            n_view = len(vp.sites)
+            pixels = np.full((len(self.objects), n_view), np.nan)
+            if needs_pixels:
+                table = expected_pixels.get(vp.name)
+                if table is None:
+                    raise ValueError(f"no expected pixel counts for viewpoint {vp.name!r}")
+                for c, s in enumerate(vp.sites):
+                    for o, cat in enumerate(categories):
+                        try:
+                            pixels[o, c] = float(table[s][cat])
+                        except KeyError:
+                            raise ValueError(f"no expected pixel count for category {cat!r} at "
+                                             f"site {s!r} from viewpoint {vp.name!r}") from None
+            if model.detector == "visibility":
+                curve = model.detection_curve
+                prob = np.array([[curve.probability(cat, pixels[o, c]) for c in range(n_view)]
+                                 for o, cat in enumerate(categories)])
+            elif vp.kind == "site":
+                prob = np.full((len(self.objects), n_view), 1.0 - mu)
+            else:
+                prob = np.where(pixels >= model.min_visible_pixels, 1.0 - mu, 0.0)
+            prob = prob.reshape(len(self.objects), n_view)
+            miss = (np.full(prob.shape, mu) if model.detector == "threshold" and vp.kind == "site"
+                    else 1.0 - prob)
+            views.append(View(vp.name, vp.kind, vp.room, tuple(site_index[s] for s in vp.sites),
+                              prob, miss, pixels))
+        self.views: tuple[View, ...] = tuple(views)
+        self._by_name = {v.name: v for v in self.views}
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(v.name for v in self.views)
+
+    def view(self, name: str) -> View:
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise KeyError(f"no viewpoint {name!r} in this model's views "
+                           f"(room glances {'on' if self.model.room_glances else 'off'})") from None
+
+    def probabilities(self, name: str) -> dict[str, dict[str, float]]:
+        """p_{o,j} of one viewpoint as object -> in-view site -> probability (for the log)."""
+        v = self.view(name)
+        return {o: {self.sites[j]: float(v.probability[i, c]) for c, j in enumerate(v.sites)}
+                for i, o in enumerate(self.objects)}
+
+
+__all__ = ["View", "ViewModel", "PixelTable"]
