@@ -177,7 +177,9 @@ def summary(events: list[dict]) -> str:
     for e in events:
         if e.get("event") == "observation":
             for obj in e.get("resolved", []):
-                sites[obj] = e["site"]
+                at = e.get("found_at", {}).get(obj, e["site"])
+                glance = e.get("viewpoint_kind") == "room"
+                sites[obj] = f"{at} (from the {e['site']} glance)" if glance else at
     for obj, n in sorted(m["inspections_until_resolved"].items(), key=lambda kv: kv[1] or 10 ** 9):
         found.append(f"the {obj} on {sites[obj]} after {n} inspection{'s' * (n != 1)}"
                      if n is not None else f"never the {obj}")

@@ -40,6 +40,7 @@ from typing import Iterable, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
+from fg_tea.beliefs.detection import found_from_log, view_from_log
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.episode.log import iter_events
 from fg_tea.model import Model, load_model
@@ -83,9 +84,9 @@ def replay_location_evidence(events: Sequence[Mapping], scenario: Scenario | str
                              model: Model | str | Path) -> list[dict]:
     """Re-feed every logged inspection into a fresh belief engine of `model`.
 
-    Each ``observation`` event's site and detections (True = seen, False = looked and not seen,
-    absent = not considered) go through :meth:`BeliefEngine.observe_site` in log order, whatever
-    model the episode itself ran.
+    Each ``observation`` event's view (sites in view and the detection probabilities the agent
+    used) and detections (seen at a site, looked and not seen, absent = not considered) go
+    through :meth:`BeliefEngine.observe_view` in log order, whatever model the episode itself ran.
 
     Args:
         events: one episode's events (:func:`fg_tea.episode.log.read_log`, or ``runner.events``).
@@ -100,10 +101,12 @@ def replay_location_evidence(events: Sequence[Mapping], scenario: Scenario | str
     Raises:
         fg_tea.errors.ContradictionError: the evidence has probability zero under `model`.
     """
-    engine = BeliefEngine(_scenario(scenario), _model(model))
+    model = _model(model)
+    engine = BeliefEngine(_scenario(scenario), model)
     snapshots = [engine.snapshot()]
     for event in iter_events(list(events), "observation"):
-        engine.observe_site(event["site"], {o: bool(v) for o, v in event["detections"].items()})
+        view = view_from_log(event, engine.sites, engine.objects, model)
+        engine.observe_view(view, found_from_log(event))
         snapshots.append(engine.snapshot())
     return snapshots
 

@@ -80,11 +80,15 @@ def test_prior_violation_moves_belief_away_from_inspected_sites():
     assert len(misses) >= 1
     sites = runner.belief.sites
     for e in misses:
-        j = sites.index(e["site"])
-        assert e["after"]["mug"][j] < e["before"]["mug"][j]
-        # the mass moved elsewhere: the true (low-prior) site gained
-        assert e["after"]["mug"][sites.index("study_shelf")] > e["before"]["mug"][sites.index("study_shelf")]
-    assert observations[found_at]["site"] == "study_shelf"
+        for site in e["sites_in_view"]:
+            j = sites.index(site)
+            if e["detection_probability"]["mug"][site] > 0:
+                assert e["after"]["mug"][j] < e["before"]["mug"][j]
+        # the mass moved elsewhere: the true (low-prior) site gained unless it was in view
+        if "study_shelf" not in e["sites_in_view"]:
+            k = sites.index("study_shelf")
+            assert e["after"]["mug"][k] > e["before"]["mug"][k]
+    assert observations[found_at]["found_at"]["mug"] == "study_shelf"
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
@@ -109,7 +113,7 @@ def test_log_is_event_sourced_and_rescorable(tmp_path):
     decision = next(e for e in events if e["event"] == "decision")
     terms = {"distance", "probability", "information_gain", "repeat", "relevance", "total"}
     assert all(terms <= set(c) for c in decision["candidates"])
-    assert len(decision["candidates"]) == len(decision["objects"]) * len(start["sites"])
+    assert len(decision["candidates"]) == len(decision["objects"]) * len(start["viewpoints"])
     observation = next(e for e in events if e["event"] == "observation")
     assert set(observation["pixel_counts"]) == set(observation["detections"]) == set(observation["objects"])
     action = next(e for e in events if e["event"] == "action")
@@ -172,7 +176,7 @@ def test_frame_limit_truncates_with_reason():
 def test_injected_fill_failure_is_recovered_in_a_full_episode():
     s, m = load_scenario("default_apartment"), load_model("factorised")
     env = FakeHouse(s, env_config_for(m, failure_rates={"FILL": 0.5}))
-    runner = EpisodeRunner(s, m, env, RunConfig(seed=3))  # regression: seed 3 fails the first fill
+    runner = EpisodeRunner(s, m, env, RunConfig(seed=4))  # regression: seed 4 fails the first fill once
     runner.run()
     failed = [e for e in runner.events if e["event"] == "action_failed"]
     assert len(failed) == 1

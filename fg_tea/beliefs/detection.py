@@ -64,6 +64,36 @@ class View:
         return out
 
 
+def view_from_log(event: Mapping, sites: Sequence[str], objects: Sequence[str], model: Model) -> View:
+    """The :class:`View` an ``observation`` event was absorbed with, rebuilt from the log.
+
+    Uses the logged ``sites_in_view`` and ``detection_probability``; logs written before
+    viewpoints existed (neither field) are close looks with p = 1 - mu. Where p equals 1 - mu the
+    miss likelihood is mu itself, as the threshold detector's close look uses it.
+    """
+    index = {s: i for i, s in enumerate(sites)}
+    in_view = list(event.get("sites_in_view") or [event["site"]])
+    logged = event.get("detection_probability") or {}
+    mu = model.miss_likelihood
+    prob = np.zeros((len(objects), len(in_view)))
+    for o, obj in enumerate(objects):
+        row = logged.get(obj)
+        for c, site in enumerate(in_view):
+            prob[o, c] = float(row[site]) if row is not None else 1.0 - mu
+    miss = np.where(prob == 1.0 - mu, mu, 1.0 - prob)
+    kind = event.get("viewpoint_kind", "site")
+    name = event.get("viewpoint", event["site"])
+    return View(name, kind, "", tuple(index[s] for s in in_view), prob, miss,
+                np.full(prob.shape, np.nan))
+
+
+def found_from_log(event: Mapping) -> dict[str, str | None]:
+    """object -> the in-view site it was seen at, or None (looked, not seen), from an event."""
+    found_at = event.get("found_at") or {}
+    return {o: (found_at.get(o, event["site"]) if seen else None)
+            for o, seen in event["detections"].items()}
+
+
 class ViewModel:
     """Every viewpoint the agent may look from, with its detection probabilities.
 
@@ -146,4 +176,4 @@ class ViewModel:
                 for i, o in enumerate(self.objects)}
 
 
-__all__ = ["View", "ViewModel", "PixelTable"]
+__all__ = ["View", "ViewModel", "PixelTable", "view_from_log", "found_from_log"]
