@@ -182,7 +182,7 @@ def milk_parts() -> list[Part]:
     slope = math.radians(35)
     return [
         Part("box", (0.035, 0.035, 0.085), MILK_WHITE, pos=(0.0, 0.0, 0.085)),
-        Part("box", (0.0355, 0.0355, 0.018), MILK_CAP, pos=(0.0, 0.0, 0.11)),
+        Part("box", (0.0355, 0.0355, 0.03), MILK_CAP, pos=(0.0, 0.0, 0.105)),
         Part("box", (0.021, 0.035, 0.004), MILK_WHITE, pos=(0.017, 0.0, 0.182), rpy=(0.0, slope, 0.0)),
         Part("box", (0.021, 0.035, 0.004), MILK_WHITE, pos=(-0.017, 0.0, 0.182), rpy=(0.0, -slope, 0.0)),
         Part("box", (0.004, 0.035, 0.01), MILK_WHITE, pos=(0.0, 0.0, 0.192)),
