@@ -281,12 +281,15 @@ def test_unreadable_files(tmp_path, model, scenario):
 
 def test_every_bundled_task_loads_under_every_bundled_model(scenario):
     tasks = sorted((ROOT / "scenarios" / "tasks").glob("*.json"))
-    assert {p.stem for p in tasks} >= {"make_tea", "heat_water"}
+    assert {p.stem for p in tasks} >= {"make_tea", "heat_water", "make_tea_milk_sugar"}
     models = sorted((ROOT / "models").glob("*.toml")) + sorted((ROOT / "models" / "ablations").glob("*.toml"))
+    five = load_scenario("milk_sugar_apartment")  # holds every object a bundled task names
+    needs_milk_and_sugar = {"make_tea_milk_sugar"}
     for model_path in models:
         for task in tasks:
-            graph = load_task(task, load_model(model_path), scenario)
-            assert len(graph) > 0
+            assert len(load_task(task, load_model(model_path), five)) > 0
+            if task.stem not in needs_milk_and_sugar:
+                assert len(load_task(task, load_model(model_path), scenario)) > 0
 
 
 def test_task_layer_never_imports_a_simulator():

@@ -1,7 +1,9 @@
-"""Assets: what do the mug, kettle, teabag, drone and house boxes look like in PyBullet?
+"""Assets: what do the mug, kettle, teabag, milk, sugar, drone and house boxes look like in PyBullet?
 
 This module answers the blueprint's asset question (section 8.1 and the validation list, item 3:
-"mug, kettle and teabag assets resolve to visually distinct templates"). Every shape is built at
+"mug, kettle and teabag assets resolve to visually distinct templates"); the milk carton and the
+sugar jar of the ``make_tea_milk_sugar`` task follow the same rules, in colours none of the
+other objects use. Every shape is built at
 run time from PyBullet primitives with ``createVisualShape`` / ``createMultiBody``; the mug uses the
 ``objects/mug.obj`` mesh that ships inside the installed ``pybullet_data`` package when present and
 falls back to a cylinder with a handle. Nothing is downloaded.
@@ -30,6 +32,10 @@ STEEL: RGBA = (0.78, 0.79, 0.82, 1.0)
 BLACK: RGBA = (0.08, 0.08, 0.09, 1.0)
 POUCH: RGBA = (0.95, 0.88, 0.70, 1.0)
 TAG: RGBA = (0.15, 0.78, 0.30, 1.0)
+MILK_WHITE: RGBA = (0.97, 0.97, 0.98, 1.0)
+MILK_CAP: RGBA = (0.58, 0.22, 0.78, 1.0)
+SUGAR_JAR: RGBA = (0.05, 0.62, 0.60, 1.0)
+SUGAR_LID: RGBA = (0.02, 0.42, 0.40, 1.0)
 ROTOR: RGBA = (1.0, 0.55, 0.08, 1.0)
 DRONE_BODY: RGBA = (0.18, 0.20, 0.24, 1.0)
 
@@ -167,6 +173,32 @@ def teabag_parts() -> list[Part]:
     ]
 
 
+def milk_parts() -> list[Part]:
+    """A 1 l milk carton: a white 0.07 x 0.07 x 0.17 m box under a gabled top, 0.20 m tall in all.
+
+    The gable is two white slopes meeting at a ridge; a purple band round the box and a purple
+    screw cap on the front (+x) slope tell it apart from the cream teabag pouch.
+    """
+    slope = math.radians(35)
+    return [
+        Part("box", (0.035, 0.035, 0.085), MILK_WHITE, pos=(0.0, 0.0, 0.085)),
+        Part("box", (0.0355, 0.0355, 0.03), MILK_CAP, pos=(0.0, 0.0, 0.105)),
+        Part("box", (0.021, 0.035, 0.004), MILK_WHITE, pos=(0.017, 0.0, 0.182), rpy=(0.0, slope, 0.0)),
+        Part("box", (0.021, 0.035, 0.004), MILK_WHITE, pos=(-0.017, 0.0, 0.182), rpy=(0.0, -slope, 0.0)),
+        Part("box", (0.004, 0.035, 0.01), MILK_WHITE, pos=(0.0, 0.0, 0.192)),
+        Part("cylinder", (0.013, 0.014), MILK_CAP, pos=(0.022, 0.0, 0.188), rpy=(0.0, slope, 0.0)),
+    ]
+
+
+def sugar_parts() -> list[Part]:
+    """A sugar jar 0.08 m across and 0.08 m tall: a teal body, a darker lid and a white knob."""
+    return [
+        Part("cylinder", (0.04, 0.062), SUGAR_JAR, pos=(0.0, 0.0, 0.031)),
+        Part("cylinder", (0.042, 0.01), SUGAR_LID, pos=(0.0, 0.0, 0.067)),
+        Part("sphere", (0.009,), MILK_WHITE, pos=(0.0, 0.0, 0.074)),
+    ]
+
+
 def drone_parts() -> list[Part]:
     """A small quadrotor, origin at its body centre, nose along +x.
 
@@ -197,6 +229,8 @@ OBJECT_ASSETS: dict[str, Callable[[], list[Part]]] = {
     "mug": mug_parts,
     "kettle": kettle_parts,
     "teabag": teabag_parts,
+    "milk": milk_parts,
+    "sugar": sugar_parts,
 }
 
 

@@ -3,7 +3,8 @@
 This module answers *what is actually the case* behind the agent's beliefs (blueprint section 7.4,
 section 10). It holds the simulator-side counterpart of the Bernoulli task states of eq. (21)
 (``kettle.contains_water`` ...), the object relations of section 10.1 (site, held, contained in),
-the deterministic truth effects of section 10.2 (fill, boil, pour, steep, serve), and the noisy
+the deterministic truth effects of section 10.2 (fill, boil, pour, steep, serve, and add_milk and
+add_sugar for the milk-and-sugar task), and the noisy
 binary sensor of eqs. (23, 24) from which the agent's state observations are drawn:
 
     P(o = 1 | z = 1) = alpha (sensitivity),    P(o = 0 | z = 0) = beta (specificity).
@@ -29,7 +30,7 @@ from fg_tea.interface import (ActionRequest, ActionResult, InspectionResult, Pos
                               StateReading)
 from fg_tea.scenario import ObjectSpec, Scenario
 
-EFFECTS = ("fill", "boil", "pour", "steep", "serve")
+EFFECTS = ("fill", "boil", "pour", "steep", "serve", "add_milk", "add_sugar")
 
 #: Truth effect a verb applies when the request names none.
 DEFAULT_EFFECT = {"FILL": "fill", "POUR": "pour"}
@@ -86,16 +87,20 @@ class TeaTruth:
             effect: one of ``fill`` (obj gains water), ``boil`` (obj's water becomes hot if it has
                 water), ``pour`` (obj's water, hot or not, moves into `destination`; obj is left
                 empty and cold), ``steep`` (obj = teabag, destination = mug: the mug's tea brews
-                iff the mug holds hot water; the teabag is steeped iff the mug holds water) and
-                ``serve`` (obj is served).
+                iff the mug holds hot water; the teabag is steeped iff the mug holds water),
+                ``serve`` (obj is served), ``add_milk`` (obj = milk: `destination` has milk) and
+                ``add_sugar`` (obj = sugar: `destination` has sugar). Adding milk or sugar
+                changes no other state: the tea stays brewed and the source is not used up.
             obj: the acted-on object.
-            destination: the receiving object for ``pour`` and ``steep``. For ``steep`` it may be
-                omitted when the teabag is contained in the mug (or obj is the mug holding it).
+            destination: the receiving object for ``pour``, ``steep``, ``add_milk`` and
+                ``add_sugar``. For ``steep`` it may be omitted when the teabag is contained in
+                the mug (or obj is the mug holding it).
             rng: accepted for adapters whose effects are stochastic; the effects here are
                 deterministic, and action failure is injected by the adapter, so it is not drawn.
 
         Raises:
-            ValueError: unknown effect, or a ``pour`` without a destination (caller errors).
+            ValueError: unknown effect, or a ``pour``, ``add_milk`` or ``add_sugar`` without a
+                destination (caller errors).
         """
         del rng  # deterministic effects; see Args
         if effect == "fill":
@@ -117,6 +122,10 @@ class TeaTruth:
                 self.set(bag, "steeped", self.get(cup, "contains_water"))
         elif effect == "serve":
             self.set(obj, "served", True)
+        elif effect in ("add_milk", "add_sugar"):
+            if destination is None:
+                raise ValueError(f"the {effect} effect needs a destination object")
+            self.set(destination, "has_milk" if effect == "add_milk" else "has_sugar", True)
         else:
             raise ValueError(f"unknown truth effect {effect!r} (known: {', '.join(EFFECTS)})")
 
