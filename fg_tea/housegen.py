@@ -629,7 +629,12 @@ def _document(house: list[Room], rects: list[Rect], doors: list[Door], names: tu
 
     kinds = ", ".join(r.name for r in house)
     label = name or f"generated_{rooms}r_seed{seed}"
-    description = (f"Generated house (fg-tea house --rooms {rooms} --seed {seed}): {rooms} rooms ({kinds}), "
+    command = f"fg-tea house --rooms {rooms} --seed {seed}"
+    if names != DEFAULT_OBJECTS:
+        command += f" --objects {','.join(names)}"
+    if name:
+        command += f" --name {name}"
+    description = (f"Generated house ({command}): {rooms} rooms ({kinds}), "
                    f"{len(sites)} semantic sites, {len(room_vantages)} room vantages. Objects placed "
                    f"from the house's own affordance priors; the kettle is empty.")
     return {
