@@ -220,14 +220,15 @@ class Piece:
     name: str
     kind: str
     rect: Rect
+    center: tuple[float, float]  # rounded; the rect is built from it and `size`
+    size: tuple[float, float]
     height: float
     vantage: tuple[float, float]
     capacity: int | None
 
     @property
     def site(self) -> tuple[float, float, float]:
-        c = self.rect.center
-        return (c[0], c[1], self.height)
+        return (self.center[0], self.center[1], self.height)
 
 
 @dataclass
@@ -365,7 +366,7 @@ def _clear(p: tuple[float, float], inner: Rect, boxes: list[Rect]) -> bool:
 
 def _sees(p: tuple[float, float], piece: Piece, others: list[Piece]) -> bool:
     """Whether the sight line from `p` to the piece's site passes no other piece."""
-    target = piece.rect.center
+    target = piece.center
     return not any(o is not piece and o.rect.grown(0.02).crosses(p, target) for o in others)
 
 
@@ -396,8 +397,9 @@ def _place_piece(room: Room, label: str, kind: str, zones: list[Rect], rng: np.r
         else:
             x1 = inner.x1 - GAP_WALL
             rect, normal = Rect(x1 - depth, c - length / 2, x1, c + length / 2), (-1.0, 0.0)
-        rect = Rect(_r(rect.x0), _r(rect.y0), _r(rect.x1), _r(rect.y1))
-        cx, cy = rect.center
+        cx, cy = _r(rect.center[0]), _r(rect.center[1])
+        sx, sy = _r(rect.x1 - rect.x0), _r(rect.y1 - rect.y0)
+        rect = Rect(cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)
         vantage = (_r(cx + normal[0] * dist), _r(cy + normal[1] * dist))
         if any(rect.overlaps(p.rect, GAP_PIECES) for p in room.pieces):
             continue
@@ -409,7 +411,7 @@ def _place_piece(room: Room, label: str, kind: str, zones: list[Rect], rng: np.r
         if any(rect.distance(p.vantage) < CLEAR_FURNITURE for p in room.pieces):
             continue
         capacity = None if length >= 1.0 else (1 if length < 0.7 else 2)
-        piece = Piece("", kind, rect, height, vantage, capacity)
+        piece = Piece("", kind, rect, (cx, cy), (sx, sy), height, vantage, capacity)
         everyone = room.pieces + [piece]
         if not _sees(vantage, piece, everyone) or not all(_sees(p.vantage, p, everyone) for p in room.pieces):
             continue
@@ -493,8 +495,7 @@ def _house_doc(rooms: list[Room], rects: list[Rect], doors: list[Door]) -> dict:
     for room in rooms:
         for p in room.pieces:
             color = [*FURNITURE_TYPES[p.kind].color, 1]
-            furniture.append({"name": p.name, "center": [_r(c) for c in p.rect.center],
-                              "size": [_r(p.rect.x1 - p.rect.x0), _r(p.rect.y1 - p.rect.y0), p.height],
+            furniture.append({"name": p.name, "center": list(p.center), "size": [*p.size, p.height],
                               "color": color})
     return {"floor": {"min": [0, 0], "max": [width, depth]}, "wall_height": WALL_HEIGHT,
             "wall_thickness": WALL_THICKNESS, "walls": walls, "furniture": furniture}
