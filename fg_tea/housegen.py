@@ -5,9 +5,9 @@ floor plan (see docs/design.md, "Scenarios"). :func:`generate_house` returns a s
 document (the format of ``scenarios/default_apartment.json`` plus ``room_vantages``), built from
 a seed alone:
 
-1. **Floor plan.** Rectangular rooms on a two-row grid (one row for fewer than four rooms is not
-   used: three rooms are two stacked rooms and one tall room). Column widths 3.4-4.6 m, row depths
-   3.4-4.4 m; with an odd room count one column holds a single tall room. Rooms that share a wall
+1. **Floor plan.** Rectangular rooms on a two-row grid of ceil(N / 2) columns (column widths
+   3.4-4.6 m, row depths 3.4-4.4 m); with an odd room count one seeded column holds a single tall
+   room spanning both rows (three rooms: two stacked rooms and a tall one). Rooms that share a wall
    are adjacent; a random spanning tree of the adjacency graph gets a 1.0 m doorway on each shared
    wall (so every room is reachable), and every other shared wall gets one with probability 0.25.
 2. **Rooms.** The first room is the kitchen; the others are drawn from pantry, dining, living,
