@@ -416,6 +416,7 @@ def run_job(job: Job) -> dict[str, Any]:
         "model_overrides": _joined(job.model_overrides), "env_overrides": _joined(job.env_overrides),
         "prior_violation": world.prior_violation, "violation": world.violation,
     }
+    row.update(world.house_columns(job.world_seed))  # generated worlds: which house (none otherwise)
     for rule in world.co_location:
         row[f"same_site_{rule.object}_{rule.anchor}"] = rule.same_site
         row[f"same_room_{rule.object}_{rule.anchor}"] = rule.same_room

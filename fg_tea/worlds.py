@@ -1,6 +1,9 @@
 """World sampler: hidden truths drawn from a declared generative distribution (blueprint 15.3-15.4).
 
-A world distribution is a JSON data file (``scenarios/worlds/*.json``) over one base scenario. It
+A world distribution is a JSON data file (``scenarios/worlds/*.json``) over one base scenario
+(``"base_scenario"``), or over a fresh generated house per world (``"generate": {"rooms": N or
+[min, max], "objects": [...]}``; the house of world seed s is ``fg-tea house --rooms R --seed s``
+with R drawn uniformly from [min, max] by the world seed, see :mod:`fg_tea.housegen`). It
 declares how the environment's hidden truth is drawn — never what the agent believes:
 
 - objects are placed one by one, in ``placement.order``;
@@ -20,6 +23,7 @@ Same distribution, same seed: the same world.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
@@ -27,7 +31,10 @@ from typing import Mapping
 import numpy as np
 
 from fg_tea.errors import InputError, Reader, read_json
-from fg_tea.scenario import Scenario, load_scenario
+from fg_tea.scenario import Scenario, load_scenario, parse_scenario
+
+#: Entropy tag of the random stream that draws a generated world's room count.
+_ROOMS_STREAM = 0x726F6F6D73
 
 
 @dataclass(frozen=True)
@@ -41,12 +48,38 @@ class CoLocation:
 
 
 @dataclass(frozen=True)
+class GeneratedHouses:
+    """Each world draws its own house: `rooms` (inclusive range) and the objects it holds."""
+
+    rooms: tuple[int, int]
+    objects: tuple[str, ...]
+
+    def draw(self, seed: int) -> tuple[int, int]:
+        """(room count, house seed) of world `seed`; the house seed is the world seed."""
+        lo, hi = self.rooms
+        if lo == hi:
+            return lo, int(seed)
+        rng = np.random.default_rng([int(seed), _ROOMS_STREAM])
+        return lo + int(rng.integers(hi - lo + 1)), int(seed)
+
+
+@lru_cache(maxsize=32)
+def _generated_house(rooms: int, seed: int, objects: tuple[str, ...], source: str) -> Scenario:
+    from fg_tea.housegen import generate_house
+
+    return parse_scenario(generate_house(rooms, seed, objects), f"{source} (house seed {seed})")
+
+
+@dataclass(frozen=True)
 class WorldDistribution:
-    """A declared distribution over hidden truths of one base scenario."""
+    """A declared distribution over hidden truths of one base scenario, or of generated houses.
+
+    ``base`` is None when ``generate`` is set (every world has its own house).
+    """
 
     name: str
     description: str
-    base: Scenario
+    base: Scenario | None
     order: tuple[str, ...]
     prior_violation: float
     violation: str
@@ -54,6 +87,7 @@ class WorldDistribution:
     pinned_states: Mapping[str, bool]
     drawn_states: frozenset[str] = frozenset()
     source: str = ""
+    generate: GeneratedHouses | None = None
 
     def with_knobs(self, prior_violation: float | None = None, same_site: float | None = None,
                    same_room: float | None = None) -> "WorldDistribution":
@@ -65,14 +99,33 @@ class WorldDistribution:
                        prior_violation=self.prior_violation if prior_violation is None else prior_violation)
 
     def parameters(self) -> dict:
-        return {"world": self.name, "prior_violation": self.prior_violation,
-                "co_location": [{"object": r.object, "anchor": r.anchor, "same_site": r.same_site,
-                                 "same_room": r.same_room} for r in self.co_location]}
+        out = {"world": self.name, "prior_violation": self.prior_violation,
+               "co_location": [{"object": r.object, "anchor": r.anchor, "same_site": r.same_site,
+                                "same_room": r.same_room} for r in self.co_location]}
+        if self.generate is not None:
+            out["generate"] = {"rooms": list(self.generate.rooms), "objects": list(self.generate.objects)}
+        return out
+
+    def house(self, seed: int) -> Scenario:
+        """The house of world `seed`: the base scenario, or the generated house of that seed."""
+        if self.generate is None:
+            return self.base
+        rooms, house_seed = self.generate.draw(seed)
+        return _generated_house(rooms, house_seed, self.generate.objects, self.source or self.name)
+
+    def house_columns(self, seed: int) -> dict:
+        """Sweep-row columns naming the house of world `seed` (empty for a fixed base scenario)."""
+        if self.generate is None:
+            return {}
+        rooms, house_seed = self.generate.draw(seed)
+        house = self.house(seed)
+        return {"house_seed": house_seed, "house_rooms": rooms, "house_sites": len(house.sites),
+                "house_room_vantages": len(house.room_vantages)}
 
     def sample(self, seed: int) -> Scenario:
-        """Draw one world: the base scenario with new true sites and hidden state truths."""
+        """Draw one world: the (base or generated) house with new true sites and state truths."""
         rng = np.random.default_rng(seed)
-        scenario = self.base
+        scenario = self.house(seed)
         sites = scenario.sites
         k = len(sites)
         load = np.zeros(k, dtype=int)
@@ -115,24 +168,59 @@ class WorldDistribution:
         return replace(scenario, name=f"{self.name}#{seed}", objects=tuple(objects))
 
 
+def _read_generate(r: Reader) -> GeneratedHouses:
+    from fg_tea.housegen import DEFAULT_OBJECTS, MAX_ROOMS, MIN_ROOMS, check_arguments
+
+    g = r.child("generate")
+    raw = g.req("rooms", (int, list))
+    bounds = [raw, raw] if isinstance(raw, int) else raw
+    if len(bounds) != 2 or not all(isinstance(b, int) and not isinstance(b, bool) for b in bounds):
+        raise g.fail(f"expected a room count or [min, max], got {raw!r}", "rooms")
+    if not MIN_ROOMS <= bounds[0] <= bounds[1] <= MAX_ROOMS:
+        raise g.fail(f"expected room counts with {MIN_ROOMS} <= min <= max <= {MAX_ROOMS}, got {raw!r}", "rooms")
+    objects = g.opt("objects", list, list(DEFAULT_OBJECTS))
+    try:
+        objects = check_arguments(bounds[0], 0, objects)
+    except ValueError as exc:
+        raise g.fail(str(exc).partition(": ")[2], "objects") from None
+    return GeneratedHouses((bounds[0], bounds[1]), objects)
+
+
 def parse_world(data: object, file: str | Path) -> WorldDistribution:
     r = Reader(data, file)
-    base_name = r.req("base_scenario", str)
-    base_path = Path(file).parent / base_name
-    base = load_scenario(base_path if base_path.suffix == ".json" and base_path.exists() else base_name)
+    if not isinstance(data, dict):
+        raise r.fail("a world distribution must be a JSON object")
+    generate = None
+    if r.has("generate"):
+        if r.has("base_scenario"):
+            raise r.fail("give either base_scenario or generate, not both", "generate")
+        generate = _read_generate(r)
+        from fg_tea.housegen import OBJECT_TEMPLATES
+
+        base = None
+        what = "the generated houses"
+        object_names = generate.objects
+        declared = {f"{o}.{s}" for o in object_names for s in OBJECT_TEMPLATES[o]["state_priors"]}
+    else:
+        base_name = r.req("base_scenario", str)
+        base_path = Path(file).parent / base_name
+        base = load_scenario(base_path if base_path.suffix == ".json" and base_path.exists() else base_name)
+        what = f"scenario {base.name!r}"
+        object_names = base.object_names
+        declared = {f"{o.name}.{s}" for o in base.objects for s in o.state_priors}
     placement = r.child("placement")
-    order = placement.opt("order", list, list(base.object_names))
+    order = placement.opt("order", list, list(object_names))
     for i, name in enumerate(order):
-        if name not in base.object_names:
-            raise InputError(file, f"$.placement.order[{i}]", f"object {name!r} is not in scenario {base.name!r}")
-    missing = [o for o in base.object_names if o not in order]
+        if name not in object_names:
+            raise InputError(file, f"$.placement.order[{i}]", f"object {name!r} is not in {what}")
+    missing = [o for o in object_names if o not in order]
     order = list(order) + missing
     rules = []
     for c in placement.items("co_location", required=False):
         obj, anchor = c.req("object", str), c.req("anchor", str)
         for key, value in (("object", obj), ("anchor", anchor)):
-            if value not in base.object_names:
-                raise c.fail(f"object {value!r} is referenced but not defined in scenario {base.name!r}", key)
+            if value not in object_names:
+                raise c.fail(f"object {value!r} is referenced but not defined in {what}", key)
         if order.index(anchor) > order.index(obj):
             raise c.fail(f"anchor {anchor!r} must be placed before {obj!r} in placement.order", "anchor")
         same_site, same_room = c.probability("same_site"), c.probability("same_room", 0.0)
@@ -140,13 +228,11 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
             raise c.fail("same_site + same_room must not exceed 1", "same_room")
         rules.append(CoLocation(obj, anchor, same_site, same_room))
     pinned, drawn = {}, set()
-    declared = {f"{o.name}.{s}" for o in base.objects for s in o.state_priors}
     states = r.child("states", required=False)
     if states is not None:
         for key, value in states.data.items():
             if key not in declared:
-                raise states.fail(f"state {key!r} is referenced but no object of scenario "
-                                  f"{base.name!r} declares it", key)
+                raise states.fail(f"state {key!r} is referenced but no object of {what} declares it", key)
             if value == "prior":
                 drawn.add(key)
             else:
@@ -156,7 +242,7 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         order=tuple(order), prior_violation=placement.probability("prior_violation", 0.0),
         violation=placement.choice("violation", ("inverse", "uniform"), "inverse"),
         co_location=tuple(rules), pinned_states=MappingProxyType(pinned),
-        drawn_states=frozenset(drawn), source=str(file))
+        drawn_states=frozenset(drawn), source=str(file), generate=generate)
 
 
 def load_world(path: str | Path) -> WorldDistribution:
