@@ -192,14 +192,20 @@ def _fit(scenario: Scenario, width: int, height: int, margin: int) -> PlanTransf
     return PlanTransform(x0, y1, scale, left, top)
 
 
-def _draw_house(img: np.ndarray, scenario: Scenario, t: PlanTransform, outline: bool = True) -> None:
-    """Floor, furniture boxes and walls (with doorway gaps) onto `img` in place."""
+def _draw_house(img: np.ndarray, scenario: Scenario, t: PlanTransform, outline: bool = True,
+                floor=FLOOR, wall=WALL, shade: float = 1.0) -> None:
+    """Floor, furniture boxes and walls (with doorway gaps) onto `img` in place.
+
+    Args:
+        floor, wall: RGB colours.
+        shade: furniture colours are multiplied by this (a dark mini-map uses < 1).
+    """
     house = scenario.house
     (x0, y0), (x1, y1) = house.floor_min, house.floor_max
-    cv2.rectangle(img, t.px(x0, y1), t.px(x1, y0), FLOOR, -1)
+    cv2.rectangle(img, t.px(x0, y1), t.px(x1, y0), floor, -1)
     for f in house.furniture:
         (cx, cy), (sx, sy) = f.center, f.size[:2]
-        colour = tuple(int(255 * min(max(c, 0.0), 1.0)) for c in f.color[:3])
+        colour = tuple(int(255 * shade * min(max(c, 0.0), 1.0)) for c in f.color[:3])
         a, b = t.px(cx - sx / 2, cy + sy / 2), t.px(cx + sx / 2, cy - sy / 2)
         cv2.rectangle(img, a, b, colour, -1)
         if outline:
@@ -209,9 +215,9 @@ def _draw_house(img: np.ndarray, scenario: Scenario, t: PlanTransform, outline: 
         corners = [(cx + su * hu * ux - sv * hv * uy, cy + su * hu * uy + sv * hv * ux)
                    for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
         poly = np.array([t.px(x, y) for x, y in corners], dtype=np.int32)
-        cv2.fillPoly(img, [poly], WALL, cv2.LINE_AA)
+        cv2.fillPoly(img, [poly], wall, cv2.LINE_AA)
         if t.scale * 2 * hv < 2:  # thinner than 2 px: keep walls visible
-            cv2.polylines(img, [poly], True, WALL, 1, cv2.LINE_AA)
+            cv2.polylines(img, [poly], True, wall, 1, cv2.LINE_AA)
 
 
 def _diamond(img: np.ndarray, centre: tuple[int, int], r: int, colour, thickness: int = -1) -> None:
@@ -409,12 +415,13 @@ class MiniMap:
         if key not in self._base:
             img = np.full((height, width, 3), (28, 28, 32), np.uint8)
             t = _fit(self.scenario, width, height, max(2, width // 40))
-            _draw_house(img, self.scenario, t, outline=False)
+            _draw_house(img, self.scenario, t, outline=False, floor=(66, 68, 76), wall=(215, 215, 220),
+                        shade=0.75)
             r = max(1, int(round(min(width, height) / 90)))
             for v in self.scenario.room_vantages:
-                _diamond(img, t.px(*v.position), r + 1, ROOM_VANTAGE)
+                _diamond(img, t.px(*v.position), r + 1, (0, 120, 140))
             for xy in self.sites.values():
-                cv2.circle(img, t.px(*xy), r, SITE, -1, cv2.LINE_AA)
+                cv2.circle(img, t.px(*xy), r, (120, 180, 255), -1, cv2.LINE_AA)
             self._base[key] = (img, t)
         return self._base[key]
 
@@ -447,7 +454,7 @@ class MiniMap:
             # cv2 ellipse angles run clockwise in image rows-down coordinates: negate the yaw.
             cv2.ellipse(wedge, centre, (int(reach), int(reach)), 0.0, -yaw - self.hfov_deg / 2,
                         -yaw + self.hfov_deg / 2, (255, 255, 255), -1, cv2.LINE_AA)
-            cv2.addWeighted(wedge, 0.28, img, 0.72, 0, dst=img)
+            cv2.addWeighted(wedge, 0.3, img, 0.7, 0, dst=img)
         if vp is not None:
             p = t.px(*vp[:2])
             for c in covered:
