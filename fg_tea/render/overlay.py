@@ -92,6 +92,13 @@ def _short(name: str, n: int) -> str:
     return name if len(name) <= n else name[: n - 1] + "."
 
 
+def _fit(text: str, max_px: int, scale: float) -> str:
+    """`text`, shortened with a trailing '.' until it is at most `max_px` pixels wide."""
+    while len(text) > 4 and cv2.getTextSize(text, FONT, scale, 1)[0][0] > max_px:
+        text = text[: max(4, int(len(text) * max_px / cv2.getTextSize(text, FONT, scale, 1)[0][0])) - 1] + "."
+    return text
+
+
 def _intersects(a, b) -> bool:
     return min(a[2], b[2]) > max(a[0], b[0]) and min(a[3], b[3]) > max(a[1], b[1])
 
@@ -115,7 +122,8 @@ def belief_rows(state: OverlayState, limit: int = MAX_BELIEF_ROWS) -> list[tuple
 
 def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, int, int, int] | None = None,
                   minimap=None, pose: Sequence[float] | None = None,
-                  site_pixels: Mapping[str, tuple[float, float, float]] | None = None) -> np.ndarray:
+                  site_pixels: Mapping[str, tuple[float, float, float]] | None = None,
+                  keep_clear: Sequence[tuple[int, int, int, int]] = ()) -> np.ndarray:
     """Draw every panel onto `frame` (H x W x 3 uint8, RGB) in place and return it.
 
     Args:
@@ -126,6 +134,7 @@ def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, 
         pose: the agent's (x m, y m, yaw deg), for the mini-map.
         site_pixels: site -> (column, row, distance m) of the site's surface in this frame's
             chase view (None or empty: no site names in the view).
+        keep_clear: pixel boxes (x0, y0, x1, y1) where no site name is written (the agent).
     """
     h, w = frame.shape[:2]
     s = h / 540.0  # scale relative to a 960x540 frame
@@ -143,7 +152,7 @@ def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, 
     cap_h = line + 2 * pad
     _panel(frame, 0, 0, cap_right, cap_h)
     panels.append((0, 0, cap_right, cap_h))
-    _text(frame, _short(f"{state.phase}  {state.caption}", int(cap_right / (9.0 * s))), pad,
+    _text(frame, _fit(f"{state.phase}  {state.caption}", cap_right - 2 * pad, fs * 1.1), pad,
           line + pad // 2, fs * 1.1, (255, 255, 255))
 
     # Right column: mini-map, then the task graph with its legend.
@@ -272,34 +281,37 @@ def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, 
                 _text(frame, f"{p:.2f}", bar_x + int(64 * s), yy, fs * 0.8)
 
     if site_pixels:
-        _site_names(frame, state, site_pixels, panels, look, s, compact)
+        _site_names(frame, state, site_pixels, panels, list(keep_clear), look, s, compact)
     return frame
 
 
 def _site_names(frame: np.ndarray, state: OverlayState, site_pixels: Mapping[str, tuple[float, float, float]],
-                panels: list[tuple[int, int, int, int]], look, s: float, compact: bool) -> None:
-    """Write the names of the sites in front of the chase camera, nearest first, skipping any
-    that would land on a panel or on a name already written; ring the sites in view."""
+                panels: list[tuple[int, int, int, int]], keep_clear: list[tuple[int, int, int, int]],
+                look, s: float, compact: bool) -> None:
+    """Write the names of the sites in front of the chase camera, nearest first, below each
+    site's surface point (so never over what stands on it), skipping any name that would land on
+    a panel, the agent or a name already written; point at the sites in view."""
     h, w = frame.shape[:2]
     covered = set(state.sites_in_view) if state.viewpoint is not None else set()
     fs = max(0.36 * s, 0.25)
-    taken = list(panels)
+    taken = list(panels) + keep_clear
     for site, (u, v, dist) in sorted(site_pixels.items(), key=lambda kv: kv[1][2]):
         if dist > LABEL_RANGE_M or not (0 <= u < w and 0 <= v < h):
             continue
         x, y = int(round(u)), int(round(v))
         in_view = site in covered
         colour = look if in_view else (255, 255, 255)
-        r = max(int(10 * s * 3.0 / max(dist, 1.0)), 3)
-        if in_view and not any(_intersects((x - r, y - r, x + r, y + r), t) for t in panels):
-            cv2.circle(frame, (x, y), r, colour, max(1, int(2 * s)), cv2.LINE_AA)
+        r = max(int(8 * s * 3.0 / max(dist, 1.0)), 3)
+        if in_view and not any(_intersects((x - r, y, x + r, y + 2 * r), t) for t in panels):
+            tip = np.array([(x, y + 2), (x - r, y + 2 * r), (x + r, y + 2 * r)], np.int32)
+            cv2.fillPoly(frame, [tip], colour, cv2.LINE_AA)  # points up at the surface
         if compact and not in_view:
             continue
         # The name goes below the surface point (on the furniture's front), never over what
         # stands on the surface.
         text = site
         (tw, th), base = cv2.getTextSize(text, FONT, fs, 1)
-        top = y + r + int(4 * s)
+        top = y + 2 * r + int(3 * s)
         box = (x - tw // 2 - 3, top, x + tw // 2 + 3, top + th + base + 3)
         if box[0] < 0 or box[2] > w or box[3] > h or any(_intersects(box, t) for t in taken):
             continue

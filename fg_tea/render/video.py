@@ -17,6 +17,7 @@ at its ``site``, and one without ``sites_in_view`` covers just that site.
 from __future__ import annotations
 
 import copy
+import math
 import os
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
@@ -154,7 +155,7 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
 
     def where() -> str:
         if ov.viewpoint_kind == "room":
-            return f"room glance: {ov.viewpoint_room} ({len(ov.sites_in_view)} sites, from {ov.viewpoint})"
+            return f"room glance: {ov.viewpoint_room} ({len(ov.sites_in_view)} sites)"
         return ov.viewpoint or ""
 
     def clear_look() -> None:
@@ -263,6 +264,15 @@ def _scaled(render, w: int, h: int, scale: float) -> np.ndarray:
     return cv2.resize(np.ascontiguousarray(render(sw, sh)), (w, h), interpolation=cv2.INTER_LINEAR)
 
 
+#: Half size (m) of the region around the agent where no site name is written in the chase view
+#: (the drone's radius plus what it carries).
+AGENT_CLEAR_M = 0.4
+
+
+def pose_xy(pose) -> tuple[float, float]:
+    return (pose.x, pose.y) if hasattr(pose, "x") else (float(pose[0]), float(pose[1]))
+
+
 def project_points(view: Sequence[float], proj: Sequence[float], width: int, height: int,
                    points: dict[str, Sequence[float]]) -> dict[str, tuple[float, float, float]]:
     """Project world points (x, y, z m) through a camera (pybullet column-major matrices).
@@ -302,7 +312,7 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
     house.set_scene_state(pose, placements, held)
     inset = None
     scale = options.scene_scale
-    site_pixels = None
+    site_pixels, keep_clear = None, []
     if options.view == "first":
         frame = _scaled(lambda a, b: house.render_ego(a, b)[0], w, h, scale)
     else:
@@ -312,6 +322,13 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
         if sites and overlay is not None and options.overlays:
             view, proj = house.chase_camera_matrices(w, h, *chase)
             site_pixels = project_points(view, proj, w, h, {k: (v[0], v[1], v[2] + 0.05) for k, v in sites.items()})
+            # Names keep clear of the agent (and what it carries): a square of AGENT_CLEAR_M.
+            agent = project_points(view, proj, w, h, {"agent": (pose_xy(pose)[0], pose_xy(pose)[1],
+                                                                  house.config.sensor_height)})
+            if "agent" in agent:
+                u, v, depth = agent["agent"]
+                r = AGENT_CLEAR_M * w / (2 * math.tan(math.radians(options.chase_hfov_deg) / 2)) / depth
+                keep_clear.append((int(u - r), int(v - r), int(u + r), int(v + 1.6 * r)))
         if options.view == "multi":
             iw = int(w * options.inset_scale) // 2 * 2
             ih = int(iw * 3 / 4) // 2 * 2
@@ -322,7 +339,7 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
             inset = (x0 - 2, 0, w, ih + 6)
     if overlay is not None and options.overlays:
         pose_xyyaw = tuple(pose.as_list()) if hasattr(pose, "as_list") else tuple(pose)
-        draw_overlays(frame, overlay, inset, minimap, pose_xyyaw, site_pixels)
+        draw_overlays(frame, overlay, inset, minimap, pose_xyyaw, site_pixels, keep_clear)
     return frame
 
 
