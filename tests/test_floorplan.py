@@ -107,3 +107,14 @@ def test_minimap_shows_a_room_glance_differently_from_a_close_look():
     assert cyan > 4 * np.all(np.abs(close.astype(int) - np.array([60, 220, 255])) < 40, axis=2).sum() + 10
     # The field-of-view wedge turns with the agent.
     assert not np.array_equal(minimap.render(160, 96, (*room.position, 0.0)), bare)
+
+
+def test_preview_writes_the_camera_view_and_the_floor_plan(tmp_path, capsys):
+    from fg_tea.cli import main
+
+    out = tmp_path / "house.png"
+    assert main(["preview", "--out", str(out), "--width", "192", "--height", "108"]) == 0
+    plan = tmp_path / "house_plan.png"
+    assert cv2.imread(str(out)).shape == (108, 192, 3)
+    assert cv2.imread(str(plan)).shape == draw_floor_plan(load_scenario("default_apartment")).image.shape
+    assert str(plan) in capsys.readouterr().out

@@ -308,13 +308,19 @@ def _site_names(frame: np.ndarray, state: OverlayState, site_pixels: Mapping[str
         if compact and not in_view:
             continue
         # The name goes below the surface point (on the furniture's front), never over what
-        # stands on the surface.
-        text = site
-        (tw, th), base = cv2.getTextSize(text, FONT, fs, 1)
+        # stands on the surface; if that spot is taken, beside it, lower down.
+        (tw, th), base = cv2.getTextSize(site, FONT, fs, 1)
+        bw, bh = tw + 6, th + base + 3
         top = y + 2 * r + int(3 * s)
-        box = (x - tw // 2 - 3, top, x + tw // 2 + 3, top + th + base + 3)
-        if box[0] < 0 or box[2] > w or box[3] > h or any(_intersects(box, t) for t in taken):
+        spots = [(x - bw // 2, top), (x + r + 2, top), (x - r - 2 - bw, top),
+                 (x + r + 2, top + bh), (x - r - 2 - bw, top + bh)]
+        if in_view:  # the sites in view are worth a longer pointer
+            spots += [(x - bw // 2, top + k * bh) for k in range(1, 8)]
+        box = next((b for b in ((sx, sy, sx + bw, sy + bh) for sx, sy in spots)
+                    if b[0] >= 0 and b[2] <= w and b[3] <= h and not any(_intersects(b, t) for t in taken)),
+                   None)
+        if box is None:
             continue
         taken.append(box)
         _panel(frame, *box, alpha=0.55)
-        cv2.putText(frame, text, (box[0] + 3, box[3] - base - 1), FONT, fs, colour, 1, cv2.LINE_AA)
+        cv2.putText(frame, site, (box[0] + 3, box[3] - base - 1), FONT, fs, colour, 1, cv2.LINE_AA)

@@ -264,9 +264,9 @@ def _scaled(render, w: int, h: int, scale: float) -> np.ndarray:
     return cv2.resize(np.ascontiguousarray(render(sw, sh)), (w, h), interpolation=cv2.INTER_LINEAR)
 
 
-#: Half size (m) of the region around the agent where no site name is written in the chase view
-#: (the drone's radius plus what it carries).
-AGENT_CLEAR_M = 0.4
+#: Half size (m) of the region around the agent where no site name is written in the chase view:
+#: the drone's radius (0.17 m) plus a held object in front of it, about 0.1 m more.
+AGENT_CLEAR_M = 0.28
 
 
 def pose_xy(pose) -> tuple[float, float]:
@@ -328,7 +328,7 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
             if "agent" in agent:
                 u, v, depth = agent["agent"]
                 r = AGENT_CLEAR_M * w / (2 * math.tan(math.radians(options.chase_hfov_deg) / 2)) / depth
-                keep_clear.append((int(u - r), int(v - r), int(u + r), int(v + 1.6 * r)))
+                keep_clear.append((int(u - r), int(v - r), int(u + r), int(v + r)))
         if options.view == "multi":
             iw = int(w * options.inset_scale) // 2 * 2
             ih = int(iw * 3 / 4) // 2 * 2
