@@ -207,3 +207,18 @@ def test_room_glance_log_renders(logged, tmp_path):
     assert main(["render", str(log), "--out", str(out), "--width", "256", "--height", "144",
                  "--frame-stride", "40", "--hold", "0.05", "--workers", "1"]) == 0
     assert probe(out)["frames"] > 20
+
+
+def test_belief_panel_keeps_the_sites_in_view_among_many():
+    from fg_tea.render.overlay import MAX_BELIEF_ROWS, OverlayState, belief_rows
+
+    sites = [f"s{i}" for i in range(48)]
+    q = list(np.linspace(1, 2, 48) / np.linspace(1, 2, 48).sum())  # the last sites most probable
+    state = OverlayState(sites=sites, focus_object="mug", locations={"mug": q}, viewpoint="glance",
+                         viewpoint_kind="room", sites_in_view=["s0", "s1"])
+    rows = belief_rows(state)
+    names = [s for s, _ in rows]
+    assert len(rows) == MAX_BELIEF_ROWS and names[:2] == ["s0", "s1"] and names[-1] == "s47"
+    assert names == sorted(names, key=sites.index)  # scenario order
+    small = OverlayState(sites=sites[:8], focus_object="mug", locations={"mug": q[:8]})
+    assert [s for s, _ in belief_rows(small)] == sites[:8]
