@@ -89,10 +89,6 @@ class FloorPlan:
     room_labels: dict[str, Rect] = field(default_factory=dict)
     truth_labels: dict[str, Rect] = field(default_factory=dict)
 
-    def all_labels(self) -> list[Rect]:
-        return [*self.site_labels.values(), *self.vantage_labels.values(),
-                *self.room_vantage_labels.values(), *self.room_labels.values(), *self.truth_labels.values()]
-
 
 # ----------------------------------------------------------------------------- label placement
 def _overlap(a: Rect, b: Rect) -> int:
