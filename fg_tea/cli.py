@@ -266,11 +266,13 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 @_command("preview")
 def cmd_preview(args: argparse.Namespace) -> int:
-    """Write a PNG of the chase camera with the first-person inset at the start pose."""
+    """Write a PNG of the chase camera with the first-person inset at the start pose, and a
+    top-down floor plan of the house beside it (``<out stem>_plan.png``)."""
     import cv2
 
     from fg_tea.env.house import PyBulletHouse
     from fg_tea.model import load_model
+    from fg_tea.render.floorplan import MiniMap, write_floor_plan
     from fg_tea.render.overlay import OverlayState
     from fg_tea.render.video import _compose
     from fg_tea.scenario import load_scenario
@@ -278,18 +280,23 @@ def cmd_preview(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     options = _video_options(args)
-    house = PyBulletHouse(scenario, env_config_for(load_model(args.model)))
+    out = Path(args.out) if args.out else Path(f"{scenario.name}-preview.png")
+    plan_out = out.with_name(f"{out.stem}_plan.png")
+    config = env_config_for(load_model(args.model))
+    house = PyBulletHouse(scenario, config)
     try:
         pose = house.reset(args.seed)
         overlay = OverlayState(phase="preview", caption=f"{scenario.name}: start pose "
                                f"({pose.x:.2f}, {pose.y:.2f}, {pose.yaw_deg:.0f} deg)")
-        frame = _compose(house, options, (pose, house.placements(), None), overlay)
+        frame = _compose(house, options, (pose, house.placements(), None), overlay,
+                         MiniMap(scenario, config.ego_hfov_deg), {s.name: s.position for s in scenario.sites})
     finally:
         house.close()
-    out = Path(args.out) if args.out else Path(f"{scenario.name}-preview.png")
     with atomic_path(out, ".png") as tmp:
         cv2.imwrite(str(tmp), frame[:, :, ::-1])
+    write_floor_plan(scenario, plan_out)
     print(f"preview: {out}")
+    print(f"floor plan: {plan_out}")
     return 0
 
 
@@ -344,11 +351,19 @@ def _add_run_parsers(sub) -> None:
     p.add_argument("--out", help="output MP4 (default: the log's name with .mp4)")
     _add_video_options(p)
 
-    p = sub.add_parser("preview", help="write a PNG of the cameras at the start pose")
+    p = sub.add_parser("preview", help="write a PNG of the cameras at the start pose and a PNG of the "
+                       "floor plan (sites, vantages, room vantages, true object sites)",
+                       description="Write two PNGs: the chase camera with the first-person inset at "
+                       "the start pose (OUT), and a top-down floor plan beside it (OUT's stem + "
+                       "'_plan.png'): walls and doorways, furniture, every site numbered and named, "
+                       "where the agent stands to look at each site (its number), room vantages, "
+                       "room names, the start pose and, in red, each object's true site (for "
+                       "checking a house; the agent never sees it).")
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO)
     p.add_argument("--model", default=DEFAULT_MODEL)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", help="output PNG (default: SCENARIO-preview.png)")
+    p.add_argument("--out", help="output PNG (default: SCENARIO-preview.png; the floor plan goes to "
+                   "SCENARIO-preview_plan.png)")
     _add_video_options(p)
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -91,3 +93,132 @@ def test_wall_cutaway_is_for_people_only():
         assert np.array_equal(full, house.render_chase(192, 108))
     finally:
         house.close()
+
+
+# ------------------------------------------------------------------ viewpoints in the overlays
+ROOM_VANTAGES = [{"name": "kitchen_centre", "room": "kitchen", "position": [2.0, 2.2]},
+                 {"name": "dining_room_door", "room": "dining_room", "position": [2.0, 4.6]},
+                 {"name": "living_room_centre", "room": "living_room", "position": [7.0, 2.8]},
+                 {"name": "study_centre", "room": "study", "position": [8.5, 5.5]}]
+
+
+def _glance_scenario(tmp_path):
+    """The default apartment with one room vantage per room, written to a file."""
+    import json
+
+    from fg_tea.resources import DEFAULT_SCENARIO
+    from fg_tea.scenario import load_scenario
+
+    data = json.loads(open(load_scenario(DEFAULT_SCENARIO).source).read())
+    data["room_vantages"] = ROOM_VANTAGES
+    path = tmp_path / "glances.json"
+    path.write_text(json.dumps(data))
+    return load_scenario(path)
+
+
+def _with_viewpoints(events, scenario, glance_room: str | None):
+    """The log as the viewpoint-aware runner writes it: every look names its viewpoint, and the
+    first look at a site of `glance_room` becomes a room glance from that room's vantage."""
+    import copy
+
+    events = copy.deepcopy(events)
+    start = events[0]
+    start["scenario_file"] = scenario.source
+    start["viewpoints"] = [{"name": v.name, "kind": v.kind, "position": list(v.position),
+                            "sites": list(v.sites), "room": v.room} for v in scenario.viewpoints]
+    glance = next((v for v in scenario.viewpoints if v.kind == "room" and v.room == glance_room), None)
+    converted = False
+    for e in events:
+        if e["event"] not in ("decision", "observation"):
+            continue
+        site = e["site"]
+        as_glance = glance is not None and not converted and scenario.site(site).room == glance.room
+        vp = glance if as_glance else scenario.viewpoint(site)
+        e["site"], e["viewpoint"], e["viewpoint_kind"] = vp.name, vp.name, vp.kind
+        if e["event"] == "observation":
+            e["sites_in_view"] = list(vp.sites)
+            e["found_at"] = {o: site for o, seen in e["detections"].items() if seen}
+            converted = converted or as_glance
+    return events
+
+
+def test_old_logs_fall_back_to_close_looks(logged):
+    events = read_log(logged)
+    assert not any("viewpoint" in e for e in events)  # written by a runner without viewpoints
+    plan = plan_frames(events, VideoOptions(hold_seconds=0.1))
+    looks = [o for o in plan.overlays if o.viewpoint is not None]
+    assert looks
+    for o in looks:
+        assert o.viewpoint_kind == "site" and o.sites_in_view == [o.viewpoint]
+        assert o.viewpoint_position is not None  # the site's vantage, from episode_start
+    assert any(o.found_at for o in looks)
+
+
+def test_room_glance_is_planned_and_captioned(logged, tmp_path):
+    scenario = _glance_scenario(tmp_path)
+    events = _with_viewpoints(read_log(logged), scenario, "dining_room")
+    plan = plan_frames(events, VideoOptions(hold_seconds=0.1))
+    glances = [o for o in plan.overlays if o.viewpoint_kind == "room"]
+    assert glances, "the converted look shows as a room glance"
+    dining = [s.name for s in scenario.sites if s.room == "dining_room"]
+    for o in glances:
+        assert o.viewpoint == "dining_room_door" and o.sites_in_view == dining
+        assert o.viewpoint_room == "dining_room" and o.viewpoint_position == [2.0, 4.6]
+    assert any("room glance: dining_room" in o.caption for o in glances)
+    results = [o.caption for o in glances if "found" in o.caption]  # after the look
+    assert results and all(c.startswith("room glance: dining_room (2 sites)")
+                           for c in results), results
+
+
+def test_overlay_marks_a_room_glance(tmp_path):
+    """The mini-map and bars show a glance's covered sites, unlike a close look or no look."""
+    from fg_tea.render.floorplan import MiniMap
+    from fg_tea.render.overlay import LOOK_COLOURS, OverlayState, draw_overlays
+
+    scenario = _glance_scenario(tmp_path)
+    minimap = MiniMap(scenario)
+    living = [s.name for s in scenario.sites if s.room == "living_room"]
+    base = OverlayState(phase="SEARCH", caption="test", sites=list(scenario.site_names),
+                        focus_object="mug", locations={"mug": [1 / 8] * 8},
+                        tasks=[("search_mug", "active"), ("pick_mug", "pending")])
+    glance = dataclasses.replace(base, viewpoint="living_room_centre", viewpoint_kind="room",
+                                 sites_in_view=living, viewpoint_position=[7.0, 2.8])
+    close = dataclasses.replace(base, viewpoint="coffee_table", sites_in_view=["coffee_table"])
+    pose = (7.0, 2.8, 180.0)
+    for width, height in ((320, 180), (960, 540)):
+        frames = {}
+        for name, state in (("none", base), ("close", close), ("glance", glance)):
+            frame = np.full((height, width, 3), 128, np.uint8)
+            frames[name] = draw_overlays(frame, state, None, minimap, pose)
+        cyan = lambda img: int(np.all(np.abs(img.astype(int) - LOOK_COLOURS["room"]) < 30, axis=2).sum())
+        assert cyan(frames["glance"]) > cyan(frames["close"]) + 20
+        assert cyan(frames["none"]) == cyan(frames["close"])
+        assert not np.array_equal(frames["none"], frames["close"])
+
+
+def test_room_glance_log_renders(logged, tmp_path):
+    scenario = _glance_scenario(tmp_path)
+    log = tmp_path / "glance.jsonl"
+    import json
+
+    log.write_text("".join(json.dumps(e) + "\n" for e in _with_viewpoints(read_log(logged), scenario,
+                                                                            "living_room")))
+    out = tmp_path / "glance.mp4"
+    assert main(["render", str(log), "--out", str(out), "--width", "256", "--height", "144",
+                 "--frame-stride", "40", "--hold", "0.05", "--workers", "1"]) == 0
+    assert probe(out)["frames"] > 20
+
+
+def test_belief_panel_keeps_the_sites_in_view_among_many():
+    from fg_tea.render.overlay import MAX_BELIEF_ROWS, OverlayState, belief_rows
+
+    sites = [f"s{i}" for i in range(48)]
+    q = list(np.linspace(1, 2, 48) / np.linspace(1, 2, 48).sum())  # the last sites most probable
+    state = OverlayState(sites=sites, focus_object="mug", locations={"mug": q}, viewpoint="glance",
+                         viewpoint_kind="room", sites_in_view=["s0", "s1"])
+    rows = belief_rows(state)
+    names = [s for s, _ in rows]
+    assert len(rows) == MAX_BELIEF_ROWS and names[:2] == ["s0", "s1"] and names[-1] == "s47"
+    assert names == sorted(names, key=sites.index)  # scenario order
+    small = OverlayState(sites=sites[:8], focus_object="mug", locations={"mug": q[:8]})
+    assert [s for s, _ in belief_rows(small)] == sites[:8]

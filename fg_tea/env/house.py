@@ -426,6 +426,16 @@ class PyBulletHouse(TruthBackedAdapter):
             pybullet.resetBasePositionAndOrientation(body, [x, y, top - h / 2], orientation,
                                                      physicsClientId=self._client)
 
+    def chase_camera_matrices(self, width: int, height: int, distance: float = 3.2, height_m: float = 2.2,
+                              pitch_deg: float = -22.0, hfov_deg: float = 78.0,
+                              wall_cutaway: float | None = None) -> tuple[list, list]:
+        """The view and projection matrices (pybullet's column-major lists) that
+        :meth:`render_chase` with the same arguments uses at the current pose, so that overlays
+        can project world points into the chase image."""
+        self._require_reset()
+        return self._chase_camera(width, height, distance, height_m, pitch_deg, hfov_deg,
+                                  avoid_walls=wall_cutaway is None)
+
     def render_chase(self, width: int, height: int, distance: float = 3.2, height_m: float = 2.2,
                      pitch_deg: float = -22.0, hfov_deg: float = 78.0,
                      wall_cutaway: float | None = None) -> np.ndarray:

@@ -8,12 +8,16 @@ first-person inset, or either alone), splitting the frames over worker processes
 encode a segment, and joins the segments into one H.264 MP4 by remuxing (no re-encode).
 
 Selected frames (decisions, observations, actions, skips) are held for a moment so a viewer can
-read the overlays.
+read the overlays. The overlays add a mini-map of the house with the current look's field of view
+and covered sites, and the names of the sites in the chase view (:mod:`fg_tea.render.overlay`).
+Logs written before viewpoints existed still render: a look without ``viewpoint`` is a close look
+at its ``site``, and one without ``sites_in_view`` covers just that site.
 """
 
 from __future__ import annotations
 
 import copy
+import math
 import os
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
@@ -100,6 +104,8 @@ class FramePlan:
     frames: list[FrameSpec] = field(default_factory=list)
     placements: list[dict[str, tuple[float, float, float]]] = field(default_factory=list)
     overlays: list[OverlayState] = field(default_factory=list)
+    site_positions: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    viewpoints: dict[str, dict] = field(default_factory=dict)
 
     @property
     def output_frames(self) -> int:
@@ -117,6 +123,9 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
         raise ValueError("the log has no episode_start event")
     plan = FramePlan(start["scenario_file"], start["scenario"], int(start["seed"]),
                      start["parameters"]["env"])
+    plan.site_positions = {s["name"]: tuple(s["position"]) for s in start["sites"] if "position" in s}
+    vantages = {s["name"]: s.get("vantage") for s in start["sites"]}
+    plan.viewpoints = {v["name"]: v for v in start.get("viewpoints", [])}
     hold = max(1, int(round(options.hold_seconds * options.fps)))
     placements = {k: tuple(v) for k, v in start["world"]["placements"].items()}
     plan.placements.append(dict(placements))
@@ -128,6 +137,30 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
                       f"seed {start['seed']}", sites=[s["name"] for s in start["sites"]],
                       locations=start["belief"]["locations"], tasks=tasks,
                       states=start["belief"]["states"])
+
+    def set_look(e: dict, sites_in_view: list[str] | None) -> None:
+        """The viewpoint of a decision or observation; older logs name only the site."""
+        name = e.get("viewpoint", e["site"])
+        kind = e.get("viewpoint_kind", "site")
+        info = plan.viewpoints.get(name, {})
+        if sites_in_view is None:
+            sites_in_view = list(info.get("sites", [e["site"]]))
+        ov.viewpoint, ov.viewpoint_kind, ov.sites_in_view = name, kind, list(sites_in_view)
+        position = info.get("position") or (vantages.get(name) if kind == "site" else None)
+        ov.viewpoint_position = list(position[:2]) if position else None
+        ov.viewpoint_room = info.get("room")
+        if kind == "room" and ov.viewpoint_room is None:
+            rooms = {s["room"] for s in start["sites"] if s["name"] in sites_in_view and "room" in s}
+            ov.viewpoint_room = rooms.pop() if len(rooms) == 1 else name
+
+    def where() -> str:
+        if ov.viewpoint_kind == "room":
+            return f"room glance: {ov.viewpoint_room} ({len(ov.sites_in_view)} sites)"
+        return ov.viewpoint or ""
+
+    def clear_look() -> None:
+        ov.viewpoint, ov.viewpoint_kind, ov.viewpoint_room = None, "site", None
+        ov.viewpoint_position, ov.sites_in_view, ov.found_at = None, [], {}
 
     def push_overlay() -> int:
         plan.overlays.append(copy.deepcopy(ov))
@@ -150,22 +183,33 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
         kind = e.get("event")
         if kind == "decision":
             ov.phase, ov.focus_object, ov.selected_site = "SEARCH", e["object"], e["site"]
-            ov.caption = f"plan: look for the {e['object']} at {e['site']} ({e['planner']})"
+            set_look(e, None)
+            ov.found_at = {}
+            ov.caption = f"plan: look for the {e['object']} at {where()} ({e['planner']})"
             ov.candidates = _top_candidates(e)
             emit([], repeat_last=hold)
         elif kind == "observation":
-            ov.caption = f"going to {e['site']} for {', '.join(e['objects'])}"
+            set_look(e, e.get("sites_in_view"))
+            ov.found_at = {}
+            ov.caption = f"going to {where()} for {', '.join(e['objects'])}"
             emit(e.get("motion", []))
             ov.locations = {**ov.locations, **e["after"]}
             seen = [o for o, v in e["detections"].items() if v]
-            ov.caption = (f"at {e['site']}: found {', '.join(seen)}" if seen
-                          else f"at {e['site']}: nothing found — belief moves away")
+            found_at = e.get("found_at") or {}
+            ov.found_at = {o: found_at.get(o, e["site"]) for o in seen}
+            if seen:
+                found = ", ".join(f"{o} on {ov.found_at[o]}" if ov.viewpoint_kind == "room" else o
+                                  for o in seen)
+                ov.caption = f"{where()}: found {found}"
+            else:
+                ov.caption = f"{where()}: nothing found — belief moves away"
             emit([], repeat_last=hold)
         elif kind in ("action", "state_reading", "action_failed"):
             name = e.get("action") or e.get("state", "")
             verb = e.get("verb") or ("INSPECT" if kind == "state_reading" else "")
             ov.phase, ov.selected_site, ov.candidates = verb, None, []
             ov.focus_object = None
+            clear_look()
             if kind == "state_reading":
                 ov.caption = f"reading {e.get('state')} ({e.get('purpose')})"
             elif kind == "action_failed":
@@ -185,6 +229,7 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
                              f"q {e.get('before', 0):.2f} -> {e.get('after', 0):.2f}"
             emit([], repeat_last=hold)
         elif kind == "skip":
+            clear_look()
             ov.phase, ov.caption = "SKIP", f"{e['action']} skipped: its goal already holds"
             emit([], repeat_last=hold)
         elif kind == "belief":
@@ -219,18 +264,71 @@ def _scaled(render, w: int, h: int, scale: float) -> np.ndarray:
     return cv2.resize(np.ascontiguousarray(render(sw, sh)), (w, h), interpolation=cv2.INTER_LINEAR)
 
 
-def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayState | None) -> np.ndarray:
+#: Half size (m) of the region around the agent where no site name is written in the chase view:
+#: the drone's radius (0.17 m) plus a held object in front of it, about 0.1 m more.
+AGENT_CLEAR_M = 0.28
+
+
+def pose_xy(pose) -> tuple[float, float]:
+    return (pose.x, pose.y) if hasattr(pose, "x") else (float(pose[0]), float(pose[1]))
+
+
+def project_points(view: Sequence[float], proj: Sequence[float], width: int, height: int,
+                   points: dict[str, Sequence[float]]) -> dict[str, tuple[float, float, float]]:
+    """Project world points (x, y, z m) through a camera (pybullet column-major matrices).
+
+    Returns:
+        name -> (column px, row px, depth m along the optical axis) for points in front of the
+        camera (on or off the image).
+    """
+    if not points:
+        return {}
+    names = list(points)
+    world = np.array([[*points[n][:3], 1.0] for n in names]).T
+    clip = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T @ world
+    out = {}
+    for i, name in enumerate(names):
+        wc = clip[3, i]
+        if wc <= 0.05:
+            continue
+        out[name] = ((clip[0, i] / wc + 1) / 2 * width, (1 - clip[1, i] / wc) / 2 * height, float(wc))
+    return out
+
+
+def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayState | None,
+             minimap=None, sites: dict[str, Sequence[float]] | None = None) -> np.ndarray:
+    """One output frame: the camera views and, if enabled, the overlays.
+
+    Args:
+        house: a reset PyBulletHouse.
+        options: rendering options.
+        scene_state: (pose, placements, held object).
+        overlay: what the panels say (None: no panels).
+        minimap: a :class:`~fg_tea.render.floorplan.MiniMap` for the right column.
+        sites: site -> surface position (x, y, z m), named in the chase view.
+    """
     w, h = options.width, options.height
     pose, placements, held = scene_state
     house.set_scene_state(pose, placements, held)
     inset = None
     scale = options.scene_scale
+    site_pixels, keep_clear = None, []
     if options.view == "first":
         frame = _scaled(lambda a, b: house.render_ego(a, b)[0], w, h, scale)
     else:
-        frame = _scaled(lambda a, b: house.render_chase(
-            a, b, options.chase_distance, options.chase_height, options.chase_pitch_deg,
-            options.chase_hfov_deg, options.wall_cutaway), w, h, scale)
+        chase = (options.chase_distance, options.chase_height, options.chase_pitch_deg,
+                 options.chase_hfov_deg, options.wall_cutaway)
+        frame = _scaled(lambda a, b: house.render_chase(a, b, *chase), w, h, scale)
+        if sites and overlay is not None and options.overlays:
+            view, proj = house.chase_camera_matrices(w, h, *chase)
+            site_pixels = project_points(view, proj, w, h, {k: (v[0], v[1], v[2] + 0.05) for k, v in sites.items()})
+            # Names keep clear of the agent (and what it carries): a square of AGENT_CLEAR_M.
+            agent = project_points(view, proj, w, h, {"agent": (pose_xy(pose)[0], pose_xy(pose)[1],
+                                                                  house.config.sensor_height)})
+            if "agent" in agent:
+                u, v, depth = agent["agent"]
+                r = AGENT_CLEAR_M * w / (2 * math.tan(math.radians(options.chase_hfov_deg) / 2)) / depth
+                keep_clear.append((int(u - r), int(v - r), int(u + r), int(v + r)))
         if options.view == "multi":
             iw = int(w * options.inset_scale) // 2 * 2
             ih = int(iw * 3 / 4) // 2 * 2
@@ -240,7 +338,8 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
             frame[4:ih + 4, x0:x0 + iw] = ego
             inset = (x0 - 2, 0, w, ih + 6)
     if overlay is not None and options.overlays:
-        draw_overlays(frame, overlay, inset)
+        pose_xyyaw = tuple(pose.as_list()) if hasattr(pose, "as_list") else tuple(pose)
+        draw_overlays(frame, overlay, inset, minimap, pose_xyyaw, site_pixels, keep_clear)
     return frame
 
 
@@ -253,16 +352,21 @@ def _render_segment(args: tuple) -> tuple[int, str, int]:
     from fg_tea.env.house import PyBulletHouse
     from fg_tea.render.encoder import Mp4Writer
 
+    from fg_tea.render.floorplan import MiniMap
+
     scenario = _load_scenario(plan)
     env_fields = {k: v for k, v in plan.env.items() if k in EnvConfig.__dataclass_fields__}
-    house = PyBulletHouse(scenario, replace(EnvConfig(), **env_fields))
+    config = replace(EnvConfig(), **env_fields)
+    house = PyBulletHouse(scenario, config)
+    minimap = MiniMap(scenario, config.ego_hfov_deg)
+    sites = plan.site_positions or {s.name: s.position for s in scenario.sites}
     house.reset(plan.seed)
     writer = Mp4Writer(path, options.width, options.height, options.fps, bframes=0)
     count = 0
     try:
         for spec in plan.frames[lo:hi]:
             frame = _compose(house, options, (spec.pose, plan.placements[spec.placements], spec.held),
-                             plan.overlays[spec.overlay])
+                             plan.overlays[spec.overlay], minimap, sites)
             for _ in range(spec.repeat):
                 writer.write(frame)
                 count += 1
