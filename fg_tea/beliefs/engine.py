@@ -469,6 +469,40 @@ class BeliefEngine:
         return next((g for g in self._loc_factors
                      if isinstance(g, Evidence) and g.variables == (var,)), None)
 
+    def unseen_probability(self, obj: str, excluded: Iterable[str] = ()) -> tuple[float | None, int]:
+        """How much chance is left of finding `obj` by looking, and how many looks missed it.
+
+        R_o = sum over sites j not in `excluded` of q0(L_o = j) x P(every look so far missed o |
+        L_o = j): the probability, under o's prior (eq. 2) and the detection model (eqs. 5-6),
+        that o stands at a reachable site and is still unseen (the search give-up rule of
+        :class:`fg_tea.model.PlanningWeights`). Computed from the merged log evidence, so it is
+        exact however many looks there were.
+
+        Returns:
+            (R_o, looks): R_o is None once o has been seen (a detection or collapse is not a
+            likelihood over where o stood, so the rule no longer applies); looks counts the
+            misses absorbed for o (failed picks at a believed site included).
+        """
+        o = self._obj_index[obj]
+        ev = self._location_evidence(obj)
+        if ev is None:
+            log_l, looks, seen = np.zeros(len(self.sites)), 0, False
+        else:
+            log_l = np.asarray(ev.log_table, dtype=float)
+            seen = ev.kind_count("collapse") + ev.kind_count("detect") > 0
+            looks = ev.count - ev.kind_count("collapse") - ev.kind_count("detect")
+        if seen:
+            return None, looks
+        skip = {self._site_index[s] for s in excluded if s in self._site_index}
+        keep = [j for j in range(len(self.sites)) if j not in skip]
+        if not keep:
+            return 0.0, looks
+        terms = self._log_prior(o)[keep] + log_l[keep]
+        top = float(np.max(terms))
+        if not np.isfinite(top):
+            return 0.0, looks
+        return float(np.exp(top) * np.exp(terms - top).sum()), looks
+
     def _log_location(self, obj: str) -> np.ndarray:
         """log q(L_o), exact even where q underflows (log prior + log evidence + log message).
 
