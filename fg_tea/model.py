@@ -69,7 +69,25 @@ class Relation:
 
 @dataclass(frozen=True)
 class PlanningWeights:
-    """Weights of the EFE-style score G(o, j), eqs. 12-16 (lower is better)."""
+    """Weights of the EFE-style score G(o, j), eqs. 12-16 (lower is better), and when to give up.
+
+    Giving up on a search (``docs/design.md``, search give-up): the search for object o stops,
+    and the episode ends with ``not_found: o``, when either
+
+    - the *remaining probability* R_o = sum over reachable sites j of q0(L_o = j) x
+      P(every look so far missed o | L_o = j) falls below ``give_up_probability``. R_o is the
+      probability, under the object's prior (eq. 2) and the detection model (eqs. 5-6), that o
+      stands at a site the agent can reach and would still be unseen after the looks so far.
+      Because the looks are all misses, an object that is truly present produces a run of misses
+      this unlikely with probability R_o exactly, so the rule gives up on a findable object in
+      at most a fraction ``give_up_probability`` of episodes (per object) when the model is
+      right, in any house. 1e-3 is a false give-up rate of one in a thousand; or
+    - the number of looks that missed o reaches ``max_inspections_per_object`` (a budget for when
+      the model is wrong, e.g. the camera misses more often than mu says). 0 means automatic:
+      K x (ceil(log(give_up_probability) / log(mu)) + 1) for K sites, i.e. one round of looks
+      per site more than the probability rule needs if the model were right (each site's share
+      of R_o shrinks by mu per look); 32 looks for the default 8 sites and mu = 0.05.
+    """
 
     distance_weight: float = 0.20
     probability_weight: float = 3.00
@@ -77,6 +95,8 @@ class PlanningWeights:
     repeat_penalty: float = 1.00
     relevance_weight: float = 0.75
     distance: str = "geodesic"
+    give_up_probability: float = 1e-3
+    max_inspections_per_object: int = 0
 
 
 @dataclass(frozen=True)
@@ -224,7 +244,13 @@ def parse_model(data: dict, file: str | Path = "<model>") -> Model:
         repeat_penalty=planning_r.positive("repeat_penalty", d.repeat_penalty, allow_zero=True),
         relevance_weight=planning_r.positive("relevance_weight", d.relevance_weight, allow_zero=True),
         distance=planning_r.choice("distance", ("geodesic", "euclidean"), d.distance),
+        give_up_probability=planning_r.probability("give_up_probability", d.give_up_probability),
+        max_inspections_per_object=planning_r.opt("max_inspections_per_object", int,
+                                                  d.max_inspections_per_object),
     )
+    if planning.max_inspections_per_object < 0:
+        raise planning_r.fail("must be 0 (automatic) or more, got "
+                              f"{planning.max_inspections_per_object}", "max_inspections_per_object")
     structure = beliefs.choice("structure", STRUCTURES)
     relations = tuple(_read_relation(x) for x in r.items("relations", required=False))
     if structure == "factorised" and relations:

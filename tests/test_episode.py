@@ -243,8 +243,9 @@ class _LyingWaterSensor(FakeHouse):
 
 
 @pytest.mark.parametrize("model,reason,goals_true", [
-    # Full transitions: the agent later reads that the tea has not brewed and stops, honestly.
-    ("factorised", "stuck: serve_tea failed 2 times: precondition_unmet", None),
+    # Full transitions: the agent later reads that the tea has not brewed, reopens the fill and
+    # everything after it (task-level recovery), and makes tea that is brewed in the world.
+    ("factorised", "complete", True),
     # Certain effects: it believes every step worked and "completes" - but the world disagrees.
     ("models/ablations/certain_effects.toml", "complete", False),
 ])
@@ -255,7 +256,7 @@ def test_final_truth_is_logged_for_evaluation(model, reason, goals_true):
     assert "fill_kettle" in metrics["skipped_actions"]
     assert metrics["reason"] == reason
     end = next(e for e in runner.events if e["event"] == "episode_end")
-    assert end["world_truth"]["states"]["mug.tea_brewed"] is False
+    assert end["world_truth"]["states"]["mug.tea_brewed"] is goals_true
     if goals_true is not None:
         assert metrics["goals_true"] is goals_true
         assert "mug.tea_brewed" in end["goal_conditions"]["final_states"]

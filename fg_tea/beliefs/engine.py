@@ -29,9 +29,9 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.beliefs.factors import (Factor, collapse_factor, collapse_target, detection_factor,
-                                    effect_factor, location_var, miss_factor, state_observation,
-                                    state_prior, view_miss_factor)
+from fg_tea.beliefs.factors import (Evidence, Factor, collapse_factor, collapse_target,
+                                    detection_factor, effect_factor, location_var, merge_evidence,
+                                    miss_factor, state_observation, state_prior, view_miss_factor)
 from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, build_graph
 from fg_tea.beliefs.solvers import GtsamSolver, NumpySolver
 from fg_tea.beliefs.structured import (MAX_OBJECTS, NumericalGuardError, PairWeights,
@@ -431,22 +431,108 @@ class BeliefEngine:
 
     # ------------------------------------------------------------------ location evidence
     def _commit_location(self, factors: Iterable[Factor]) -> None:
+        """Multiply unary location evidence into the graph, in log space.
+
+        Every object holds at most one :class:`~fg_tea.beliefs.factors.Evidence` factor: each new
+        miss, detection or collapse is merged into it as a sum of logs, so the graph does not
+        grow with the number of inspections and a thousand misses at one site stay exact (their
+        product, mu^1000, is far below the smallest float). ``_unary[o]`` is the normalised
+        prior x evidence, computed from the logs.
+        """
         for f in factors:
-            o = self._obj_index[f.variables[0][2:-1]]
-            row = self._unary[o] * f.table
-            total = row.sum()
-            if not np.isfinite(total) or total <= 0:
+            var = f.variables[0]
+            o = self._obj_index[var[2:-1]]
+            pos = next((i for i, g in enumerate(self._loc_factors)
+                        if isinstance(g, Evidence) and g.variables == (var,)), None)
+            merged = merge_evidence(None if pos is None else self._loc_factors[pos], f)
+            log_row = self._log_prior(o) + merged.log_table
+            top = float(np.max(log_row))
+            if not np.isfinite(top):
                 raise ContradictionError(f"evidence {f.label} has probability zero under the model")
-            self._unary[o] = row / total
-            self._loc_factors.append(f)
+            row = np.exp(log_row - top)
+            self._unary[o] = row / row.sum()
+            if pos is None:
+                self._loc_factors.append(merged)
+            else:
+                self._loc_factors[pos] = merged
             for key in ("locations", "joint", "pairwise", "structured"):
                 self._cache.pop(key, None)
+
+    def _log_prior(self, o: int) -> np.ndarray:
+        """log q0(L_o) (eq. 2), normalised; -inf where the prior is zero."""
+        table = self.graph.location_priors[o].table
+        with np.errstate(divide="ignore"):
+            return np.log(table / table.sum())
+
+    def _location_evidence(self, obj: str) -> Evidence | None:
+        var = location_var(obj)
+        return next((g for g in self._loc_factors
+                     if isinstance(g, Evidence) and g.variables == (var,)), None)
+
+    def unseen_probability(self, obj: str, excluded: Iterable[str] = ()) -> tuple[float | None, int]:
+        """How much chance is left of finding `obj` by looking, and how many looks missed it.
+
+        R_o = sum over sites j not in `excluded` of q0(L_o = j) x P(every look so far missed o |
+        L_o = j): the probability, under o's prior (eq. 2) and the detection model (eqs. 5-6),
+        that o stands at a reachable site and is still unseen (the search give-up rule of
+        :class:`fg_tea.model.PlanningWeights`). Computed from the merged log evidence, so it is
+        exact however many looks there were.
+
+        Returns:
+            (R_o, looks): R_o is None once o has been seen (a detection or collapse is not a
+            likelihood over where o stood, so the rule no longer applies); looks counts the
+            misses absorbed for o (failed picks at a believed site included).
+        """
+        o = self._obj_index[obj]
+        ev = self._location_evidence(obj)
+        if ev is None:
+            log_l, looks, seen = np.zeros(len(self.sites)), 0, False
+        else:
+            log_l = np.asarray(ev.log_table, dtype=float)
+            seen = ev.kind_count("collapse") + ev.kind_count("detect") > 0
+            looks = ev.count - ev.kind_count("collapse") - ev.kind_count("detect")
+        if seen:
+            return None, looks
+        skip = {self._site_index[s] for s in excluded if s in self._site_index}
+        keep = [j for j in range(len(self.sites)) if j not in skip]
+        if not keep:
+            return 0.0, looks
+        terms = self._log_prior(o)[keep] + log_l[keep]
+        top = float(np.max(terms))
+        if not np.isfinite(top):
+            return 0.0, looks
+        return float(np.exp(top) * np.exp(terms - top).sum()), looks
+
+    def _log_location(self, obj: str) -> np.ndarray:
+        """log q(L_o), exact even where q underflows (log prior + log evidence + log message).
+
+        Without relational factors q(L_o) is the normalised prior x evidence. With them,
+        q(L_o = a) is proportional to that times c(a), the marginal L_o would have with a uniform
+        prior and no evidence of its own (the message of the relational factors); c is bounded
+        away from zero because relational factors are positive, so only the unary part needs logs.
+        """
+        o = self._obj_index[obj]
+        ev = self._location_evidence(obj)
+        log_u = self._log_prior(o) + (0.0 if ev is None else ev.log_table)
+        if self._correlated:
+            var, k = location_var(obj), len(self.sites)
+            other = self.copy()
+            other._unary[o] = np.full(k, 1.0 / k)
+            other._loc_factors = [g for g in self._loc_factors if g.variables != (var,)]
+            other._loc_factors.append(Factor((var,), np.full(k, 1.0 / k), f"uniform {var}"))
+            other._cache = {}
+            with np.errstate(divide="ignore"):
+                log_u = log_u + np.log(other.location(obj))
+        top = float(np.max(log_u))
+        return log_u - (top + float(np.log(np.exp(log_u - top).sum())))
 
     def _detection_factor(self, obj: str, j: int, miss: float | None = None) -> Factor:
         """The factor of "obj seen at site j": eq. 4's collapse, or the detection likelihood
         (miss likelihood `miss`, default the model's mu)."""
         if self.model.positive_update == "blueprint":
-            return collapse_factor(obj, j, self.location(obj), self.model.prior_floor)
+            current = self.location(obj)
+            exact = None if current[j] >= np.finfo(float).tiny else self._log_location(obj)
+            return collapse_factor(obj, j, current, self.model.prior_floor, log_current=exact)
         return detection_factor(obj, j, len(self.sites),
                                 self.model.miss_likelihood if miss is None else miss,
                                 self.model.false_positive_rate)
@@ -619,7 +705,17 @@ class BeliefEngine:
         if var is None:
             raise KeyError(f"no task state {state!r} in the belief")
         f = state_observation(var, bool(value), sensor.sensitivity, sensor.specificity)
-        return self._commit_states(self._state_factors + [f], "observe", [state],
+        # Repeated readings of one slice merge into one evidence factor, summed in log space:
+        # the graph stays bounded (dense contraction has an operand limit) and exact (the
+        # product of thousands of readings underflows).
+        factors = list(self._state_factors)
+        pos = next((i for i, g in enumerate(factors)
+                    if isinstance(g, Evidence) and g.variables == (var,)), None)
+        if pos is None:
+            factors.append(merge_evidence(None, f))
+        else:
+            factors[pos] = merge_evidence(factors[pos], f)
+        return self._commit_states(factors, "observe", [state],
                                    {"state": state, "value": bool(value),
                                     "sensitivity": sensor.sensitivity,
                                     "specificity": sensor.specificity})

@@ -19,7 +19,7 @@ Constructors, with the blueprint equations they realise:
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +39,11 @@ class Factor:
     variables: tuple[str, ...]
     table: np.ndarray
     label: str = ""
+    #: Optional natural logarithm of the table up to an additive constant (-inf where the table
+    #: is zero), for factors whose exact values do not fit a float64 table (e.g. eq. 4's collapse
+    #: after a thousand misses). When given, it is the factor's exact value; `table` is
+    #: ``exp(log_table - max)``.
+    log_table: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if self.table.ndim != len(self.variables):
@@ -48,6 +53,64 @@ class Factor:
             raise ValueError(f"factor {self.label!r}: repeated variable in {self.variables}")
         if not np.all(np.isfinite(self.table)) or np.any(self.table < 0):
             raise ValueError(f"factor {self.label!r}: table must be finite and non-negative")
+
+    def log_values(self) -> np.ndarray:
+        """The factor's natural log (exact when built in log space; -inf where it is zero)."""
+        if self.log_table is not None:
+            return np.asarray(self.log_table, dtype=float)
+        with np.errstate(divide="ignore"):
+            return np.log(self.table)
+
+
+@dataclass(frozen=True, eq=False)
+class Evidence(Factor):
+    """Every piece of unary evidence on one variable, merged into one factor in log space.
+
+    Repeated observations of one variable (state readings [23, 24], misses [5, 6], detections
+    [4]) multiply; holding their product as one factor keeps the graph's size bounded whatever
+    the number of observations (dense contraction has an operand limit), and holding it as a sum
+    of logs keeps it exact where the product would underflow (465 alternating readings, or a
+    thousand misses at one site). ``log_table`` is the exact sum of the merged factors' logs,
+    ``table`` its exponential shifted so that its maximum is 1 (a constant factor changes no
+    posterior).
+
+    Attributes:
+        count: how many factors were merged.
+        kinds: how many of each kind (the first word of their labels: ``miss``, ``observe``...).
+    """
+
+    count: int = 0
+    kinds: tuple[tuple[str, int], ...] = ()
+
+    def kind_count(self, kind: str) -> int:
+        """How many merged factors were of `kind` (``"miss"``, ``"collapse"``, ``"observe"``)."""
+        return dict(self.kinds).get(kind, 0)
+
+
+def merge_evidence(existing: Evidence | None, factor: Factor) -> Evidence:
+    """`existing` times `factor` (both unary on one variable), summed in log space.
+
+    Raises:
+        ContradictionError: the product is zero everywhere (the evidence contradicts itself).
+        ValueError: the factor is not unary, or names another variable.
+    """
+    if len(factor.variables) != 1:
+        raise ValueError(f"only unary evidence can be merged, got {factor.label!r}")
+    var = factor.variables[0]
+    if existing is not None and existing.variables != factor.variables:
+        raise ValueError(f"evidence on {existing.variables[0]!r} cannot absorb {factor.label!r}")
+    add = factor.log_values()
+    total = add if existing is None else np.asarray(existing.log_table, dtype=float) + add
+    top = float(np.max(total))
+    if not np.isfinite(top):
+        raise ContradictionError(f"evidence {factor.label} has probability zero under the model")
+    kind = factor.label.split(" ", 1)[0] or "factor"
+    kinds = dict(existing.kinds) if existing is not None else {}
+    kinds[kind] = kinds.get(kind, 0) + 1
+    count = (existing.count if existing is not None else 0) + 1
+    summary = ", ".join(f"{k} x{n}" for k, n in sorted(kinds.items()))
+    return Evidence((var,), np.exp(total - top), f"evidence {var} ({summary})", total, count,
+                    tuple(sorted(kinds.items())))
 
 
 def location_var(obj: str) -> str:
@@ -91,7 +154,8 @@ def collapse_target(site_index: int, n_sites: int, floor: float) -> np.ndarray:
     return target / target.sum()
 
 
-def collapse_factor(obj: str, site_index: int, current: np.ndarray, floor: float) -> Factor:
+def collapse_factor(obj: str, site_index: int, current: np.ndarray, floor: float,
+                    log_current: np.ndarray | None = None) -> Factor:
     """Soft evidence that sets q(L_o) to eq. 4 exactly (Jeffrey's rule as a factor).
 
     Multiplying the graph by lambda(i) = t(i) / q(L_o = i) makes the posterior marginal of L_o
@@ -100,16 +164,36 @@ def collapse_factor(obj: str, site_index: int, current: np.ndarray, floor: float
     (q = 0, possible only with zero-probability factors) stay ruled out: lambda = 0 there, so the
     posterior is t restricted to the support of q.
 
+    The ratio is formed in log space, log lambda = log t - log q, and stored exactly in
+    ``log_table`` (``table`` is its exponential scaled to a maximum of 1): after a few hundred
+    misses at site j, q(L_o = j) is below the smallest normal float and t / q overflows.
+
+    Args:
+        obj: the detected object.
+        site_index: the site j it was seen at.
+        current: q(L_o) now.
+        floor: eq. 4's floor eps.
+        log_current: log q(L_o) now, exact, when the caller has it (it takes precedence over
+            `current`, whose smallest entries may have underflowed to zero).
+
     Raises:
         ContradictionError: q(L_o = j) = 0 — the detection contradicts the belief.
     """
     current = np.asarray(current, dtype=float)
-    if not current[site_index] > 0:
+    if log_current is None:
+        with np.errstate(divide="ignore"):
+            log_current = np.log(current)
+    log_current = np.asarray(log_current, dtype=float)
+    if not log_current[site_index] > -np.inf:
         raise ContradictionError(f"{location_var(obj)} was detected at site {site_index}, where its "
                                  "probability is zero")
-    target = collapse_target(site_index, len(current), floor)
-    ratio = np.divide(target, current, out=np.zeros_like(target), where=current > 0)
-    return Factor((location_var(obj),), ratio, f"collapse {location_var(obj)}@{site_index}")
+    target = collapse_target(site_index, len(log_current), floor)
+    support = np.isfinite(log_current)
+    log_ratio = np.full(len(log_current), -np.inf)
+    log_ratio[support] = np.log(target[support]) - log_current[support]
+    table = np.exp(log_ratio - np.max(log_ratio))
+    return Factor((location_var(obj),), table, f"collapse {location_var(obj)}@{site_index}",
+                  log_ratio)
 
 
 def state_prior(state: str, p_true: float) -> Factor:

@@ -19,11 +19,21 @@ from typing import Any, Iterator, TextIO
 import numpy as np
 
 DIGITS = 9  # floats are rounded so that logs are stable across platforms' last-bit noise
+#: Keys whose floats are tiny by nature (a disagreement of ~1e-16): kept to DIGITS significant
+#: digits (scientific notation) instead of DIGITS decimals, which would round them to 0.0.
+SIGNIFICANT_KEYS = frozenset({"gtsam_agreement"})
+
+
+def _significant(value: Any) -> Any:
+    if isinstance(value, (np.floating, float)) and math.isfinite(float(value)):
+        return float(f"{float(value):.{DIGITS - 1}e}")
+    return _clean(value)
 
 
 def _clean(value: Any) -> Any:
     if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
+        return {str(k): (_significant(v) if k in SIGNIFICANT_KEYS else _clean(v))
+                for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [_clean(v) for v in value]
     if isinstance(value, np.ndarray):

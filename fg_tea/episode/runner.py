@@ -35,7 +35,7 @@ from fg_tea.episode.metrics import score
 from fg_tea.model import Model
 from fg_tea.planning import distances_for, make_planner
 from fg_tea.scenario import Scenario
-from fg_tea.tasks.executor import PreconditionError, TaskExecutor
+from fg_tea.tasks.executor import MAX_REOPENINGS, NOT_FOUND, PreconditionError, TaskExecutor
 from fg_tea.tasks.load import load_task
 
 REASON_COMPLETE = "complete"
@@ -53,6 +53,8 @@ class RunConfig:
     max_frames: int = 50_000
     belief_backend: str = "numpy"
     snapshot_every_event: bool = True
+    #: Task-level reopenings allowed per episode (``fg_tea.tasks.executor.MAX_REOPENINGS``).
+    max_reopenings: int = MAX_REOPENINGS
 
 
 def env_config_for(model: Model, base: EnvConfig | None = None, **overrides) -> EnvConfig:
@@ -118,7 +120,8 @@ class EpisodeRunner:
         self.log = log if log is not None else EventLog()
         self.belief = BeliefEngine(scenario, model, backend=config.belief_backend)
         self.graph = load_task(config.task, model, scenario, config.preparation_site)
-        self.executor = TaskExecutor(self.graph, self.belief, scenario, model)
+        self.executor = TaskExecutor(self.graph, self.belief, scenario, model,
+                                     max_reopenings=config.max_reopenings)
         self.planner = make_planner(config.planner, model,
                                     rng=np.random.default_rng([config.seed, 0x9E7]))
         self.state = EpisodeState()
@@ -217,7 +220,9 @@ class EpisodeRunner:
             if self.executor.done:
                 self._end(REASON_COMPLETE, terminated=True)
             else:
-                self._end(f"stuck: {self.executor.stuck_reason}", terminated=True)
+                stuck = self.executor.stuck_reason or ""
+                self._end(stuck if stuck.startswith(NOT_FOUND) else f"stuck: {stuck}",
+                          terminated=True)
             return self.log.events[first:]
         self.state.steps += 1
         if action.verb == "SEARCH":

@@ -64,8 +64,9 @@ state) pair is offered at most ``max_verifications`` times, after which the list
 
 from __future__ import annotations
 
+import math
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -78,6 +79,16 @@ from fg_tea.tasks.graph import TaskGraph
 
 #: Failure reasons that are evidence about where an object is not (a miss at the site).
 NOT_AT_SITE_REASONS = {"object_not_at_site": "object", "destination_not_at_site": "destination"}
+
+#: Prefix of the end reason when a search is given up (the object is almost surely not findable).
+NOT_FOUND = "not_found: "
+
+#: Default bound on task-level reopenings per episode. A reopening redoes a chain of actions
+#: after a verification reading showed that a goal it relied on does not hold. With sensors of
+#: specificity 0.95, a reading misleads with probability about 0.05, so a second round is needed
+#: in about 5 % of recoveries and a third in about 0.25 %; two rounds cover all but a small
+#: fraction while keeping every episode's length bounded.
+MAX_REOPENINGS = 2
 
 
 class TaskError(RuntimeError):
@@ -170,6 +181,9 @@ class RecoveryDecision:
         reopened_search: the object whose search was reopened (the failure showed it is not
             where the agent believed), or None.
         stuck_reason: set when no recovery is left; the episode should end with it.
+        reopened: task-level recovery: the actions reopened because a goal they relied on no
+            longer holds (see :meth:`TaskExecutor.fail`), in graph order.
+        alternative_site: a PLACE that found its site full retargets to this free site.
     """
 
     action: str
@@ -180,12 +194,15 @@ class RecoveryDecision:
     exclude_site: str | None = None
     reopened_search: str | None = None
     stuck_reason: str | None = None
+    reopened: tuple[str, ...] = ()
+    alternative_site: str | None = None
 
     def to_json(self) -> dict:
         return {"action": self.action, "reason": self.reason, "attempt": self.attempt,
                 "retry": self.retry, "inspections": list(self.inspections),
                 "exclude_site": self.exclude_site, "reopened_search": self.reopened_search,
-                "stuck_reason": self.stuck_reason}
+                "stuck_reason": self.stuck_reason, "reopened": list(self.reopened),
+                "alternative_site": self.alternative_site}
 
 
 class TaskExecutor:
@@ -195,17 +212,24 @@ class TaskExecutor:
         graph: the task (fresh: every action pending).
         belief: the belief engine; the executor writes it only through its public update methods.
         scenario: the house (object affordances and names; never its hidden truth).
-        model: the generative model (transition form, sensors).
+        model: the generative model (transition form, sensors, search give-up rule).
         max_verifications: how often one (action, state) pair may be offered for verification.
+        max_reopenings: how many task-level reopenings an episode may make (see :meth:`fail`).
     """
 
     def __init__(self, graph: TaskGraph, belief: BeliefEngine, scenario: Scenario, model: Model,
-                 max_verifications: int = 3) -> None:
+                 max_verifications: int = 3, max_reopenings: int = MAX_REOPENINGS) -> None:
+        if max_reopenings < 0:
+            raise ValueError(f"max_reopenings must be non-negative, got {max_reopenings}")
         self.graph = graph
         self.belief = belief
         self.scenario = scenario
         self.model = model
         self.max_verifications = max_verifications
+        self.max_reopenings = max_reopenings
+        self.reopenings = 0
+        self._reopened: set[str] = set()
+        self._full_sites: set[str] = set()
         for state, prior in graph.declared_states.items():
             belief.ensure_state(state, prior)
         self.objects: dict[str, ObjectState] = {
@@ -269,10 +293,23 @@ class TaskExecutor:
             for node in satisfied:
                 action = self.graph.action(node)
                 self.graph.set_status(node, "skipped")
+                self._reopened.discard(node)
                 self.events.append({"event": "skip", "action": node,
                                     "goals": [self._condition_json(c) for c in action.goals],
                                     "graph": self.graph.to_json()})
             if satisfied:
+                continue
+            # A reopened relational action whose relation already holds (the kettle is still in
+            # the hand, the teabag still in the mug) is finished as it stands: repeating it
+            # would be physically wrong (picking a held object), not merely redundant.
+            holding = [(n, r) for n in frontier if n in self._reopened
+                       and (r := self._relation_holds(self.graph.action(n))) is not None]
+            for node, relation in holding:
+                self.graph.set_status(node, "skipped")
+                self._reopened.discard(node)
+                self.events.append({"event": "skip", "action": node, "goals": [],
+                                    "relation": relation, "graph": self.graph.to_json()})
+            if holding:
                 continue
             if not frontier:
                 if not self.graph.done:
@@ -282,10 +319,66 @@ class TaskExecutor:
                                 f"action(s) {', '.join(failed) or 'none'}")
                 return None
             node = frontier[0]
+            if self.graph.action(node).verb == "SEARCH":
+                given_up = self._give_up()
+                if given_up is not None:
+                    self._stuck(given_up)
+                    return None
             if self.graph.status(node) == "pending":
                 self.graph.set_status(node, "active")
                 self.events.append({"event": "activate", "action": node})
             return self.graph.action(node)
+
+    def _relation_holds(self, action: TaskAction) -> str | None:
+        """For a relational action, a sentence saying its outcome already holds, else None."""
+        state = self.objects[action.object]
+        if action.verb == "PICK" and state.held:
+            return f"{action.object} is already held"
+        if action.verb == "PLACE" and not state.held and state.current_site == action.site:
+            return f"{action.object} already stands on {action.site}"
+        if action.verb == "INSERT" and state.contained_in == action.destination:
+            return f"{action.object} is already in {action.destination}"
+        return None
+
+    # ------------------------------------------------------------------ search give-up
+    def search_budget(self) -> int | None:
+        """Looks that may miss one object before its search is given up (None = no budget).
+
+        ``model.planning.max_inspections_per_object``, or when it is 0, K x (ceil(log p /
+        log mu) + 1) with p the give-up probability and mu the miss likelihood (see
+        :class:`fg_tea.model.PlanningWeights`).
+        """
+        planning = self.model.planning
+        if planning.max_inspections_per_object > 0:
+            return planning.max_inspections_per_object
+        p, mu = planning.give_up_probability, self.model.miss_likelihood
+        if not (0.0 < p < 1.0 and 0.0 < mu < 1.0):
+            return None
+        return len(self.scenario.sites) * (math.ceil(math.log(p) / math.log(mu)) + 1)
+
+    def search_outlook(self, obj: str) -> dict:
+        """R_o (the remaining probability of finding `obj` at a reachable site) and its looks."""
+        remaining, looks = self.belief.unseen_probability(obj, self.excluded_sites)
+        return {"object": obj, "remaining_probability": remaining, "looks": looks,
+                "threshold": self.model.planning.give_up_probability,
+                "budget": self.search_budget()}
+
+    def _give_up(self) -> str | None:
+        """The give-up reason when some searched object is almost surely not findable, else None."""
+        budget = self.search_budget()
+        for obj in self.pending_search_objects():
+            outlook = self.search_outlook(obj)
+            remaining, looks = outlook["remaining_probability"], outlook["looks"]
+            low = remaining is not None and remaining < outlook["threshold"]
+            spent = budget is not None and looks >= budget
+            if low or spent:
+                why = (f"remaining probability {remaining:.3g} < {outlook['threshold']:g}" if low
+                       else f"search budget of {budget} looks spent")
+                shown = "n/a" if remaining is None else f"{remaining:.3g}"
+                self.events.append({"event": "give_up", **outlook, "why": why})
+                return (f"{NOT_FOUND}{obj} (remaining probability {shown} after {looks} looks; "
+                        f"{why})")
+        return None
 
     def _stuck(self, reason: str) -> None:
         self._stuck_reason = reason
@@ -607,15 +700,195 @@ class TaskExecutor:
             if site not in self.excluded_sites:
                 self.excluded_sites.append(site)
 
+        # Task-level recovery: a precondition that verification could not restore means a goal
+        # an earlier action relied on does not hold; redo the chain that produces it.
+        suffix = ""
+        if reason == "precondition_unmet":
+            plan = self.reopen_plan(action)
+            if plan and self.reopenings < self.max_reopenings:
+                nodes = self._reopen(action, plan)
+                decision = RecoveryDecision(action.id, reason, attempt, True, (), excluded,
+                                            reopened, reopened=nodes)
+                self.events.append({"event": "fail", **decision.to_json(),
+                                    "graph": self.graph.to_json()})
+                return decision
+            suffix = (f" (task-level recovery spent: {self.reopenings} of {self.max_reopenings} "
+                      "reopenings used)" if plan else
+                      " (no earlier action can restore the unmet precondition)")
+
+        # A full site: place (and do everything else planned there) on another free site that
+        # affords the object, instead of retrying a place that cannot succeed.
+        alternative = None
+        if reason == "site_full" and action.verb == "PLACE" and action.site is not None:
+            self._full_sites.add(action.site)
+            alternative = self.alternative_site(action)
+            if alternative is None:
+                suffix = f" (no other free site affords {action.object})"
+            else:
+                self._retarget(action, alternative)
+                decision = RecoveryDecision(action.id, reason, attempt, True, (), excluded,
+                                            reopened, alternative_site=alternative)
+                self.graph.set_status(action.id, "pending")
+                self.events.append({"event": "fail", **decision.to_json(),
+                                    "graph": self.graph.to_json()})
+                return decision
+
         if attempt <= policy.max_retries:
             self.graph.set_status(action.id, "pending")
             decision = RecoveryDecision(action.id, reason, attempt, True, policy.reinspect,
                                         excluded, reopened)
         else:
-            stuck = f"{action.id} failed {attempt} times: {reason}"
+            stuck = f"{action.id} failed {attempt} times: {reason}{suffix}"
             decision = RecoveryDecision(action.id, reason, attempt, False, (), excluded, reopened,
                                         stuck)
         self.events.append({"event": "fail", **decision.to_json(), "graph": self.graph.to_json()})
         if decision.stuck_reason is not None:
             self._stuck(decision.stuck_reason)
         return decision
+
+    # ------------------------------------------------------------------ task-level recovery
+    def _threshold(self, state: str) -> float | None:
+        """The largest goal threshold any action of the task declares for `state`, or None."""
+        values = [c.at_least for n in self.graph for c in self.graph.action(n).goals
+                  if c.state == state]
+        return max(values) if values else None
+
+    def _producer(self, state: str, consumer: str) -> str | None:
+        """The latest finished action `consumer` depends on whose effect can make `state` true."""
+        for node in reversed(self.graph.ancestors(consumer)):
+            action = self.graph.action(node)
+            if action.verb in ("SEARCH", "INSPECT") or not self.graph.is_finished(node):
+                continue
+            if any(e.state == state and e.value for e in action.effects):
+                return node
+        return None
+
+    def reopen_plan(self, trigger: TaskAction) -> dict[str, dict]:
+        """Which finished actions to redo because a state `trigger` needs no longer holds.
+
+        Starting from the unmet belief preconditions of `trigger` (eq. 20), each state z with
+        q(z = true) below its threshold theta is traced to its producer: the latest finished
+        action the consumer depends on whose effect sets z true (eq. 27). The producer is
+        reopened, and the states its effect on z ``requires`` and its own preconditions are
+        traced in turn when their belief is below theta' — the producer's precondition
+        threshold, else the goal threshold the task declares for that state, else theta (z can
+        only become true through the producer when the required state holds, so q(z) >= theta
+        after it needs about q(required) >= theta). The beliefs are over the current time slice,
+        so a state an action has since used up (the kettle's water after pouring) is traced too:
+        producing z again needs it again.
+
+        Returns:
+            action id -> why: ``{"state", "belief", "threshold", "needed_by"}``, in the order
+            found; empty when nothing upstream can restore the unmet preconditions.
+        """
+        queue = [(v.state, float(v.threshold), trigger.id)
+                 for v in self.unmet_preconditions(trigger)]
+        plan: dict[str, dict] = {}
+        seen: set[str] = set()
+        while queue:
+            state, theta, consumer = queue.pop(0)
+            if state in seen:
+                continue
+            seen.add(state)
+            producer = self._producer(state, consumer)
+            if producer is None:
+                continue
+            plan.setdefault(producer, {"state": state, "belief": self.belief.state(state),
+                                       "threshold": theta, "needed_by": consumer})
+            action = self.graph.action(producer)
+            own = {c.state: c.at_least for c in action.preconditions}
+            needed = [r for e in action.effects if e.state == state for r in e.requires]
+            for r in dict.fromkeys(needed + list(own)):
+                if r == state:
+                    continue
+                declared = self._threshold(r)
+                theta_r = own.get(r, declared if declared is not None else theta)
+                if self.belief.state(r) < theta_r:
+                    queue.append((r, theta_r, producer))
+        return plan
+
+    def _reopen(self, trigger: TaskAction, plan: dict[str, dict]) -> tuple[str, ...]:
+        """Reopen the planned producers and every finished or failed action after them."""
+        self.reopenings += 1
+        downstream: dict[str, list[str]] = {}
+        for producer in plan:
+            for node in self.graph.descendants(producer):
+                if node not in plan:
+                    downstream.setdefault(node, []).append(producer)
+        nodes = [n for n in self.graph if n in plan or n in downstream or n == trigger.id]
+        reopened = []
+        for node in nodes:
+            action = self.graph.action(node)
+            if action.verb == "SEARCH":
+                continue
+            status = self.graph.status(node)
+            if status == "pending":
+                continue
+            self.graph.set_status(node, "pending")
+            self.attempts.pop(node, None)
+            for key in [k for k in self._verifications if k[0] == node]:
+                del self._verifications[key]
+            self._reopened.add(node)
+            reopened.append(node)
+            event = {"event": "reopen", "action": node, "previous_status": status,
+                     "round": self.reopenings, "max_reopenings": self.max_reopenings,
+                     "trigger": {"action": trigger.id,
+                                 "unmet": [v.to_json() for v in self.unmet_preconditions(trigger)]}}
+            if node in plan:
+                event.update(plan[node], reason="goal_no_longer_holds")
+            else:
+                event.update(reason="depends_on_reopened", upstream=downstream.get(node, []))
+            self.events.append(event)
+        return tuple(reopened)
+
+    # ------------------------------------------------------------------ alternative sites
+    def _expected_occupants(self, site: str) -> float:
+        """Objects believed to stand on `site` now (placed ones exactly, the others by belief)."""
+        j = self.scenario.site_index(site)
+        total = 0.0
+        for name, state in self.objects.items():
+            if state.held or state.contained_in is not None:
+                continue
+            if state.current_site is not None or state.resolved_site is not None:
+                total += float(state.current_site == site)
+            else:
+                total += float(self.belief.location(name)[j])
+        return total
+
+    def alternative_site(self, action: TaskAction) -> str | None:
+        """A free site other than the full one(s) whose affordance prior admits the object.
+
+        Candidates: sites not known full, not excluded as unreachable, whose affordance weight
+        a_ic for the object's category is positive (the house says such objects belong there,
+        eq. 2) and whose believed occupants leave room (capacity minus expected occupants at
+        least 1; no capacity = room). Preference: the same room as the full site, then the
+        larger affordance weight, then scenario order.
+        """
+        category = self.scenario.object(action.object).category
+        room = self.scenario.site(action.site).room
+        best, best_key = None, None
+        for k, site in enumerate(self.scenario.sites):
+            if site.name in self._full_sites or site.name in self.excluded_sites:
+                continue
+            weight = float(site.affordances.get(category, 0.0))
+            if weight <= 0.0:
+                continue
+            if site.capacity is not None and site.capacity - self._expected_occupants(site.name) < 1:
+                continue
+            key = (site.room != room, -weight, k)
+            if best_key is None or key < best_key:
+                best, best_key = site.name, key
+        return best
+
+    def _retarget(self, action: TaskAction, site: str) -> None:
+        """Point `action` and every unfinished action aimed at its site to `site`; log it."""
+        old = action.site
+        moved = []
+        for node in self.graph:
+            other = self.graph.action(node)
+            if other.site == old and not self.graph.is_finished(node):
+                self.graph.replace_action(node, replace(other, site=site))
+                moved.append(node)
+        self.events.append({"event": "alternative_site", "action": action.id, "full_site": old,
+                            "site": site, "retargeted": moved,
+                            "full_sites": sorted(self._full_sites)})

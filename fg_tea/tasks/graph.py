@@ -139,6 +139,17 @@ class TaskGraph:
         """Every action that transitively depends on `node`, in insertion order."""
         return tuple(sorted(nx.descendants(self._g, node), key=self._index.__getitem__))
 
+    def ancestors(self, node: str) -> tuple[str, ...]:
+        """Every action `node` transitively depends on, in insertion order."""
+        return tuple(sorted(nx.ancestors(self._g, node), key=self._index.__getitem__))
+
+    def replace_action(self, node: str, action: TaskAction) -> None:
+        """Replace the action of `node` (same id) by `action`, e.g. with another target site."""
+        if action.id != node:
+            raise ValueError(f"replacement for {node!r} has id {action.id!r}")
+        self.action(node)
+        self._g.nodes[node]["action"] = action
+
     def search_nodes(self, obj: str | None = None) -> list[str]:
         """Ids of SEARCH actions (of `obj` only, if given), in insertion order."""
         return [n for n in self._order if self.action(n).verb == "SEARCH"
