@@ -117,14 +117,22 @@ class WorldDistribution:
 
 def parse_world(data: object, file: str | Path) -> WorldDistribution:
     r = Reader(data, file)
+    if not isinstance(data, dict):
+        raise r.fail("a world distribution must be a JSON object")
     base_name = r.req("base_scenario", str)
+    if not base_name.strip() or len(base_name) > 255 or "\0" in base_name:
+        raise r.fail(f"{base_name[:40]!r} does not name a scenario", "base_scenario")
     base_path = Path(file).parent / base_name
-    base = load_scenario(base_path if base_path.suffix == ".json" and base_path.exists() else base_name)
+    base = load_scenario(base_path if base_path.suffix == ".json" and base_path.is_file() else base_name)
     placement = r.child("placement")
     order = placement.opt("order", list, list(base.object_names))
     for i, name in enumerate(order):
+        if not isinstance(name, str):
+            raise InputError(file, f"$.placement.order[{i}]", "expected an object name")
         if name not in base.object_names:
             raise InputError(file, f"$.placement.order[{i}]", f"object {name!r} is not in scenario {base.name!r}")
+        if name in order[:i]:
+            raise InputError(file, f"$.placement.order[{i}]", f"object {name!r} is listed twice")
     missing = [o for o in base.object_names if o not in order]
     order = list(order) + missing
     rules = []
@@ -133,6 +141,10 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         for key, value in (("object", obj), ("anchor", anchor)):
             if value not in base.object_names:
                 raise c.fail(f"object {value!r} is referenced but not defined in scenario {base.name!r}", key)
+        if anchor == obj:
+            raise c.fail(f"object {obj!r} cannot be its own anchor", "anchor")
+        if any(rule.object == obj for rule in rules):
+            raise c.fail(f"object {obj!r} already has a co_location rule (one rule per object)", "object")
         if order.index(anchor) > order.index(obj):
             raise c.fail(f"anchor {anchor!r} must be placed before {obj!r} in placement.order", "anchor")
         same_site, same_room = c.probability("same_site"), c.probability("same_room", 0.0)
@@ -143,7 +155,8 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
     declared = {f"{o.name}.{s}" for o in base.objects for s in o.state_priors}
     states = r.child("states", required=False)
     if states is not None:
-        for key, value in states.data.items():
+        for key in states.names():
+            value = states.data[key]
             if key not in declared:
                 raise states.fail(f"state {key!r} is referenced but no object of scenario "
                                   f"{base.name!r} declares it", key)
@@ -151,12 +164,14 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
                 drawn.add(key)
             else:
                 pinned[key] = states._check_type(value, bool, key)
-    return WorldDistribution(
+    world = WorldDistribution(
         name=r.req("name", str), description=r.opt("description", str, ""), base=base,
         order=tuple(order), prior_violation=placement.probability("prior_violation", 0.0),
         violation=placement.choice("violation", ("inverse", "uniform"), "inverse"),
         co_location=tuple(rules), pinned_states=MappingProxyType(pinned),
         drawn_states=frozenset(drawn), source=str(file))
+    r.finish()
+    return world
 
 
 def load_world(path: str | Path) -> WorldDistribution:
