@@ -265,7 +265,7 @@ def _check_text(text: str, file: str | Path, path: str) -> None:
         raise InputError(file, path, "text is not valid Unicode (a lone surrogate escape)") from None
 
 
-def read_text(path: str | Path) -> str:
+def read_text(path: str | Path, max_bytes: int = MAX_FILE_BYTES) -> str:
     """The UTF-8 text of a regular input file; every way of not being one is an :class:`InputError`.
 
     Directories, FIFOs, devices, symlink loops, unreadable, oversized and non-UTF-8 files are
@@ -282,9 +282,9 @@ def read_text(path: str | Path) -> str:
         raise InputError(path, "$", "is a directory, not a file")
     if not stat.S_ISREG(info.st_mode):
         raise InputError(path, "$", "is not a regular file (a FIFO, socket or device)")
-    if info.st_size > MAX_FILE_BYTES:
+    if info.st_size > max_bytes:
         raise InputError(path, "$", f"file of {info.st_size:,} bytes is larger than the "
-                         f"{MAX_FILE_BYTES:,} bytes accepted")
+                         f"{max_bytes:,} bytes accepted")
     try:
         raw = path.read_bytes()
     except OSError as exc:
