@@ -590,7 +590,7 @@ def _add_compare_parser(sub) -> None:
                        "(means, 95% CIs, paired differences, ratio to the Bayes-optimal planner, "
                        "ablations when other models are given) and PNG plots. Episodes already in "
                        "OUT/episodes.csv are not run again (--no-resume starts afresh).")
-    p.add_argument("--worlds", type=_integer(1, 1_000_000), default=None, help="number of worlds (default: 200; 10 with --quick)")
+    p.add_argument("--worlds", type=int, default=None, help="number of worlds (default: 200; 10 with --quick)")
     p.add_argument("--world", default="correlated",
                    help="world distribution, bundled name or JSON file (default: %(default)s)")
     p.add_argument("--first-seed", type=_integer(0, MAX_SEED), default=0, help="first world seed (default: %(default)s)")
