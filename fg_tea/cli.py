@@ -88,7 +88,11 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     model = load_model(args.model)
-    belief = BeliefEngine(scenario, model, backend=args.backend)
+    try:
+        belief = BeliefEngine(scenario, model, backend=args.backend)
+    except ValueError as exc:
+        raise InputError(scenario.source or "<scenario>", "$.objects",
+                         f"with model {model.name!r}: {exc}") from None
     locations = belief.locations()
     header = ["site (room)"] + [f"q(L[{o}])" for o in belief.objects]
     rows = [[f"{s.name} ({s.room})"] + [f"{locations[o][i]:.4f}" for o in belief.objects]

@@ -245,6 +245,36 @@ def test_every_bundled_file_validates():
     assert out.count(": ok") == len(files)
 
 
+VISIBILITY_MODEL = MODEL_HEAD + textwrap.dedent("""
+    [perception]
+    detector = "visibility"
+    [perception.visibility]
+    half_pixels = 40
+    max_probability = 0.97
+    [perception.visibility.categories.mug]
+    half_pixels = 30
+    [perception.visibility.categories.teabag]
+    slope = 1.5
+    [detection.visibility]
+    half_pixels = 50
+    [viewpoints]
+    room_glances = true
+""")
+
+
+def test_free_form_name_tables_and_new_keys_are_accepted(tmp_path):
+    model = tmp_path / "vis.toml"
+    model.write_text(VISIBILITY_MODEL)
+    scenario = tmp_path / "rv.json"
+    scenario.write_text(json.dumps(_scenario(_set(["room_vantages"], [
+        {"name": "kitchen_glance", "room": SCENARIO["sites"][0]["room"], "position": [2.0, 1.6]}]))))
+    status, out, err = cli(["validate", model, scenario])
+    assert status == 0, err
+    model.write_text(VISIBILITY_MODEL.replace("slope = 1.5", "slop = 1.5"))
+    status, _, err = cli(["validate", model])
+    assert_one_line_error(status, err, "$.perception.visibility.categories.teabag.slop", "'slope'")
+
+
 def test_task_fault_names_the_task_file(tmp_path):
     task = copy.deepcopy(TASK)
     task["actions"][0]["dependson"] = []
