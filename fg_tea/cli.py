@@ -565,6 +565,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
     _check_out_dir(out)
     jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
                       env=args.env)
+    if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
+        from fg_tea.model import load_model
+        from fg_tea.sweep import model_path, world_path
+        from fg_tea.worlds import load_world
+
+        base = load_world(world_path(args.world)).base
+        for ref in args.models:
+            check_scenario(base, load_model(model_path(ref)))
     csv_path = out / "episodes.csv"
     try:
         rows = run_sweep(jobs, csv_path, args.backend, workers=args.workers or None,

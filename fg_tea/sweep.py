@@ -652,6 +652,8 @@ def _process(jobs: Sequence[Job], workers: int | None, address: str | None) -> I
                 job = pending.pop(future)
                 try:
                     yield future.result()
+                except InputError:  # a bad input file found by a worker: one line, status 2
+                    raise
                 except Exception as exc:
                     raise SweepError(job, exc) from exc
     finally:
