@@ -7,6 +7,8 @@ file, the field and what is wrong, and the command exits with status 2.
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
 from pathlib import Path
 from typing import Callable, Sequence
@@ -33,6 +35,42 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+def _integer(lo: int, hi: int | None = None):
+    """An argparse type: an integer in [lo, hi]."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text[:40]!r}") from None
+        if value < lo or (hi is not None and value > hi):
+            raise argparse.ArgumentTypeError(
+                f"expected an integer {'from ' + str(lo) + ' to ' + str(hi) if hi is not None else 'of at least ' + str(lo)}, "
+                f"got {value}")
+        return value
+    return parse
+
+
+def _number(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False):
+    """An argparse type: a finite number in the interval between lo and hi."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text[:40]!r}") from None
+        inside = math.isfinite(value) and (lo < value if lo_open else lo <= value) and \
+            (value < hi if hi_open else value <= hi)
+        if not inside:
+            raise argparse.ArgumentTypeError(
+                f"expected a number in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}, "
+                f"got {text[:40]}")
+        return value
+    return parse
+
+
+#: Seeds are fed to numpy's generator and PyBullet; 2^32 - 1 keeps every consumer in range.
+MAX_SEED = 2 ** 32 - 1
+
+
 def _format_table(rows: list[list[str]], header: list[str]) -> str:
     widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(len(header))]
     fmt = "  ".join(f"{{:{'<' if i == 0 else '>'}{w}}}" for i, w in enumerate(widths))
@@ -50,7 +88,11 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     model = load_model(args.model)
-    belief = BeliefEngine(scenario, model, backend=args.backend)
+    try:
+        belief = BeliefEngine(scenario, model, backend=args.backend)
+    except ValueError as exc:
+        raise InputError(scenario.source or "<scenario>", "$.objects",
+                         f"with model {model.name!r}: {exc}") from None
     locations = belief.locations()
     header = ["site (room)"] + [f"q(L[{o}])" for o in belief.objects]
     rows = [[f"{s.name} ({s.room})"] + [f"{locations[o][i]:.4f}" for o in belief.objects]
@@ -68,23 +110,86 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
     return 0
 
 
+def file_kind(path: Path, data: object | None) -> str:
+    """Which kind of input file this is: ``model``, ``scenario``, ``task`` or ``world``.
+
+    TOML files are models. A JSON file is recognised by its content: a world distribution has
+    ``placement`` or ``base_scenario``, a task has ``actions``, a scenario has ``schema_version``
+    or ``house``; otherwise a file under a ``tasks`` folder is a task, else a scenario.
+    """
+    if path.suffix == ".toml":
+        return "model"
+    if isinstance(data, dict):
+        if "placement" in data or "base_scenario" in data:
+            return "world"
+        if "actions" in data or "declares_states" in data:
+            return "task"
+        if "schema_version" in data or "house" in data:
+            return "scenario"
+    if "tasks" in path.parts:
+        return "task"
+    if "worlds" in path.parts:
+        return "world"
+    return "scenario"
+
+
+def check_scenario(scenario, model) -> None:
+    """Every check a run makes before its first step, without a simulator.
+
+    Builds the occupancy grid and :class:`~fg_tea.env.navigation.Navigator` (vantage points on
+    free floor and reachable from the start) and the exact belief (state and joint-size limits).
+
+    Raises:
+        InputError: naming the scenario file (or the model's, for a joint too large).
+    """
+    from fg_tea.beliefs.engine import BeliefEngine
+    from fg_tea.env.navigation import Navigator
+    from fg_tea.episode.runner import env_config_for
+
+    Navigator(scenario, env_config_for(model))
+    try:
+        BeliefEngine(scenario, model)
+    except ValueError as exc:
+        raise InputError(scenario.source or "<scenario>", "$.objects",
+                         f"with model {model.name!r}: {exc}") from None
+
+
 @_command("validate")
 def cmd_validate(args: argparse.Namespace) -> int:
-    """Check scenario (.json), model (.toml) and task files; print one line per file."""
-    from fg_tea.model import load_model
-    from fg_tea.scenario import load_scenario
+    """Check scenario (.json), model (.toml), task and world files; print one line per file.
+
+    Each file gets every check a run would make: a scenario is also laid out on the occupancy
+    grid with the navigator and given an exact belief under ``--model``; a task is checked
+    against ``--scenario`` and ``--model``; a world distribution's base scenario is checked and
+    one world is drawn.
+    """
+    from fg_tea.errors import read_json
+    from fg_tea.model import load_model, parse_model
+    from fg_tea.scenario import load_scenario, parse_scenario
 
     for name in args.files:
         path = Path(name)
-        if path.suffix == ".toml":
+        data = None if path.suffix == ".toml" else read_json(path)
+        kind = file_kind(path, data)
+        if kind == "model":
             load_model(path)
-        elif "tasks" in path.parts:
-            from fg_tea.tasks.load import load_task
+        elif kind == "task":
+            from fg_tea.tasks.load import parse_task
 
-            load_task(path, load_model(args.model), load_scenario(args.scenario))
+            parse_task(data, load_model(args.model), load_scenario(args.scenario), file=path)
+        elif kind == "world":
+            from fg_tea.worlds import parse_world
+
+            world = parse_world(data, path)
+            check_scenario(world.base, load_model(args.model))
+            try:  # a sample moves objects and truths only: the checks above still hold for it
+                world.sample(0)
+            except ValueError as exc:
+                raise InputError(path, "$.placement", f"drawing world 0 failed: {exc}") from None
         else:
-            load_scenario(path)
-        print(f"{path}: ok")
+            scenario = parse_scenario(data, path)
+            check_scenario(scenario, load_model(args.model))
+        print(f"{path}: ok ({kind})")
     return 0
 
 
@@ -92,6 +197,13 @@ def cmd_validate(args: argparse.Namespace) -> int:
 def _video_options(args: argparse.Namespace):
     from fg_tea.render.video import VideoOptions
 
+    if args.view == "multi":  # the first-person inset must fit in the frame (see _compose)
+        iw = int(args.width * args.inset_scale) // 2 * 2
+        ih = int(iw * 3 / 4) // 2 * 2
+        if iw < 16 or ih + 6 > args.height or iw + 6 > args.width:
+            raise InputError("<command line>", "--inset-scale",
+                             f"an inset of {args.inset_scale:g} x {args.width} px ({iw}x{ih}) does "
+                             f"not fit a {args.width}x{args.height} frame")
     try:
         return VideoOptions(width=args.width, height=args.height, fps=args.fps, view=args.view,
                             inset_scale=args.inset_scale, chase_distance=args.third_person_distance,
@@ -105,9 +217,14 @@ def _video_options(args: argparse.Namespace):
         raise InputError("<command line>", "video options", str(exc)) from None
 
 
+#: Verbs that observe rather than act: the environment never executes them, so no failure rate.
+OBSERVING_VERBS = ("SEARCH", "INSPECT")
+
+
 def _failure_rates(pairs: list[str]) -> dict[str, float]:
     from fg_tea.interface import VERBS
 
+    actions = [v for v in VERBS if v not in OBSERVING_VERBS]
     rates = {}
     for pair in pairs:
         verb, _, value = pair.partition("=")
@@ -115,11 +232,67 @@ def _failure_rates(pairs: list[str]) -> dict[str, float]:
             rate = float(value)
         except ValueError:
             rate = -1.0
+        if verb.upper() in OBSERVING_VERBS:
+            raise InputError("<command line>", "--failure-rate",
+                             f"{verb.upper()} observes and cannot fail; failure rates apply to the "
+                             f"actions {', '.join(actions)} (got {pair!r})")
         if verb.upper() not in VERBS or not 0.0 <= rate <= 1.0:
             raise InputError("<command line>", "--failure-rate",
-                             f"expected VERB=P with VERB in {', '.join(VERBS)} and P in [0, 1], got {pair!r}")
+                             f"expected VERB=P with VERB in {', '.join(actions)} and P in [0, 1], got {pair!r}")
         rates[verb.upper()] = rate
     return rates
+
+
+def safe_name(name: str) -> str:
+    """`name` as one file name that stays inside its folder (no separators, no leading dots)."""
+    import re
+
+    cleaned = re.sub(r"[^A-Za-z0-9._#+=-]+", "_", name).lstrip(".")[:120]
+    return cleaned or "unnamed"
+
+
+def _check_out_dir(path: Path, flag: str = "--out") -> Path:
+    """Create the output folder `path` (and parents), or fail with one line saying why not."""
+    if path.exists() and not path.is_dir():
+        raise InputError("<command line>", flag, f"{path} exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError("<command line>", flag, f"cannot create folder {path}: "
+                         f"{exc.strerror or exc}") from None
+    import tempfile
+
+    try:  # the only sure test of writability (root, read-only mounts, /proc)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=".fg-tea-probe-"):
+            pass
+    except OSError as exc:
+        raise InputError("<command line>", flag, f"cannot write into folder {path}: "
+                         f"{exc.strerror or exc}") from None
+    return path
+
+
+def _check_out_file(path: Path, flag: str = "--out") -> Path:
+    """Check that the output file `path` can be written (atomically, beside itself)."""
+    if path.is_dir():
+        raise InputError("<command line>", flag, f"{path} is a folder; name a file")
+    if path.exists() and not path.is_file():
+        raise InputError("<command line>", flag, f"{path} is not a regular file (a device or FIFO)")
+    _check_out_dir(path.parent if str(path.parent) else Path("."), flag)
+    return path
+
+
+def _remove_outputs(out: Path, names: Sequence[str]) -> None:
+    """Remove the files a previous run of the same kind left in `out`, so no mix remains."""
+    for name in names:
+        target = out / name
+        if target.is_dir() and not target.is_symlink():
+            raise InputError("<command line>", "--out", f"{target} is a folder; it would be "
+                             "overwritten by this run's file")
+        try:
+            target.unlink(missing_ok=True)
+        except OSError as exc:
+            raise InputError("<command line>", "--out", f"cannot replace {target}: "
+                             f"{exc.strerror or exc}") from None
 
 
 class _Progress:
@@ -192,6 +365,10 @@ def summary(events: list[dict]) -> str:
             f"{m['actions_skipped']} skipped, in {m['frames']} frames.")
 
 
+#: Every file `fg-tea run` writes into its output folder (stale ones are removed first).
+RUN_OUTPUTS = ("episode.jsonl", "episode.mp4", "timings.json")
+
+
 @_command("run")
 def cmd_run(args: argparse.Namespace) -> int:
     """Run one episode in the PyBullet house; write its log, and its video unless --no-video."""
@@ -211,12 +388,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.preparation_site is not None and args.preparation_site not in scenario.site_names:
         raise InputError(scenario.source, "$.sites", f"--preparation-site {args.preparation_site!r} "
                          "is not a site of this scenario")
-    out = Path(args.out) if args.out else Path("runs") / f"{scenario.name}-{model.name}-seed{args.seed}"
-    out.mkdir(parents=True, exist_ok=True)
+    rates = _failure_rates(args.failure_rate)
+    from fg_tea.tasks.load import load_task
+
+    check_scenario(scenario, model)
+    load_task(args.task, model, scenario, args.preparation_site)
+    out = Path(args.out) if args.out else \
+        Path("runs") / safe_name(f"{scenario.name}-{model.name}-seed{args.seed}")
+    _check_out_dir(out)
+    _remove_outputs(out, RUN_OUTPUTS)
     config = RunConfig(seed=args.seed, planner=args.planner, task=args.task,
                        preparation_site=args.preparation_site, max_frames=args.max_frames,
                        belief_backend=args.backend)
-    env = PyBulletHouse(scenario, env_config_for(model, failure_rates=_failure_rates(args.failure_rate),
+    env = PyBulletHouse(scenario, env_config_for(model, failure_rates=rates,
                                                  min_visible_pixels=args.min_visible_pixels
                                                  if args.min_visible_pixels is not None
                                                  else model.min_visible_pixels))
@@ -253,13 +437,19 @@ def cmd_render(args: argparse.Namespace) -> int:
     from fg_tea.render.video import render_video
 
     path = Path(args.log)
-    if not path.exists():
-        raise InputError(path, "$", "file not found")
     events = read_log(path)
     if not any(e.get("event") == "episode_start" for e in events):
         raise InputError(path, "$", "not an fg_tea episode log (no episode_start event)")
-    out = Path(args.out) if args.out else path.with_suffix(".mp4")
-    result = render_video(events, out, _video_options(args), _frames_progress())
+    out = _check_out_file(Path(args.out) if args.out else path.with_suffix(".mp4"))
+    options = _video_options(args)
+    try:
+        from fg_tea.render.video import plan_frames
+
+        plan_frames(events, options)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+        raise InputError(path, "$", f"not a complete fg_tea episode log ({type(exc).__name__}: "
+                         f"{str(exc)[:80]})") from None
+    result = render_video(events, out, options, _frames_progress())
     print(f"video: {result['path']} ({result['frames']} frames)")
     return 0
 
@@ -280,9 +470,11 @@ def cmd_preview(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario)
     options = _video_options(args)
-    out = Path(args.out) if args.out else Path(f"{scenario.name}-preview.png")
-    plan_out = out.with_name(f"{out.stem}_plan.png")
-    config = env_config_for(load_model(args.model))
+    model = load_model(args.model)
+    check_scenario(scenario, model)
+    out = _check_out_file(Path(args.out) if args.out else Path(f"{safe_name(scenario.name)}-preview.png"))
+    plan_out = _check_out_file(out.with_name(f"{out.stem}_plan.png"))
+    config = env_config_for(model)
     house = PyBulletHouse(scenario, config)
     try:
         pose = house.reset(args.seed)
@@ -304,23 +496,23 @@ def _add_video_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("video (blueprint Table 3)")
     g.add_argument("--view", choices=("multi", "first", "third"), default="multi",
                    help="chase view with first-person inset, or either alone (default: %(default)s)")
-    g.add_argument("--width", type=int, default=960, help="output width in pixels (default: %(default)s)")
-    g.add_argument("--height", type=int, default=540, help="output height in pixels (default: %(default)s)")
-    g.add_argument("--fps", type=int, default=30, help="output frame rate (default: %(default)s)")
-    g.add_argument("--scene-scale", type=float, default=2 / 3,
+    g.add_argument("--width", type=_integer(64, 7680), default=960, help="output width in pixels (default: %(default)s)")
+    g.add_argument("--height", type=_integer(64, 4320), default=540, help="output height in pixels (default: %(default)s)")
+    g.add_argument("--fps", type=_integer(1, 240), default=30, help="output frame rate (default: %(default)s)")
+    g.add_argument("--scene-scale", type=_number(0.1, 1.0), default=2 / 3,
                    help="render the 3D views at this fraction of the output size (default: 0.667)")
-    g.add_argument("--inset-scale", type=float, default=0.3, help="inset width / frame width")
-    g.add_argument("--third-person-distance", type=float, default=3.2, help="metres behind the agent")
-    g.add_argument("--third-person-height", type=float, default=2.2, help="camera height, metres")
-    g.add_argument("--third-person-pitch", type=float, default=-22.0, help="camera pitch, degrees")
-    g.add_argument("--third-person-hfov", type=float, default=78.0, help="horizontal field of view, degrees")
-    g.add_argument("--hold", type=float, default=0.8, help="seconds to hold decision frames")
-    g.add_argument("--wall-cutaway", type=float, default=1.0,
+    g.add_argument("--inset-scale", type=_number(0.05, 0.6), default=0.3, help="inset width / frame width")
+    g.add_argument("--third-person-distance", type=_number(0.0, 50.0), default=3.2, help="metres behind the agent")
+    g.add_argument("--third-person-height", type=_number(-50.0, 50.0), default=2.2, help="camera height, metres")
+    g.add_argument("--third-person-pitch", type=_number(-90.0, 90.0), default=-22.0, help="camera pitch, degrees")
+    g.add_argument("--third-person-hfov", type=_number(1.0, 179.0), default=78.0, help="horizontal field of view, degrees")
+    g.add_argument("--hold", type=_number(0.0, 60.0), default=0.8, help="seconds to hold decision frames")
+    g.add_argument("--wall-cutaway", type=_number(0.0, 100.0), default=1.0,
                    help="chase view: draw walls up to this height in metres (default: %(default)s)")
     g.add_argument("--full-walls", action="store_true", help="chase view: draw walls at full height")
-    g.add_argument("--frame-stride", type=int, default=1,
+    g.add_argument("--frame-stride", type=_integer(1, 10_000), default=1,
                    help="render every n-th frame of motion, for quick drafts (default: %(default)s)")
-    g.add_argument("--workers", type=int, default=0, help="rendering processes (0: one per core)")
+    g.add_argument("--workers", type=_integer(0, 1024), default=0, help="rendering processes (0: one per core)")
     g.add_argument("--no-overlays", action="store_true", help="camera images only")
 
 
@@ -329,10 +521,10 @@ def _add_run_parsers(sub) -> None:
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                    help="scenario file or bundled name (default: %(default)s)")
     p.add_argument("--model", default=DEFAULT_MODEL, help="model file or bundled name (default: %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="episode seed (default: %(default)s)")
+    p.add_argument("--seed", type=_integer(0, MAX_SEED), default=0, help="episode seed (default: %(default)s)")
     p.add_argument("--out", help="output folder (default: runs/SCENARIO-MODEL-seedN)")
     p.add_argument("--no-video", action="store_true", help="headless: write the log only")
-    p.add_argument("--max-frames", type=int, default=50_000, help="frame limit (default: %(default)s)")
+    p.add_argument("--max-frames", type=_integer(1, 10_000_000), default=50_000, help="frame limit (default: %(default)s)")
     p.add_argument("--planner", default="efe",
                    choices=("efe", "factorised_efe", "nearest", "greedy", "random", "optimal"),
                    help="search planner (default: %(default)s)")
@@ -340,7 +532,7 @@ def _add_run_parsers(sub) -> None:
     p.add_argument("--preparation-site", help="site where the tea is made (default: the scenario's)")
     p.add_argument("--backend", choices=("numpy", "gtsam"), default="numpy",
                    help="exact belief solver (default: %(default)s)")
-    p.add_argument("--min-visible-pixels", type=int, default=None,
+    p.add_argument("--min-visible-pixels", type=_integer(1, 10_000_000), default=None,
                    help="detection threshold (default: the model's, 25)")
     p.add_argument("--failure-rate", action="append", default=[], metavar="VERB=P",
                    help="inject seeded failures, e.g. FILL=0.3 (repeatable)")
@@ -361,7 +553,7 @@ def _add_run_parsers(sub) -> None:
                        "checking a house; the agent never sees it).")
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO)
     p.add_argument("--model", default=DEFAULT_MODEL)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=_integer(0, MAX_SEED), default=0)
     p.add_argument("--out", help="output PNG (default: SCENARIO-preview.png; the floor plan goes to "
                    "SCENARIO-preview_plan.png)")
     _add_video_options(p)
@@ -386,9 +578,18 @@ def cmd_compare(args: argparse.Namespace) -> int:
         raise InputError("<command line>", "--workers", f"expected 0 (every core) or more, got {args.workers}")
     n_worlds = args.worlds if args.worlds is not None else (10 if args.quick else 200)
     planners = args.planners or list(COMPARE_QUICK_PLANNERS if args.quick else COMPARE_PLANNERS)
-    out = Path(args.out) if args.out else Path("runs") / f"compare-{Path(args.world).stem}"
+    out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-{Path(args.world).stem}")
+    _check_out_dir(out)
     jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
                       env=args.env)
+    if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
+        from fg_tea.model import load_model
+        from fg_tea.sweep import model_path, world_path
+        from fg_tea.worlds import load_world
+
+        base = load_world(world_path(args.world)).base
+        for ref in args.models:
+            check_scenario(base, load_model(model_path(ref)))
     csv_path = out / "episodes.csv"
     try:
         rows = run_sweep(jobs, csv_path, args.backend, workers=args.workers or None,
@@ -421,7 +622,7 @@ def _add_compare_parser(sub) -> None:
     p.add_argument("--worlds", type=int, default=None, help="number of worlds (default: 200; 10 with --quick)")
     p.add_argument("--world", default="correlated",
                    help="world distribution, bundled name or JSON file (default: %(default)s)")
-    p.add_argument("--first-seed", type=int, default=0, help="first world seed (default: %(default)s)")
+    p.add_argument("--first-seed", type=_integer(0, MAX_SEED), default=0, help="first world seed (default: %(default)s)")
     p.add_argument("--models", nargs="+", default=["factorised", "joint"],
                    help="models: bundled names, bundled ablations or files (default: factorised joint)")
     p.add_argument("--planners", nargs="+", choices=planner_names(), default=None,
@@ -504,13 +705,42 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return COMMANDS[args.command](args)
+        status = COMMANDS[args.command](args)
+        sys.stdout.flush()
+        return status
     except InputError as exc:
-        sys.stderr.write(f"fg-tea: error: {exc}\n")
+        _error(str(exc))
+        return 2
+    except BrokenPipeError:
+        # The reader of our output went away (``fg-tea ... | head``): end quietly.
+        _silence_stdout()
+        return 141
+    except OSError as exc:  # disk full, permissions, a vanished folder: one line, not a traceback
+        where = exc.filename if exc.filename is not None else "<output>"
+        _error(f"{where}: {exc.strerror or exc}")
         return 2
     except KeyboardInterrupt:
-        sys.stderr.write("fg-tea: interrupted\n")
+        _error("interrupted", prefix="fg-tea: ")
         return 130
+
+
+def _error(message: str, prefix: str = "fg-tea: error: ") -> None:
+    """Write one line to stderr; any character the terminal cannot show is escaped."""
+    text = (prefix + message).replace("\n", " ").replace("\r", " ")
+    try:
+        sys.stderr.write(text.encode("utf-8", "backslashreplace").decode("utf-8") + "\n")
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's exit flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ def atomic_path(path: str | Path, suffix: str = "") -> Iterator[Path]:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    _remove_stale(path)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}{suffix}")
     try:
         yield tmp
@@ -35,3 +36,34 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return Path(path)
+
+
+def _remove_stale(path: Path) -> None:
+    """Remove temporaries of `path` left by writers killed before they could (dead pids only)."""
+    prefix = f".{path.name}.tmp"
+    try:
+        leftovers = [p for p in path.parent.iterdir() if p.name.startswith(prefix)]
+    except OSError:
+        return
+    for tmp in leftovers:
+        digits = ""
+        for ch in tmp.name[len(prefix):]:
+            if not ch.isdigit():
+                break
+            digits += ch
+        if digits and int(digits) != os.getpid() and not pid_alive(int(digits)):
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process with this id exists (on this machine)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OSError, OverflowError):
+        return True
+    return True

@@ -9,16 +9,17 @@ a few lines each). Parsed once into frozen dataclasses; faults are
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
 
 from fg_tea.detector import DETECTORS, CurveParams, VisibilityCurve
-from fg_tea.errors import InputError, Reader
+from fg_tea.errors import InputError, Reader, read_toml
 
 STRUCTURES = ("factorised", "joint")
+#: Longest chain of ``extends`` (the bundled ablations use two levels).
+MAX_EXTENDS_DEPTH = 32
 RELATION_KINDS = ("capacity", "co_location", "exclusivity")
 
 
@@ -174,7 +175,11 @@ def _read_transition(name: str, r: Reader, override: float | None) -> Transition
         for i, req in enumerate(requires):
             if not isinstance(req, str):
                 raise InputError(e.file, f"{e.path}.requires[{i}]", "expected a state name")
-        success = e.probability("success") if override is None else override
+        if override is None:
+            success = e.probability("success")
+        else:  # still checked, though the override replaces it
+            e.probability("success", override)
+            success = override
         effects.append(Effect(e.req("state", str), e.req("value", bool), success, tuple(requires)))
     if not effects:
         raise r.fail("a transition needs at least one effect", "effects")
@@ -201,7 +206,7 @@ def _read_curve(r: Reader, base: VisibilityCurve | None = None) -> VisibilityCur
     categories = dict(d.categories)
     cats = r.child("categories", required=False)
     if cats is not None:
-        for name in cats.data:
+        for name in cats.names():
             c = cats.child(name)
             default = categories.get(name) or CurveParams(d.half_pixels, d.slope)
             categories[name] = CurveParams(c.positive("half_pixels", default.half_pixels),
@@ -213,15 +218,23 @@ def _read_curve(r: Reader, base: VisibilityCurve | None = None) -> VisibilityCur
                            max_p, MappingProxyType(categories))
 
 
-def parse_model(data: dict, file: str | Path = "<model>") -> Model:
-    """Validate a parsed model document (after `extends` merging) and build a :class:`Model`."""
-    r = Reader(data, file)
+def parse_model(data: dict, file: str | Path = "<model>",
+                origins: "Mapping[str, str] | None" = None) -> Model:
+    """Validate a parsed model document (after `extends` merging) and build a :class:`Model`.
+
+    Args:
+        data: the merged document.
+        file: the model file (the child of an ``extends`` chain).
+        origins: key path (``$.beliefs.structure``) -> the file of the chain that set it, so a
+            fault is reported against the file that holds the key.
+    """
+    r = Reader(data, file, origins=_origin_lookup(origins) if origins else None)
     beliefs = r.child("beliefs")
     detection = r.child("detection")
     perception = r.child("perception", required=False) or Reader({}, file, "$.perception")
     sensors = {}
     sensors_r = r.child("sensors")
-    for name in sensors_r.data:
+    for name in sensors_r.names():
         s = sensors_r.child(name)
         sensors[name] = Sensor(s.probability("sensitivity"), s.probability("specificity"))
         if sensors[name].sensitivity + sensors[name].specificity <= 1.0:
@@ -232,8 +245,8 @@ def parse_model(data: dict, file: str | Path = "<model>") -> Model:
     if override is not None and not 0.0 <= override <= 1.0:
         raise trans_r.fail(f"probability {override} is outside [0, 1]", "success_override")
     transitions = {}
-    for name, value in trans_r.data.items():
-        if isinstance(value, dict):
+    for name in trans_r.names():
+        if isinstance(trans_r.data[name], dict):
             transitions[name] = _read_transition(name, trans_r.child(name), override)
     planning_r = r.child("planning", required=False) or Reader({}, file, "$.planning")
     d = PlanningWeights()
@@ -271,7 +284,7 @@ def parse_model(data: dict, file: str | Path = "<model>") -> Model:
     floor = beliefs.probability("prior_floor")
     if floor <= 0:
         raise beliefs.fail("the prior floor must be positive (eq. 2)", "prior_floor")
-    return Model(
+    model = Model(
         name=r.req("name", str),
         description=r.opt("description", str, ""),
         structure=structure,
@@ -292,31 +305,84 @@ def parse_model(data: dict, file: str | Path = "<model>") -> Model:
         detection_curve=detection_curve,
         room_glances=viewpoints.opt("room_glances", bool, False),
     )
+    r.finish()
+    return model
 
 
-def _load_document(path: Path, seen: tuple[Path, ...]) -> dict:
+def _origin_lookup(origins: Mapping[str, str]):
+    def lookup(path: str) -> str | None:
+        while path:
+            if path in origins:
+                return origins[path]
+            cut = max(path.rfind("."), path.rfind("["))
+            path = path[:cut] if cut > 0 else ""
+        return None
+    return lookup
+
+
+def _record(data: dict, file: str, path: str, origins: dict[str, str]) -> None:
+    """Note `file` as the origin of every key path in `data` (tables and values)."""
+    stack = [(data, path)]
+    while stack:
+        table, base = stack.pop()
+        for key, value in table.items():
+            sub = f"{base}.{key}"
+            origins[sub] = file
+            if isinstance(value, dict):
+                stack.append((value, sub))
+
+
+def _parent_path(path: Path, parent: object) -> Path:
+    """The file that `extends = parent` in model `path` names, or an :class:`InputError`."""
     from fg_tea.resources import resolve_model
 
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(path, "$", "file not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, "$", f"invalid TOML: {exc}") from None
-    parent = data.pop("extends", None)
-    if parent is None:
-        return data
     if not isinstance(parent, str):
         raise InputError(path, "$.extends", "expected the name or path of another model")
-    candidate = path.parent / f"{parent}.toml"
-    parent_path = candidate if candidate.exists() else resolve_model(parent)
-    if not parent_path.exists():
+    if not parent.strip() or parent.strip() in (".", "..") or parent.endswith(("/", "\\")) \
+            or "\0" in parent:
+        raise InputError(path, "$.extends", f"{parent!r} does not name a model file")
+    if len(parent) > 255:
+        raise InputError(path, "$.extends", f"a model name of {len(parent)} characters is too long")
+    try:
+        candidate = path.parent / f"{parent}.toml"
+        parent_path = candidate if candidate.is_file() else Path(resolve_model(parent))
+        exists = parent_path.exists()
+    except OSError as exc:
+        raise InputError(path, "$.extends", f"model {parent!r} cannot be read: {exc.strerror}") from None
+    if not exists:
         raise InputError(path, "$.extends", f"model {parent!r} is referenced but not found")
-    if parent_path.resolve() in seen:
-        raise InputError(path, "$.extends", f"models extend each other in a cycle through {parent!r}")
-    base = _load_document(parent_path, seen + (parent_path.resolve(),))
-    # Lists of tables (relations) replace rather than merge.
-    return _merge(base, data)
+    if not parent_path.is_file():
+        raise InputError(path, "$.extends", f"{parent!r} is not a model file")
+    return parent_path
+
+
+def _load_document(path: Path, seen: tuple[Path, ...],
+                   origins: dict[str, str] | None = None) -> dict:
+    """The merged document of `path` and its ``extends`` chain (walked without recursion)."""
+    chain: list[tuple[Path, dict]] = []
+    current = path
+    while True:
+        data = read_toml(current)
+        parent = data.pop("extends", None)
+        chain.append((current, data))
+        if parent is None:
+            break
+        if len(chain) > MAX_EXTENDS_DEPTH:
+            raise InputError(current, "$.extends", f"the extends chain is longer than "
+                             f"{MAX_EXTENDS_DEPTH} models")
+        parent_path = _parent_path(current, parent)
+        if parent_path.resolve() in seen:
+            raise InputError(current, "$.extends",
+                             f"models extend each other in a cycle through {parent!r}")
+        seen = seen + (parent_path.resolve(),)
+        current = parent_path
+    merged: dict = {}
+    for file, data in reversed(chain):  # the root model first; each child overrides
+        if origins is not None:
+            _record(data, str(file), "$", origins)
+        # Lists of tables (relations) replace rather than merge.
+        merged = _merge(merged, data)
+    return merged
 
 
 def load_model(path: str | Path) -> Model:
@@ -324,4 +390,9 @@ def load_model(path: str | Path) -> Model:
     from fg_tea.resources import resolve_model
 
     path = Path(resolve_model(path))
-    return parse_model(_load_document(path, (path.resolve(),)), path)
+    origins: dict[str, str] = {}
+    try:
+        seen = (path.resolve(),)
+    except (OSError, RuntimeError):  # a symlink loop
+        seen = ()
+    return parse_model(_load_document(path, seen, origins), path, origins)

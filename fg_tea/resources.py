@@ -28,15 +28,22 @@ def data_dir(kind: str) -> Path:
     raise FileNotFoundError(f"bundled folder {kind!r} not found under {', '.join(map(str, _roots()))}")
 
 
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except (OSError, ValueError):  # a name too long, or with a NUL byte: no such file
+        return False
+
+
 def _resolve(name: str | Path, kind: str, suffix: str) -> Path:
     path = Path(name)
-    if path.exists() or path.suffix or len(path.parts) > 1:
+    if _exists(path) or path.suffix or len(path.parts) != 1 or str(name) in ("", ".", ".."):
         return path
     try:
         candidate = data_dir(kind) / f"{name}{suffix}"
     except FileNotFoundError:
         return path
-    return candidate if candidate.exists() else path
+    return candidate if _exists(candidate) else path
 
 
 def resolve_scenario(name: str | Path) -> Path:

@@ -19,6 +19,11 @@ from typing import Mapping
 from fg_tea.errors import InputError, Reader, read_json
 
 SCHEMA_VERSIONS = (1, 2)
+#: Farthest a site's vantage point may stand from the site (horizontal distance, m). Chosen
+#: generously, a little over three times the farthest vantage of the bundled houses (1.2 m): the
+#: agent inspects a surface from where it can see objects a few centimetres across, so a vantage
+#: farther than a room's width away is a typo, not a choice.
+MAX_VANTAGE_DISTANCE = 4.0
 
 
 @dataclass(frozen=True)
@@ -244,6 +249,11 @@ def _read_site(s: Reader, house: House) -> Site:
         raise s.fail(f"capacity must be at least 1, got {capacity}", "capacity")
     furniture = s.opt("furniture", str, None)
     position = s.vector("position", 3)
+    if position[2] < 0:
+        raise s.fail(f"surface height {position[2]:g} m is below the floor (z = 0)", "position")
+    if position[2] > house.wall_height:
+        raise s.fail(f"surface height {position[2]:g} m is above the walls ({house.wall_height:g} m)",
+                     "position")
     if furniture is not None:
         try:
             box = house.furniture_named(furniture)
@@ -255,6 +265,10 @@ def _read_site(s: Reader, house: House) -> Site:
             raise s.fail(f"position lies off the top of furniture {furniture!r}", "position")
     raw = s.req("vantage_position", list)
     vantage = s.vector("vantage_position", 3 if len(raw) == 3 else 2)[:2]
+    reach = ((vantage[0] - position[0]) ** 2 + (vantage[1] - position[1]) ** 2) ** 0.5
+    if reach > MAX_VANTAGE_DISTANCE:
+        raise s.fail(f"vantage is {reach:.2f} m from the site; at most {MAX_VANTAGE_DISTANCE:g} m, "
+                     "or the camera cannot resolve objects on it", "vantage_position")
     return Site(name, s.req("room", str), position, vantage, _frozen(weights), capacity, furniture)
 
 
@@ -270,7 +284,7 @@ def _read_object(o: Reader, site_names: set[str]) -> ObjectSpec:
     priors_r = o.child("state_priors", required=False)
     priors = {}
     if priors_r is not None:
-        for key in priors_r.data:
+        for key in priors_r.names():
             priors[key] = priors_r.probability(key)
     truth = o.mapping("hidden_state_truth", bool)
     for key in truth:
@@ -318,6 +332,8 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
         objects_r = [r.child("target")]
     else:
         objects_r = list(r.items("objects"))
+        if not objects_r:
+            raise r.fail("a scenario needs at least one object", "objects")
     objects, obj_names, ids = [], set(), set()
     for o in objects_r:
         spec = _read_object(o, names)
@@ -328,6 +344,12 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
         obj_names.add(spec.name)
         ids.add(spec.semantic_id)
         objects.append(spec)
+    from fg_tea.beliefs.engine import MAX_STATES
+
+    n_states = sum(len(spec.state_priors) for spec in objects)
+    if n_states > MAX_STATES:
+        raise r.fail(f"the objects declare {n_states} task states; an exact belief holds at most "
+                     f"{MAX_STATES}", "objects")
     for spec, o in zip(objects, objects_r):
         total = sum(site.affordances.get(spec.category, 0.0) for site in sites)
         if total <= 0:
@@ -349,8 +371,11 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
     prep = r.opt("preparation_site", str, sites[0].name)
     if prep not in names:
         raise r.fail(f"site {prep!r} is referenced but not defined in sites", "preparation_site")
-    return Scenario(
-        name=r.req("name", str),
+    name = r.req("name", str)
+    if not name.strip():
+        raise r.fail("a scenario name must not be empty", "name")
+    scenario = Scenario(
+        name=name,
         schema_version=version,
         description=r.opt("description", str, ""),
         sites=tuple(sites),
@@ -362,6 +387,8 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
         source=str(file),
         room_vantages=tuple(room_vantages),
     )
+    r.finish()
+    return scenario
 
 
 def load_scenario(path: str | Path) -> Scenario:

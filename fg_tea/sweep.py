@@ -641,7 +641,10 @@ def _process(jobs: Sequence[Job], workers: int | None, address: str | None) -> I
 
     workers = workers or os.cpu_count() or 1
     context = multiprocessing.get_context("spawn")  # no inherited simulator or BLAS state
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    from fg_tea.process import die_with_parent
+
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=die_with_parent,
+                               initargs=(os.getpid(),))  # no orphans if this process is killed
     try:
         pending = {pool.submit(run_job, job): job for job in jobs}
         while pending:
@@ -650,6 +653,8 @@ def _process(jobs: Sequence[Job], workers: int | None, address: str | None) -> I
                 job = pending.pop(future)
                 try:
                     yield future.result()
+                except InputError:  # a bad input file found by a worker: one line, status 2
+                    raise
                 except Exception as exc:
                     raise SweepError(job, exc) from exc
     finally:
@@ -669,6 +674,7 @@ def _ray(jobs: Sequence[Job], workers: int | None, address: str | None) -> Itera
         options: dict[str, Any] = {"include_dashboard": False, "logging_level": logging.WARNING,
                                    "log_to_driver": False}
         if address:
+            _check_reachable(address)
             ray.init(address=address, **options)
         else:
             ray.init(num_cpus=workers or os.cpu_count() or 1, **options)
@@ -687,6 +693,32 @@ def _ray(jobs: Sequence[Job], workers: int | None, address: str | None) -> Itera
     finally:
         if started:
             ray.shutdown()
+
+
+#: Seconds to wait for a Ray head to accept a connection before giving up.
+RAY_CONNECT_TIMEOUT_S = 5.0
+
+
+def _check_reachable(address: str) -> None:
+    """Fail fast, with one line, when nothing listens at a Ray ``host:port`` address.
+
+    ``ray.init`` itself retries for minutes; ``"auto"`` and addresses without a port are left to it.
+    """
+    import socket
+
+    target = address.split("://", 1)[-1]
+    host, sep, port = target.rpartition(":")
+    if not sep or not port.isdigit():
+        return
+    host = host.strip("[]") or "127.0.0.1"
+    try:
+        with socket.create_connection((host, int(port)), timeout=RAY_CONNECT_TIMEOUT_S):
+            pass
+    except (OSError, ValueError, OverflowError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        raise InputError("<command line>", "--address",
+                         f"no Ray head answers at {address!r} within "
+                         f"{RAY_CONNECT_TIMEOUT_S:g} s ({reason})") from None
 
 
 _BACKENDS: dict[str, Callable[[Sequence[Job], int | None, str | None], Iterator[dict]]] = {

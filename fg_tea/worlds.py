@@ -203,16 +203,22 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         declared = {f"{o}.{s}" for o in object_names for s in OBJECT_TEMPLATES[o]["state_priors"]}
     else:
         base_name = r.req("base_scenario", str)
+        if not base_name.strip() or len(base_name) > 255 or "\0" in base_name:
+            raise r.fail(f"{base_name[:40]!r} does not name a scenario", "base_scenario")
         base_path = Path(file).parent / base_name
-        base = load_scenario(base_path if base_path.suffix == ".json" and base_path.exists() else base_name)
+        base = load_scenario(base_path if base_path.suffix == ".json" and base_path.is_file() else base_name)
         what = f"scenario {base.name!r}"
         object_names = base.object_names
         declared = {f"{o.name}.{s}" for o in base.objects for s in o.state_priors}
     placement = r.child("placement")
     order = placement.opt("order", list, list(object_names))
     for i, name in enumerate(order):
+        if not isinstance(name, str):
+            raise InputError(file, f"$.placement.order[{i}]", "expected an object name")
         if name not in object_names:
             raise InputError(file, f"$.placement.order[{i}]", f"object {name!r} is not in {what}")
+        if name in order[:i]:
+            raise InputError(file, f"$.placement.order[{i}]", f"object {name!r} is listed twice")
     missing = [o for o in object_names if o not in order]
     order = list(order) + missing
     rules = []
@@ -221,6 +227,10 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         for key, value in (("object", obj), ("anchor", anchor)):
             if value not in object_names:
                 raise c.fail(f"object {value!r} is referenced but not defined in {what}", key)
+        if anchor == obj:
+            raise c.fail(f"object {obj!r} cannot be its own anchor", "anchor")
+        if any(rule.object == obj for rule in rules):
+            raise c.fail(f"object {obj!r} already has a co_location rule (one rule per object)", "object")
         if order.index(anchor) > order.index(obj):
             raise c.fail(f"anchor {anchor!r} must be placed before {obj!r} in placement.order", "anchor")
         same_site, same_room = c.probability("same_site"), c.probability("same_room", 0.0)
@@ -230,19 +240,22 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
     pinned, drawn = {}, set()
     states = r.child("states", required=False)
     if states is not None:
-        for key, value in states.data.items():
+        for key in states.names():
+            value = states.data[key]
             if key not in declared:
                 raise states.fail(f"state {key!r} is referenced but no object of {what} declares it", key)
             if value == "prior":
                 drawn.add(key)
             else:
                 pinned[key] = states._check_type(value, bool, key)
-    return WorldDistribution(
+    world = WorldDistribution(
         name=r.req("name", str), description=r.opt("description", str, ""), base=base,
         order=tuple(order), prior_violation=placement.probability("prior_violation", 0.0),
         violation=placement.choice("violation", ("inverse", "uniform"), "inverse"),
         co_location=tuple(rules), pinned_states=MappingProxyType(pinned),
         drawn_states=frozenset(drawn), source=str(file), generate=generate)
+    r.finish()
+    return world
 
 
 def load_world(path: str | Path) -> WorldDistribution:

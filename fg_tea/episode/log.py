@@ -13,11 +13,14 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
-from typing import Any, Iterator, TextIO
+from typing import Any, Iterator
 
 import numpy as np
 
+LOG_MAX_BYTES = 4 * 1024 ** 3  # a log is read whole; 50,000 frames write well under 100 MB
+_write = os.write  # the one call that puts log bytes on disk (tests replace it to fill the disk)
 DIGITS = 9  # floats are rounded so that logs are stable across platforms' last-bit noise
 #: Keys whose floats are tiny by nature (a disagreement of ~1e-16): kept to DIGITS significant
 #: digits (scientific notation) instead of DIGITS decimals, which would round them to 0.0.
@@ -67,24 +70,39 @@ class EventLog:
     def __init__(self, path: str | Path | None = None) -> None:
         self.path = Path(path) if path is not None else None
         self.events: list[dict] = []
-        self._fh: TextIO | None = None
+        self._fd: int | None = None
+        self._size = 0  # bytes of complete lines on disk
         if self.path is not None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._fh = self.path.open("w", encoding="utf-8")
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
 
     def write(self, event: dict) -> dict:
         event = {"seq": len(self.events), **event}
         line = encode(event)
+        if self._fd is not None:
+            self._write_line((line + "\n").encode("utf-8"))
         self.events.append(json.loads(line))
-        if self._fh is not None:
-            self._fh.write(line + "\n")
-            self._fh.flush()
         return self.events[-1]
 
+    def _write_line(self, data: bytes) -> None:
+        """Write one whole line unbuffered; on failure cut the file back to its last whole line."""
+        done = 0
+        try:
+            while done < len(data):
+                done += _write(self._fd, data[done:])
+        except OSError:
+            try:
+                os.ftruncate(self._fd, self._size)
+                os.lseek(self._fd, self._size, os.SEEK_SET)
+            except OSError:
+                pass
+            raise
+        self._size += len(data)
+
     def close(self) -> None:
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
 
     def __enter__(self) -> "EventLog":
         return self
@@ -95,14 +113,19 @@ class EventLog:
 
 def read_log(path: str | Path) -> list[dict]:
     """Read a log back; a truncated last line (a crash mid-write) is ignored."""
+    from fg_tea.errors import read_text
+
     events = []
-    for line in Path(path).read_text(encoding="utf-8").splitlines():
+    for line in read_text(path, max_bytes=LOG_MAX_BYTES).splitlines():
         if not line.strip():
             continue
         try:
-            events.append(json.loads(line))
-        except json.JSONDecodeError:
+            event = json.loads(line)
+        except (ValueError, RecursionError):
             break
+        if not isinstance(event, dict):
+            break
+        events.append(event)
     return events
 
 

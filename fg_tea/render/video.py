@@ -402,6 +402,33 @@ def _concat(segments: Sequence[str], out: Path, fps: int) -> None:
                 offset = last
 
 
+def remove_stale_render_dirs(folder: str | Path) -> None:
+    """Remove ``.render-PID-*`` folders in `folder` whose rendering process no longer runs.
+
+    A render killed with SIGKILL cannot clean up after itself; the next render into the same
+    folder does it (folders of renders still running are left alone).
+    """
+    import shutil
+
+    for tmp in Path(folder).glob(".render-*"):
+        pid = tmp.name.split("-")[1] if tmp.name.count("-") >= 2 else ""
+        if pid.isdigit() and _alive(int(pid)):
+            continue
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
 def render_video(events: list[dict], out: str | Path, options: VideoOptions = VideoOptions(),
                  progress: Callable[[int, int], None] | None = None) -> dict:
     """Render the video of a logged episode to `out` (an MP4, written atomically).
@@ -422,16 +449,22 @@ def render_video(events: list[dict], out: str | Path, options: VideoOptions = Vi
     workers = max(1, min(workers, len(plan.frames)))
     bounds = np.linspace(0, len(plan.frames), workers + 1).astype(int)
     total = plan.output_frames
-    with tempfile.TemporaryDirectory(dir=out.parent, prefix=".render-") as tmp:
+    remove_stale_render_dirs(out.parent)
+    with tempfile.TemporaryDirectory(dir=out.parent, prefix=f".render-{os.getpid()}-") as tmp:
         paths = [str(Path(tmp) / f"seg{i:02d}.mp4") for i in range(workers)]
         spans = [(int(bounds[i]), int(bounds[i + 1])) for i in range(workers) if bounds[i + 1] > bounds[i]]
         if len(spans) == 1:
             results = [_render_segment((plan, options, *spans[0], paths[0], 0, None))]
         else:
-            import multiprocessing
             from concurrent.futures import FIRST_COMPLETED, wait
+            from multiprocessing.managers import SyncManager
 
-            with multiprocessing.Manager() as manager, ProcessPoolExecutor(max_workers=len(spans)) as pool:
+            from fg_tea.process import die_with_parent
+
+            manager = SyncManager()
+            manager.start(die_with_parent, (os.getpid(),))
+            with manager, ProcessPoolExecutor(max_workers=len(spans), initializer=die_with_parent,
+                                              initargs=(os.getpid(),)) as pool:
                 done = manager.list([0] * len(spans))
                 pending = {pool.submit(_render_segment, (plan, options, lo, hi, paths[i], i, done))
                            for i, (lo, hi) in enumerate(spans)}

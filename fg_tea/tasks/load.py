@@ -67,7 +67,7 @@ import re
 from pathlib import Path
 
 from fg_tea.interface import VERBS
-from fg_tea.errors import InputError, Reader, read_json
+from fg_tea.errors import InputError, Reader, _suggest, read_json
 from fg_tea.model import Condition, Effect, Model
 from fg_tea.resources import resolve_task
 from fg_tea.scenario import Scenario
@@ -171,7 +171,8 @@ def _read_recovery(r: Reader, obj: str, dest: str | None, ctx: _Context) -> Reco
         return RecoveryPolicy()
     for key in rec.data:
         if key not in RECOVERY_FIELDS:
-            raise rec.fail(f"unknown field (known: {', '.join(RECOVERY_FIELDS)})", key)
+            raise rec.fail(f"unknown field{_suggest(key, RECOVERY_FIELDS) or ''} (known: "
+                           f"{', '.join(RECOVERY_FIELDS)})", key)
     retries = rec.opt("max_retries", int, 0)
     if retries < 0:
         raise rec.fail(f"must be non-negative, got {retries}", "max_retries")
@@ -190,7 +191,8 @@ def _read_action(r: Reader, ctx: _Context) -> tuple[TaskAction, list[str]]:
         raise r.fail("an action must be a JSON object")
     for key in r.data:
         if key not in ACTION_FIELDS:
-            raise r.fail(f"unknown field (known: {', '.join(ACTION_FIELDS)})", key)
+            raise r.fail(f"unknown field{_suggest(key, ACTION_FIELDS)} (known: "
+                         f"{', '.join(ACTION_FIELDS)})", key)
     action_id = r.req("id", str)
     if not action_id:
         raise r.fail("an action id must not be empty", "id")
@@ -285,7 +287,7 @@ def _read_declared(r: Reader, scenario: Scenario) -> dict[str, float]:
     if sec is None:
         return {}
     out = {}
-    for obj, states in sec.data.items():
+    for obj in sec.names():
         if obj not in scenario.object_names:
             raise sec.fail(f"object {obj!r} is not an object of scenario {scenario.name!r}", obj)
         per = sec.child(obj)
@@ -320,10 +322,17 @@ def parse_task(data: object, model: Model, scenario: Scenario, preparation_site:
     r = Reader(data, file)
     if not isinstance(data, dict):
         raise r.fail("a task must be a JSON object")
+    top = ("name", "description", "declares_states", "actions")
     for key in data:
-        if key not in ("name", "description", "declares_states", "actions"):
-            raise r.fail("unknown field (known: name, description, declares_states, actions)", key)
+        if key not in top:
+            raise r.fail(f"unknown field{_suggest(key, top)} (known: {', '.join(top)})", key)
     declared = _read_declared(r, scenario)
+    from fg_tea.beliefs.engine import MAX_STATES
+
+    total = sum(len(o.state_priors) for o in scenario.objects) + len(declared)
+    if total > MAX_STATES:
+        raise r.fail(f"the scenario's and the task's task states number {total}; an exact belief "
+                     f"holds at most {MAX_STATES}", "declares_states")
     ctx = _Context(model, scenario, preparation_site or scenario.preparation_site, declared)
     actions, deps = [], {}
     for a in r.items("actions"):
@@ -334,8 +343,10 @@ def parse_task(data: object, model: Model, scenario: Scenario, preparation_site:
         deps[action.id] = depends_on
     if not actions:
         raise r.fail("a task needs at least one action", "actions")
-    return TaskGraph(actions, deps, name=r.req("name", str), description=r.opt("description", str, ""),
-                     source=str(file), declared_states=declared)
+    graph = TaskGraph(actions, deps, name=r.req("name", str), description=r.opt("description", str, ""),
+                      source=str(file), declared_states=declared)
+    r.finish()
+    return graph
 
 
 def load_task(path_or_name: str | Path, model: Model, scenario: Scenario,

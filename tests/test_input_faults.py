@@ -1,0 +1,577 @@
+"""Hostile input: every bad file, flag and output place ends in one line and exit status 2.
+
+Each reproduction of a fault found by a hostile-user trial is one parametrised case below; a seeded
+mutator then fuzzes the bundled scenario, model, task and world files and the flags of `run`, and
+every case must end with exit 0, or exit 2 and exactly one ``fg-tea: error:`` line — never a
+traceback, never a hang (each case runs under an alarm).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import errno
+import io
+import json
+import os
+import pickle
+import random
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from fg_tea.cli import main
+from fg_tea.errors import InputError
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENARIO = json.loads((ROOT / "scenarios" / "default_apartment.json").read_text())
+WORLD = json.loads((ROOT / "scenarios" / "worlds" / "correlated.json").read_text())
+TASK = json.loads((ROOT / "scenarios" / "tasks" / "make_tea.json").read_text())
+FACTORISED = (ROOT / "models" / "factorised.toml").read_text()
+CASE_SECONDS = 20  # alarm per CLI call: far above the slowest case (a short headless run, ~3 s)
+
+
+class _Timeout(Exception):
+    pass
+
+
+def _alarm(signum, frame):
+    raise _Timeout("CLI call did not finish in time (a hang)")
+
+
+def cli(argv, seconds: int = CASE_SECONDS) -> tuple[int, str, str]:
+    """Run ``fg-tea argv`` in-process; return (exit status, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    old = signal.signal(signal.SIGALRM, _alarm)
+    signal.alarm(seconds)
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                status = main([str(a) for a in argv])
+            except SystemExit as exc:  # argparse usage errors
+                status = exc.code
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    return status, out.getvalue(), err.getvalue()
+
+
+def assert_one_line_error(status, stderr, *words):
+    assert status == 2, stderr
+    lines = stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fg-tea: error: "), stderr
+    assert "Traceback" not in stderr
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+
+
+def _scenario(edit):
+    data = copy.deepcopy(SCENARIO)
+    edit(data)
+    return data
+
+
+def _world(edit):
+    data = copy.deepcopy(WORLD)
+    data["base_scenario"] = str(ROOT / "scenarios" / "default_apartment.json")
+    edit(data)
+    return data
+
+
+# ------------------------------------------------------------------------------ file faults
+def _bytes(content: bytes, suffix=".json"):
+    def make(tmp):
+        path = tmp / f"bad{suffix}"
+        path.write_bytes(content)
+        return path
+    return make
+
+
+def _json(data, name="bad.json"):
+    def make(tmp):
+        path = tmp / name
+        path.write_text(json.dumps(data))
+        return path
+    return make
+
+
+def _text(text, name="bad.toml"):
+    def make(tmp):
+        path = tmp / name
+        path.write_text(text)
+        return path
+    return make
+
+
+def _directory(tmp):
+    (tmp / "folder.json").mkdir()
+    return tmp / "folder.json"
+
+
+def _symlink_loop(tmp):
+    os.symlink(tmp / "b.json", tmp / "a.json")
+    os.symlink(tmp / "a.json", tmp / "b.json")
+    return tmp / "a.json"
+
+
+def _fifo(tmp):
+    os.mkfifo(tmp / "pipe.json")
+    return tmp / "pipe.json"
+
+
+def _extends_chain(tmp):
+    n = 1500
+    for i in range(n):
+        parent = f"chain{i + 1}" if i < n - 1 else "factorised"
+        (tmp / f"chain{i}.toml").write_text(f'extends = "{parent}"\nname = "c{i}"\n')
+    return tmp / "chain0.toml"
+
+
+def _inherited_fault(tmp):
+    (tmp / "parent.toml").write_text(FACTORISED.replace("[planning]", "[planning]\nbogus_weight = 1"))
+    (tmp / "child.toml").write_text('extends = "parent"\nname = "child"\n')
+    return tmp / "child.toml"
+
+
+def _many_states(data):
+    data["objects"][2]["state_priors"].update({f"s{i}": 0.5 for i in range(25)})
+
+
+def _set(path, value):
+    def edit(data):
+        node = data
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = value
+    return edit
+
+
+MODEL_HEAD = 'extends = "factorised"\nname = "m"\n'
+
+FILE_FAULTS = [
+    # (id, maker, words expected in the one line)
+    ("non-utf8 json", _bytes(b'{"name": "caf\xe9"}'), ("not UTF-8",)),
+    ("non-utf8 toml", _bytes(b'name = "caf\xe9"\n', ".toml"), ("not UTF-8",)),
+    ("directory", _directory, ("is a directory",)),
+    ("symlink loop", _symlink_loop, ("symbolic links",)),
+    ("fifo", _fifo, ("not a regular file",)),
+    ("deep json", _bytes(b"[" * 5000 + b"]" * 5000), ("nested",)),
+    ("deep toml", _bytes(b"x = " + b"[" * 5000 + b"]" * 5000 + b"\n", ".toml"), ("nested",)),
+    ("huge integer", _bytes(b'{"schema_version": ' + b"9" * 5000 + b"}"), ("4300 digits",)),
+    ("extends empty", _text('extends = ""\nname = "x"\n'), ("$.extends", "does not name")),
+    ("extends dot", _text('extends = "."\nname = "x"\n'), ("$.extends",)),
+    ("extends dotdot", _text('extends = ".."\nname = "x"\n'), ("$.extends",)),
+    ("extends root", _text('extends = "/"\nname = "x"\n'), ("$.extends",)),
+    ("extends long name", _text(f'extends = "{"x" * 5000}"\nname = "x"\n'), ("$.extends", "too long")),
+    ("extends chain", _extends_chain, ("$.extends", "longer than")),
+    ("lone surrogate", _json(_scenario(lambda d: d["sites"][0].__setitem__("room", "\ud800"))),
+     ("$.sites[0].room", "surrogate")),
+    ("nan yaw", _json(_scenario(_set(["start_pose", "yaw_deg"], float("nan")))),
+     ("$.start_pose.yaw_deg", "finite")),
+    ("infinite affordance", _json(_scenario(_set(["sites", 0, "affordances", "mug"], float("inf")))),
+     ("$.sites[0].affordances.mug", "finite")),
+    ("1e308 affordance", _json(_scenario(_set(["sites", 0, "affordances", "mug"], 1e308))),
+     ("$.sites[0].affordances.mug", "out of range")),
+    ("1e308 wall", _json(_scenario(_set(["house", "walls", 0, "to"], [1e308, 0]))),
+     ("$.house.walls[0].to[0]", "out of range")),
+    ("1e5 coordinate", _json(_scenario(_set(["start_pose", "position"], [1e5, 3.4]))),
+     ("$.start_pose.position[0]", "out of range")),
+    ("nan model weight", _text(MODEL_HEAD + "[planning]\ndistance_weight = nan\n"),
+     ("$.planning.distance_weight", "finite")),
+    ("too many states", _json(_scenario(_many_states)), ("$.objects", "at most 20")),
+    ("no objects", _json(_scenario(_set(["objects"], []))), ("$.objects", "at least one object")),
+    ("misspelt model key", _text(MODEL_HEAD + '[beliefs]\nstrcture = "joint"\n'),
+     ("$.beliefs.strcture", "did you mean 'structure'")),
+    ("misspelt model table", _text(MODEL_HEAD + "[planing]\ninformation_weight = 0\n"),
+     ("$.planing", "did you mean 'planning'")),
+    ("misspelt scenario key", _json(_scenario(_set(["sites", 0, "capacty"], 1))),
+     ("$.sites[0].capacty", "did you mean 'capacity'")),
+    ("misspelt top-level key", _json(_scenario(_set(["preparaton_site"], "sideboard"))),
+     ("$.preparaton_site", "did you mean 'preparation_site'")),
+    ("misspelt world key", _json(_world(_set(["placement", "prior_violaton"], 0.2)), "w.json"),
+     ("$.placement.prior_violaton", "did you mean 'prior_violation'")),
+    ("vantage in furniture", _json(_scenario(_set(["sites", 0, "vantage_position"], [2.0, 0.35, 0.0]))),
+     ("$.sites[0].vantage_position", "not on free floor")),
+    ("vantage in a wall", _json(_scenario(_set(["sites", 1, "vantage_position"], [1.0, 4.0, 0.0]))),
+     ("$.sites[1].vantage_position", "not on free floor")),
+    ("vantage off the floor", _json(_scenario(_set(["sites", 1, "vantage_position"], [-3.0, 2.8, 0.0]))),
+     ("$.sites[1].vantage_position",)),
+    ("vantage far from site", _json(_scenario(_set(["sites", 0, "vantage_position"], [2.0, 4.8, 0.0]))),
+     ("$.sites[0].vantage_position", "at most 4 m")),
+    ("surface below floor", _json(_scenario(_set(["sites", 0, "position"], [2.0, 0.35, -1.0]))),
+     ("$.sites[0].position", "below the floor")),
+    ("nan size", _json(_scenario(_set(["house", "furniture", 0, "size"], [float("nan"), 1, 1]))),
+     ("$.house.furniture[0].size[0]", "finite")),
+    ("zero size", _json(_scenario(_set(["house", "furniture", 0, "size"], [0, 1, 1]))),
+     ("$.house.furniture[0].size", "positive")),
+    ("duplicate order", _json(_world(_set(["placement", "order"], ["kettle", "kettle", "mug"])), "w.json"),
+     ("$.placement.order[1]", "twice")),
+    ("self anchor", _json(_world(lambda d: d["placement"]["co_location"][0].__setitem__("anchor", "teabag")),
+                          "w.json"), ("$.placement.co_location[0].anchor", "own anchor")),
+    ("duplicate co_location", _json(_world(lambda d: d["placement"]["co_location"].append(
+        dict(d["placement"]["co_location"][0]))), "w.json"), ("$.placement.co_location[1]", "already")),
+    ("inherited fault", _inherited_fault, ("parent.toml", "$.planning.bogus_weight", "unknown field")),
+]
+
+
+@pytest.mark.parametrize("make,words", [f[1:] for f in FILE_FAULTS], ids=[f[0] for f in FILE_FAULTS])
+def test_bad_file_is_one_line_with_exit_2(tmp_path, make, words):
+    path = make(tmp_path)
+    status, _, err = cli(["validate", path])
+    assert_one_line_error(status, err, *words)
+
+
+@pytest.mark.parametrize("name", ["bare.json", "task_elsewhere.json"])
+def test_world_and_task_files_are_recognised_by_content(tmp_path, name):
+    world = tmp_path / "bare.json"
+    world.write_text(json.dumps(_world(lambda d: None)))
+    task = tmp_path / "task_elsewhere.json"
+    task.write_text(json.dumps(TASK))
+    status, out, err = cli(["validate", tmp_path / name])
+    assert status == 0, err
+    assert out.strip().endswith("ok (world)" if name == "bare.json" else "ok (task)")
+
+
+def test_every_bundled_file_validates():
+    files = sorted(ROOT.glob("scenarios/*.json")) + sorted(ROOT.glob("scenarios/tasks/*.json")) + \
+        sorted(ROOT.glob("scenarios/worlds/*.json")) + sorted(ROOT.glob("models/**/*.toml"))
+    status, out, err = cli(["validate", *files])
+    assert status == 0, err
+    assert out.count(": ok") == len(files)
+
+
+VISIBILITY_MODEL = MODEL_HEAD + textwrap.dedent("""
+    [perception]
+    detector = "visibility"
+    [perception.visibility]
+    half_pixels = 40
+    max_probability = 0.97
+    [perception.visibility.categories.mug]
+    half_pixels = 30
+    [perception.visibility.categories.teabag]
+    slope = 1.5
+    [detection.visibility]
+    half_pixels = 50
+    [viewpoints]
+    room_glances = true
+""")
+
+
+def test_free_form_name_tables_and_new_keys_are_accepted(tmp_path):
+    model = tmp_path / "vis.toml"
+    model.write_text(VISIBILITY_MODEL)
+    scenario = tmp_path / "rv.json"
+    scenario.write_text(json.dumps(_scenario(_set(["room_vantages"], [
+        {"name": "kitchen_glance", "room": SCENARIO["sites"][0]["room"], "position": [2.0, 1.6]}]))))
+    status, out, err = cli(["validate", model, scenario])
+    assert status == 0, err
+    model.write_text(VISIBILITY_MODEL.replace("slope = 1.5", "slop = 1.5"))
+    status, _, err = cli(["validate", model])
+    assert_one_line_error(status, err, "$.perception.visibility.categories.teabag.slop", "'slope'")
+
+
+def test_task_fault_names_the_task_file(tmp_path):
+    task = copy.deepcopy(TASK)
+    task["actions"][0]["dependson"] = []
+    path = tmp_path / "t.json"
+    path.write_text(json.dumps(task))
+    status, _, err = cli(["validate", path])
+    assert_one_line_error(status, err, "$.actions[0].dependson", "did you mean 'depends_on'")
+
+
+# ------------------------------------------------------------------------------ flag faults
+BAD_FLAGS = [
+    ["run", "--seed", "-1"],
+    ["compare", "--first-seed", "-1"],
+    ["run", "--fps", "-30"], ["run", "--fps", "0"],
+    ["run", "--inset-scale", "0"], ["run", "--inset-scale", "-1"], ["run", "--inset-scale", "5"],
+    ["run", "--inset-scale", "nan"],
+    ["run", "--max-frames", "0"], ["run", "--max-frames", "-5"],
+    ["run", "--min-visible-pixels", "-1"],
+    ["run", "--hold", "-1"], ["run", "--hold", "inf"],
+    ["run", "--third-person-hfov", "0"], ["run", "--third-person-hfov", "180"],
+    ["run", "--wall-cutaway", "-1"], ["run", "--workers", "-3"], ["render", "x.jsonl", "--workers", "-3"],
+    ["run", "--failure-rate", "SEARCH=1.0"], ["run", "--failure-rate", "INSPECT=1.0"],
+    ["run", "--failure-rate", "FILL=2"], ["run", "--failure-rate", "FLY=0.5"],
+    ["run", "--width", "100000"],
+]
+
+
+@pytest.mark.parametrize("argv", BAD_FLAGS, ids=[" ".join(a) for a in BAD_FLAGS])
+def test_bad_flag_is_one_line_with_exit_2(argv, tmp_path):
+    status, _, err = cli([*argv, "--out", tmp_path / "out"] if argv[0] == "run" else argv)
+    assert_one_line_error(status, err)
+
+
+def test_inset_that_does_not_fit_the_frame(tmp_path):
+    status, _, err = cli(["run", "--width", "1920", "--height", "64", "--inset-scale", "0.5",
+                          "--out", tmp_path / "o"])
+    assert_one_line_error(status, err, "--inset-scale")
+
+
+# ------------------------------------------------------------------------------ output places
+@pytest.fixture
+def a_file(tmp_path):
+    path = tmp_path / "plain"
+    path.write_text("x")
+    return path
+
+
+@pytest.fixture(scope="module")
+def short_log(tmp_path_factory):
+    out = tmp_path_factory.mktemp("short")
+    status, _, err = cli(["run", "--no-video", "--max-frames", "300", "--out", out])
+    assert status in (0, 1), err
+    return out / "episode.jsonl"
+
+
+@pytest.mark.parametrize("command", ["run", "compare", "render", "preview"])
+@pytest.mark.parametrize("where", ["existing file", "under a file", "/dev/null", "/proc"])
+def test_unwritable_out_is_one_line(command, where, a_file, short_log):
+    target = {"existing file": a_file, "under a file": a_file / "sub", "/dev/null": Path("/dev/null"),
+              "/proc": Path("/proc/fg-tea-test")}[where]
+    if command in ("render", "preview"):  # these write a file: an existing folder is the fault
+        target = {"existing file": a_file.parent, "under a file": a_file / "x.mp4",
+                  "/dev/null": target, "/proc": Path("/proc/x.mp4")}[where]
+    argv = {"run": ["run", "--no-video", "--max-frames", "5"], "compare": ["compare", "--quick"],
+            "render": ["render", short_log], "preview": ["preview"]}[command]
+    status, _, err = cli([*argv, "--out", target])
+    assert_one_line_error(status, err, "--out")
+
+
+def test_scenario_name_cannot_escape_the_output_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(_scenario(_set(["name"], "../../escaped"))))
+    status, _, err = cli(["run", path, "--no-video", "--max-frames", "5"])
+    assert status in (0, 1), err
+    written = [p for p in tmp_path.rglob("episode.jsonl")]
+    assert len(written) == 1 and (tmp_path / "runs") in written[0].parents
+
+
+def test_rerun_replaces_every_output_of_the_run(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "episode.mp4").write_bytes(b"old video")
+    (out / "timings.json").write_text("{}")
+    (out / ".episode.mp4.tmp999999999.mp4").write_bytes(b"left by a killed writer")
+    status, _, err = cli(["run", "--no-video", "--max-frames", "5", "--out", out])
+    assert status in (0, 1), err
+    assert not (out / "episode.mp4").exists()
+    assert json.loads((out / "timings.json").read_text())["episode_s"] >= 0
+
+
+# ------------------------------------------------------------------------------ faults of the machine
+def test_disk_full_while_logging_is_one_line_and_leaves_whole_lines(tmp_path, monkeypatch):
+    import fg_tea.episode.log as log
+
+    real = log._write
+    calls = {"n": 0}
+
+    def write(fd, data):
+        calls["n"] += 1
+        if calls["n"] < 4:
+            return real(fd, data)
+        real(fd, data[: len(data) // 2])  # half a line reaches the disk, then it is full
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp_path / "out" / "episode.jsonl"))
+
+    monkeypatch.setattr(log, "_write", write)
+    status, _, err = cli(["run", "--no-video", "--max-frames", "2000", "--out", tmp_path / "out"])
+    assert_one_line_error(status, err, "No space left on device")
+    text = (tmp_path / "out" / "episode.jsonl").read_text()
+    assert text.endswith("\n") and len(text.splitlines()) == 3
+    assert all(json.loads(line) for line in text.splitlines())
+
+
+def test_broken_pipe_ends_quietly(monkeypatch):
+    class Closed(io.StringIO):
+        def write(self, text):
+            raise BrokenPipeError(errno.EPIPE, "Broken pipe")
+
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stdout", Closed())
+    with contextlib.redirect_stderr(err):
+        status = main(["validate", str(ROOT / "models" / "factorised.toml")])
+    assert status == 141 and err.getvalue() == ""
+
+
+def test_input_error_survives_pickling():
+    exc = pickle.loads(pickle.dumps(InputError("f.json", "$.a", "bad")))
+    assert (exc.file, exc.path, exc.fault, str(exc)) == ("f.json", "$.a", "bad", "f.json: $.a: bad")
+
+
+def test_ray_address_with_nothing_listening_fails_fast(tmp_path):
+    pytest.importorskip("ray")
+    start = time.perf_counter()
+    status, _, err = cli(["compare", "--backend", "ray", "--address", "127.0.0.1:1", "--quick",
+                          "--worlds", "1", "--out", tmp_path], seconds=60)
+    assert_one_line_error(status, err, "--address")
+    assert time.perf_counter() - start < 30
+
+
+def test_stale_render_folders_are_removed(tmp_path):
+    from fg_tea.render.video import remove_stale_render_dirs
+
+    dead, mine = tmp_path / ".render-999999999-abc", tmp_path / f".render-{os.getpid()}-def"
+    dead.mkdir(), mine.mkdir()
+    remove_stale_render_dirs(tmp_path)
+    assert not dead.exists() and mine.exists()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux only")
+def test_pool_workers_die_with_a_killed_parent(tmp_path):
+    script = textwrap.dedent("""
+        import os, sys, time
+        from concurrent.futures import ProcessPoolExecutor
+        from fg_tea.process import die_with_parent
+        if __name__ == "__main__":
+            pool = ProcessPoolExecutor(1, initializer=die_with_parent, initargs=(os.getpid(),))
+            print(pool.submit(os.getpid).result(), flush=True)
+            time.sleep(60)
+    """)
+    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
+                              cwd=ROOT)
+    worker = int(parent.stdout.readline())
+    parent.kill()
+    parent.wait()
+    for _ in range(100):
+        try:
+            os.kill(worker, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    os.kill(worker, signal.SIGKILL)
+    pytest.fail("the pool worker outlived its killed parent")
+
+
+# ------------------------------------------------------------------------------ fuzz
+NASTY = [None, "", "x", "\ud800", -1, 0, 1, 2.5, -1e9, 1e308, float("nan"), float("inf"), True, [], {},
+         [1, 2], {"a": 1}, "../../x", "kitchen_counter", "mug", "prior"]
+
+
+def _paths(node, base=()):
+    yield base
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield from _paths(v, base + (k,))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield from _paths(v, base + (i,))
+
+
+def mutate_json(data, rng: random.Random):
+    """One random structural mutation of a JSON document (a copy)."""
+    data = copy.deepcopy(data)
+    paths = [p for p in _paths(data) if p]
+    path = rng.choice(paths)
+    parent = data
+    for key in path[:-1]:
+        parent = parent[key]
+    key = path[-1]
+    kind = rng.randrange(5)
+    if kind == 0:
+        parent[key] = rng.choice(NASTY)
+    elif kind == 1 and isinstance(parent, dict):
+        value = parent.pop(key)
+        if rng.random() < 0.5:  # a misspelling
+            i = rng.randrange(len(key)) if key else 0
+            parent[key[:i] + key[i + 1:] + "x"] = value
+    elif kind == 1:
+        parent.pop(key)
+    elif kind == 2 and isinstance(parent, list):
+        parent.append(copy.deepcopy(parent[key]))
+    elif kind == 3 and isinstance(parent[key], (int, float)) and not isinstance(parent[key], bool):
+        parent[key] = parent[key] * rng.choice([-1, 0, 1e6, 1e-6, 10])
+    else:
+        parent[key] = rng.choice(NASTY)
+    return data
+
+
+def _toml_value(rng):
+    return rng.choice(['"x"', "-1", "0", "1e308", "nan", "inf", "true", "[]", "{}", '""', "2.5", '"joint"'])
+
+
+def mutate_toml(text: str, rng: random.Random) -> str:
+    lines = text.splitlines()
+    i = rng.randrange(len(lines))
+    kind = rng.randrange(4)
+    line = lines[i]
+    if kind == 0:
+        del lines[i]
+    elif kind == 1 and "=" in line:
+        key, _, _ = line.partition("=")
+        lines[i] = f"{key}= {_toml_value(rng)}"
+    elif kind == 2 and "=" in line:
+        key, _, value = line.partition("=")
+        j = rng.randrange(max(len(key.strip()), 1))
+        k = key.strip()
+        lines[i] = f"{k[:j] + k[j + 1:]}x ={value}"
+    else:
+        lines.insert(i, f"{rng.choice(['[planning]', '[beliefs]', 'extends', 'name', 'zz'])} = {_toml_value(rng)}")
+    return "\n".join(lines) + "\n"
+
+
+def _fuzz_cases(n_json: int, n_toml: int, seed: int = 20240601):
+    rng = random.Random(seed)
+    documents = [("scenario", SCENARIO), ("task", TASK), ("world", _world(lambda d: None))]
+    for i in range(n_json):
+        kind, doc = documents[i % len(documents)]
+        yield kind, "json", mutate_json(doc, rng)
+    for i in range(n_toml):
+        yield "model", "toml", mutate_toml(FACTORISED, rng)
+    for i in range(n_json // 10):  # raw text damage
+        raw = json.dumps(SCENARIO)
+        cut = rng.randrange(len(raw))
+        yield "scenario", "bytes", raw[:cut].encode() + bytes([rng.randrange(256)]) + raw[cut + 1:].encode()
+
+
+def test_fuzzed_files_end_in_ok_or_one_line(tmp_path):
+    """Seeded mutations of every bundled file kind: exit 0, or exit 2 with one error line."""
+    counts = {0: 0, 2: 0}
+    start = time.perf_counter()
+    for n, (kind, form, content) in enumerate(_fuzz_cases(n_json=240, n_toml=120)):
+        folder = tmp_path / f"case{n}"
+        folder.mkdir()
+        path = folder / f"{kind}.{'toml' if form == 'toml' else 'json'}"
+        if form == "json":
+            path.write_text(json.dumps(content))
+        elif form == "toml":
+            path.write_text(content)
+        else:
+            path.write_bytes(content)
+        status, _, err = cli(["validate", path], seconds=10)
+        assert status in (0, 2), (kind, content, err)
+        if status == 2:
+            assert_one_line_error(status, err)
+        else:
+            assert err == "", err
+        counts[status] += 1
+    assert counts[2] > counts[0] > 0, counts  # most mutations are faults, some are harmless
+    assert time.perf_counter() - start < 45
+
+
+def test_fuzzed_run_flags_end_in_ok_or_one_line(tmp_path):
+    rng = random.Random(7)
+    values = ["-1", "0", "1", "3", "nan", "inf", "1e308", "abc", "", "99999999999999999999"]
+    flags = ["--seed", "--min-visible-pixels", "--max-frames", "--failure-rate", "--planner",
+             "--preparation-site", "--backend", "--fps", "--hold", "--inset-scale"]
+    for n in range(12):
+        argv = ["run", "--no-video", "--out", tmp_path / f"r{n}"]
+        for _ in range(2):
+            flag = rng.choice(flags)
+            value = rng.choice(values + (["FILL=0.5", "SEARCH=1", "PICK=-1"] if flag == "--failure-rate"
+                                         else ["efe", "nearest"] if flag == "--planner" else []))
+            argv += [flag, value]
+        if "--max-frames" not in argv:
+            argv += ["--max-frames", "50"]
+        status, _, err = cli(argv)
+        assert status in (0, 1, 2), (argv, err)
+        if status == 2:
+            assert_one_line_error(status, err)
+        else:
+            assert "Traceback" not in err
