@@ -176,12 +176,14 @@ def cmd_validate(args: argparse.Namespace) -> int:
         elif kind == "task":
             from fg_tea.tasks.load import parse_task
 
-            parse_task(data, load_model(args.model), load_scenario(args.scenario), file=path)
+            scenario = args.scenario or _scenario_for_task(data)
+            parse_task(data, load_model(args.model), load_scenario(scenario), file=path)
         elif kind == "world":
             from fg_tea.worlds import parse_world
 
             world = parse_world(data, path)
-            check_scenario(world.base, load_model(args.model))
+            check_scenario(world.base if world.base is not None else world.house(0),
+                           load_model(args.model))
             try:  # a sample moves objects and truths only: the checks above still hold for it
                 world.sample(0)
             except ValueError as exc:
@@ -191,6 +193,27 @@ def cmd_validate(args: argparse.Namespace) -> int:
             check_scenario(scenario, load_model(args.model))
         print(f"{path}: ok ({kind})")
     return 0
+
+
+def _scenario_for_task(data: object) -> str:
+    """The bundled scenario a task file is checked against when none is named: the default
+    apartment, or the first bundled scenario holding every object the task's actions name."""
+    from fg_tea.resources import bundled
+    from fg_tea.scenario import load_scenario
+
+    names = set()
+    if isinstance(data, dict) and isinstance(data.get("actions"), list):
+        for action in data["actions"]:
+            if isinstance(action, dict):
+                names |= {v for k, v in action.items() if k in ("object", "destination")
+                          and isinstance(v, str)}
+    for candidate in [DEFAULT_SCENARIO] + [p.stem for p in bundled("scenarios", ".json")]:
+        try:
+            if names <= set(load_scenario(candidate).object_names):
+                return candidate
+        except InputError:
+            continue
+    return DEFAULT_SCENARIO
 
 
 # ------------------------------------------------------------------------------ episodes
@@ -692,7 +715,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("validate", help="check scenario, model and task files")
     p.add_argument("files", nargs="+")
-    p.add_argument("--scenario", default=DEFAULT_SCENARIO, help="scenario to check task files against")
+    p.add_argument("--scenario", default=None,
+                   help="scenario to check task files against (default: the default apartment, or "
+                   "the first bundled scenario holding every object the task names)")
     p.add_argument("--model", default=DEFAULT_MODEL, help="model to check task files against")
 
     _add_run_parsers(sub)
