@@ -205,7 +205,7 @@ def test_remaining_probability_is_the_prior_mass_times_the_miss_likelihoods():
 
 
 def test_unfindable_mug_gives_up_within_the_budget_with_its_reason():
-    s, m = load_scenario("default_apartment"), load_model("factorised")
+    s, m = load_scenario("default_apartment"), load_model("factorised_close")  # the miss-rate knob drives the threshold detector
     env = FakeHouse(s, env_config_for(m, detection_miss_rate=1.0))  # the camera never sees it
     runner = EpisodeRunner(s, m, env, RunConfig(seed=0))
     metrics = runner.run()
@@ -241,7 +241,7 @@ def test_only_the_unfindable_mug_is_given_up(model):
 
 def test_look_budget_ends_a_search_the_probability_rule_would_continue():
     s = load_scenario("default_apartment")
-    m = load_model("factorised")
+    m = load_model("factorised_close")
     m = replace(m, planning=replace(m.planning, give_up_probability=0.0,
                                     max_inspections_per_object=5))
     env = FakeHouse(s, env_config_for(m, detection_miss_rate=1.0))
