@@ -132,6 +132,8 @@ def _with_viewpoints(events, scenario, glance_room: str | None):
         if e["event"] not in ("decision", "observation"):
             continue
         site = e["site"]
+        if site not in scenario.site_names:  # already a room glance in the runner's own log
+            continue
         as_glance = glance is not None and not converted and scenario.site(site).room == glance.room
         vp = glance if as_glance else scenario.viewpoint(site)
         e["site"], e["viewpoint"], e["viewpoint_kind"] = vp.name, vp.name, vp.kind
