@@ -20,6 +20,24 @@ def logged(tmp_path_factory):
     return out / "episode.jsonl"
 
 
+@pytest.fixture(scope="module")
+def close_logged(tmp_path_factory):
+    """A close-look run (one look per site), the raw material of the viewpoint tests below."""
+    out = tmp_path_factory.mktemp("close")
+    assert main(["run", "--no-video", "--out", str(out), "--seed", "1",
+                 "--model", "factorised_close"]) == 0
+    return out / "episode.jsonl"
+
+
+VIEWPOINT_FIELDS = ("viewpoint", "viewpoint_kind", "sites_in_view", "found_at",
+                    "detection_probability", "site_pixel_counts", "viewpoints")
+
+
+def _as_old_log(events):
+    """The same events as a runner without viewpoints wrote them."""
+    return [{k: v for k, v in e.items() if k not in VIEWPOINT_FIELDS} for e in events]
+
+
 def test_frame_plan_replays_every_motion_frame(logged):
     events = read_log(logged)
     options = VideoOptions(hold_seconds=0.5)
@@ -144,8 +162,8 @@ def _with_viewpoints(events, scenario, glance_room: str | None):
     return events
 
 
-def test_old_logs_fall_back_to_close_looks(logged):
-    events = read_log(logged)
+def test_old_logs_fall_back_to_close_looks(close_logged):
+    events = _as_old_log(read_log(close_logged))
     assert not any("viewpoint" in e for e in events)  # written by a runner without viewpoints
     plan = plan_frames(events, VideoOptions(hold_seconds=0.1))
     looks = [o for o in plan.overlays if o.viewpoint is not None]
@@ -156,9 +174,9 @@ def test_old_logs_fall_back_to_close_looks(logged):
     assert any(o.found_at for o in looks)
 
 
-def test_room_glance_is_planned_and_captioned(logged, tmp_path):
+def test_room_glance_is_planned_and_captioned(close_logged, tmp_path):
     scenario = _glance_scenario(tmp_path)
-    events = _with_viewpoints(read_log(logged), scenario, "dining_room")
+    events = _with_viewpoints(read_log(close_logged), scenario, "dining_room")
     plan = plan_frames(events, VideoOptions(hold_seconds=0.1))
     glances = [o for o in plan.overlays if o.viewpoint_kind == "room"]
     assert glances, "the converted look shows as a room glance"
@@ -198,12 +216,12 @@ def test_overlay_marks_a_room_glance(tmp_path):
         assert not np.array_equal(frames["none"], frames["close"])
 
 
-def test_room_glance_log_renders(logged, tmp_path):
+def test_room_glance_log_renders(close_logged, tmp_path):
     scenario = _glance_scenario(tmp_path)
     log = tmp_path / "glance.jsonl"
     import json
 
-    log.write_text("".join(json.dumps(e) + "\n" for e in _with_viewpoints(read_log(logged), scenario,
+    log.write_text("".join(json.dumps(e) + "\n" for e in _with_viewpoints(read_log(close_logged), scenario,
                                                                             "living_room")))
     out = tmp_path / "glance.mp4"
     assert main(["render", str(log), "--out", str(out), "--width", "256", "--height", "144",
