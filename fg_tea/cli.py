@@ -607,10 +607,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
                       env=args.env)
     if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
         from fg_tea.model import load_model
-        from fg_tea.sweep import model_path, world_path
+        from fg_tea.sweep import check_jobs, model_path, world_path
         from fg_tea.worlds import load_world
 
-        base = load_world(world_path(args.world)).base
+        check_jobs(jobs)  # unknown worlds and models are named as such first
+        world = load_world(world_path(args.world))
+        base = world.base if world.base is not None else world.house(0)
         for ref in args.models:
             check_scenario(base, load_model(model_path(ref)))
     csv_path = out / "episodes.csv"
