@@ -516,7 +516,7 @@ def cmd_preview(args: argparse.Namespace) -> int:
 
 
 def _add_video_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("video (blueprint Table 3)")
+    g = p.add_argument_group("video (defaults: docs/design.md §8.6)")
     g.add_argument("--view", choices=("multi", "first", "third"), default="multi",
                    help="chase view with first-person inset, or either alone (default: %(default)s)")
     g.add_argument("--width", type=_integer(64, 7680), default=960, help="output width in pixels (default: %(default)s)")
@@ -582,7 +582,7 @@ def _add_run_parsers(sub) -> None:
     _add_video_options(p)
 
 
-# ------------------------------------------------------------------------------ compare (issue 7)
+# ------------------------------------------------------------ compare (docs/design.md §11)
 #: Planners of the full comparison, and of --quick.
 COMPARE_PLANNERS = ("efe", "factorised_efe", "nearest", "greedy", "random", "optimal")
 COMPARE_QUICK_PLANNERS = ("efe", "greedy", "nearest", "optimal")
@@ -657,7 +657,7 @@ def _add_compare_parser(sub) -> None:
     p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
     p.add_argument("--quick", action="store_true",
                    help=f"10 worlds and planners {' '.join(COMPARE_QUICK_PLANNERS)} (CI size)")
-# ------------------------------------------------------------------------------ end compare (issue 7)
+# ------------------------------------------------------------------------------ end compare
 
 
 # ------------------------------------------------------------------------------ house generator
@@ -723,7 +723,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", default=DEFAULT_MODEL, help="model to check task files against")
 
     _add_run_parsers(sub)
-    _add_compare_parser(sub)  # issue 7
+    _add_compare_parser(sub)  # docs/design.md §11
     _add_house_parser(sub)
     return parser
 

@@ -1,7 +1,7 @@
 """The visibility detector: how likely is an object to be seen, given how many pixels it covers?
 
 This module answers one question for both sides of the agent/environment boundary (see
-docs/design.md, "Detection from visibility"): the probability that the detector reports an object
+docs/design.md §3.4): the probability that the detector reports an object
 that stands in the camera's view, as a function of the number of segmentation pixels n it covers,
 
     P(seen | n) = p_max / (1 + (n_50 / n) ** s)        for n > 0,     P(seen | 0) = 0,

@@ -1,4 +1,4 @@
-"""Belief quality: how good were the agent's location beliefs, step by step? (issue 7, blueprint 15)
+"""Belief quality: how good were the agent's location beliefs, step by step? (docs/design.md §11)
 
 Search cost (travel, inspections) says how well the agent *acted*; this module says how well it
 *believed*. Every measure is a pure function of an episode's events plus the world's truth (the

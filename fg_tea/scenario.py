@@ -1,8 +1,9 @@
 """Scenario: what is this house — geometry, semantic sites, objects, priors and hidden truth.
 
-A scenario is a JSON file (schema version 2, blueprint section 3.3; version 1 with one target
-object still loads). It is parsed once, at the boundary, into frozen dataclasses; every fault is an
-:class:`~fg_tea.errors.InputError` naming the file, the JSON path and what is wrong.
+A scenario is a JSON file (schema version 2: site priors docs/design.md §3.1, sites §8.1, room
+vantages §5; version 1 with one target object still loads). It is parsed once, at the boundary,
+into frozen dataclasses; every fault is an :class:`~fg_tea.errors.InputError` naming the file,
+the JSON path and what is wrong.
 
 Coordinates are metres, z up. A site's ``position`` is the point on its surface where objects
 stand (z = surface height); its ``vantage_position`` is the floor point from which the agent
@@ -79,7 +80,7 @@ class House:
 class Site:
     """A semantic site: a surface where objects may be, and where to stand to inspect it.
 
-    `affordances` maps object category -> non-negative plausibility weight a_ic (blueprint eq. 2).
+    `affordances` maps object category -> non-negative plausibility weight a_ic (docs/design.md eq. (2)).
     """
 
     name: str
@@ -94,7 +95,7 @@ class Site:
 @dataclass(frozen=True)
 class RoomVantage:
     """A declared floor point (a doorway or the room's centre) from which one look, a *room
-    glance*, covers every site of `room` (see docs/design.md, "Viewpoints")."""
+    glance*, covers every site of `room` (see docs/design.md §5)."""
 
     name: str
     room: str

@@ -1,7 +1,7 @@
 """Sweeps: many seeded episodes over sampled worlds, models and planners, one CSV row each.
 
-This module answers the experiment question of the architecture ("which model searches better,
-and why?", blueprint sections 15.3-15.4) at the level of single episodes; :mod:`fg_tea.analysis`
+This module answers the experiment question ("which model searches better, and why?",
+docs/design.md §11) at the level of single episodes; :mod:`fg_tea.analysis`
 turns the rows into tables and plots.
 
 - A :class:`Job` names one episode completely: world distribution and its knobs, world seed,

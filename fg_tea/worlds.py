@@ -1,4 +1,4 @@
-"""World sampler: hidden truths drawn from a declared generative distribution (blueprint 15.3-15.4).
+"""World sampler: hidden truths drawn from a declared generative distribution (docs/design.md §11).
 
 A world distribution is a JSON data file (``scenarios/worlds/*.json``) over one base scenario
 (``"base_scenario"``), or over a fresh generated house per world (``"generate": {"rooms": N or

@@ -5,7 +5,7 @@ Only this module writes beliefs. It keeps two independent blocks of one factor g
 - the **location block**: one variable ``L[o]`` per object over the K sites (the site where o
   stood when the episode began). Factors: the prior [eq. 2], every detection [4] and miss [5, 6],
   and, in joint models, relational factors (capacity, co-location, exclusivity). Factorised
-  models have no relational factors, so each marginal is the blueprint's closed form.
+  models have no relational factors, so each marginal is a closed form (docs/design.md §4.2).
 - the **state block**: Bernoulli task states (``kettle.contains_water``...). Factors: priors,
   noisy readings [23, 24] and action transitions P(z'|z,a) [27] (or the direct form [25, 26]).
   A transition creates a new time slice of the states it touches and sums the old slice out at
@@ -729,7 +729,7 @@ class BeliefEngine:
 
         Args:
             effects: the action's effects.
-            direct: use the blueprint's direct form q'(z) = rho (eqs. 25, 26); default: the model's.
+            direct: use the direct form q'(z) = rho (docs/design.md eqs. (25), (26)); default: the model's.
         """
         import gtsam
 

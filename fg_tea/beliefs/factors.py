@@ -5,7 +5,7 @@ began (cardinality K = number of sites); ``kettle.contains_water`` is a Bernoull
 (index 0 = false, 1 = true). A :class:`Factor` is a non-negative table whose axes follow its
 variable tuple (C order, first variable most significant — gtsam's convention too).
 
-Constructors, with the blueprint equations they realise:
+Constructors, with the docs/design.md equations they realise:
 
 - :func:`location_prior` — q0(L_o = i) ∝ max(a_ic, eps)                                     [2]
 - :func:`miss_factor` — P(not seen at j | L_o = i) = mu if i = j else 1                    [5, 6]
@@ -159,7 +159,8 @@ def collapse_factor(obj: str, site_index: int, current: np.ndarray, floor: float
     """Soft evidence that sets q(L_o) to eq. 4 exactly (Jeffrey's rule as a factor).
 
     Multiplying the graph by lambda(i) = t(i) / q(L_o = i) makes the posterior marginal of L_o
-    equal t (the blueprint's collapse) and moves every correlated variable by P(x | L_o = i)
+    equal t (the collapse of docs/design.md eq. (4); this factor is eq. (32)) and moves every
+    correlated variable by P(x | L_o = i)
     weighted with t — the exact joint counterpart of eq. 4. Sites the belief already rules out
     (q = 0, possible only with zero-probability factors) stay ruled out: lambda = 0 there, so the
     posterior is t restricted to the support of q.

@@ -3,9 +3,9 @@
 Which question it answers: the same as dense enumeration of P(L_1, ..., L_N) — the partition
 function, every single marginal q(L_o = j) and every pairwise marginal P(L_o = a, L_p = b) — for
 joint models whose relational factors are all *site-local* or *room-local*, at a cost of about
-K * 3^N instead of K^N (see ``PERFORMANCE_NOTES.md``).
+K * 3^N instead of K^N (see docs/design.md §4.4).
 
-The joint of a location block (blueprint eqs. 2-6 for the unary part) is
+The joint of a location block (docs/design.md eqs. (2)-(6) for the unary part; the whole is eq. (36)) is
 
     P(L) ∝ prod_o u_o(L_o) * prod_j cap_j(|S_j|) * prod_{a<b} psi_ab(L_a, L_b)
 

@@ -1,7 +1,7 @@
 """Assets: what do the mug, kettle, teabag, milk, sugar, drone and house boxes look like in PyBullet?
 
-This module answers the blueprint's asset question (section 8.1 and the validation list, item 3:
-"mug, kettle and teabag assets resolve to visually distinct templates"); the milk carton and the
+This module answers what the task objects look like: mug, kettle and teabag resolve to visually
+distinct bodies (docs/design.md §8.1); the milk carton and the
 sugar jar of the ``make_tea_milk_sugar`` task follow the same rules, in colours none of the
 other objects use. Every shape is built at
 run time from PyBullet primitives with ``createVisualShape`` / ``createMultiBody``; the mug uses the

@@ -1,6 +1,6 @@
 """The environment adapter: how an action happens in the house, and what the camera sees.
 
-This is the boundary of the project's scientific point (blueprint eq. 1, section 7.4): truth lives
+This is the boundary of the project's scientific point (docs/design.md eq. (1), §1): truth lives
 only behind an :class:`EnvAdapter`, which answers with the observation types of
 :mod:`fg_tea.interface` and never with the hidden truth itself.
 """
@@ -17,7 +17,7 @@ from fg_tea.interface import (ActionRequest, ActionResult, InspectionResult, Pos
 
 @dataclass(frozen=True)
 class EnvConfig:
-    """Embodiment parameters (blueprint Table 3). Units: metres, degrees, pixels.
+    """Embodiment parameters (defaults: docs/design.md §8.6). Units: metres, degrees, pixels.
 
     ``look_frames`` is how many frames the agent holds still while it takes an inspection image:
     looking takes time, so even an inspection from where the agent already stands advances the

@@ -31,7 +31,7 @@ class FakeHouse(TruthBackedAdapter):
 
     Args:
         scenario: the house, sites and objects.
-        config: embodiment parameters (Table 3); ``distance`` is always Euclidean here.
+        config: embodiment parameters (docs/design.md §8.6); ``distance`` is always Euclidean here.
     """
 
     def _build(self) -> None:

@@ -1,7 +1,7 @@
 """The PyBullet house: how an action happens in the house, and what the camera sees.
 
-This module answers the environment question of the architecture (blueprint sections 8-10,
-Table 3) with PyBullet in DIRECT mode (CPU, no window, no GPU) in place of Habitat-Sim:
+This module answers the environment question (docs/design.md §8; defaults §8.6) with PyBullet
+in DIRECT mode (CPU, no window, no GPU) in place of Habitat-Sim:
 
 * the scene: floor, walls with doorway gaps, furniture boxes whose tops are the semantic sites,
   distinct mug, kettle and teabag bodies on their true sites, and a drone body for the agent;
@@ -12,7 +12,8 @@ Table 3) with PyBullet in DIRECT mode (CPU, no window, no GPU) in place of Habit
   n_o >= ``min_visible_pixels`` and o lies within ``site_association_radius`` of the site [29].
   Occlusion is real: the image is rendered, so a body in front of an object hides it;
 * kinematic manipulation and hidden truth through :class:`~fg_tea.env.truth.TruthBackedAdapter`
-  (section 10); cameras for people: the egocentric view and a chase camera (Table 3 defaults).
+  (docs/design.md §8.5); cameras for people: the egocentric view and a chase camera (defaults:
+  docs/design.md §8.6).
 
 Headless use renders exactly one egocentric image per inspection; with ``render_motion`` every
 frame of motion is mirrored into the scene and handed to a frame sink (or rendered). This is the
@@ -74,7 +75,7 @@ class PyBulletHouse(TruthBackedAdapter):
 
     Args:
         scenario: the house, sites and objects (truth is read only inside the environment).
-        config: embodiment parameters (Table 3).
+        config: embodiment parameters (docs/design.md §8.6).
         render_motion: mirror every frame of motion into the scene and hand it to `frame_sink`
             (or, without a sink, render the egocentric camera each frame). Off for headless runs.
         frame_sink: called as ``frame_sink(house, pose)`` once per frame of motion when
@@ -439,7 +440,7 @@ class PyBulletHouse(TruthBackedAdapter):
     def render_chase(self, width: int, height: int, distance: float = 3.2, height_m: float = 2.2,
                      pitch_deg: float = -22.0, hfov_deg: float = 78.0,
                      wall_cutaway: float | None = None) -> np.ndarray:
-        """The third-person chase camera (Table 3 defaults): for people, never for the agent.
+        """The third-person chase camera (defaults: docs/design.md §8.6): for people, never for the agent.
 
         Args:
             width, height: image size in pixels.

@@ -1,7 +1,7 @@
 """Navigation: where can the agent go, how far is each site, and which poses does it pass through?
 
-This module answers the travel-cost question of the planner (blueprint section 9.1; the distance
-d_j of eq. 12) and produces the motion of section 9.1 without any simulator:
+This module answers the travel-cost question of the planner (docs/design.md §8.2; the distance
+d_j of eq. (12)) and produces the motion of §8.2 without any simulator:
 
 1. an occupancy grid of the floor plan (walls with doorway gaps, furniture boxes, everything
    outside the floor bounds blocked), inflated by the agent radius;
@@ -11,7 +11,7 @@ d_j of eq. 12) and produces the motion of section 9.1 without any simulator:
 3. shortest paths by following the Dijkstra predecessors, then string-pulling them to corner
    points with an exact line-of-sight test over the grid cells a segment crosses;
 4. a path follower: turn in place while the heading error exceeds ``turn_before_move_deg``, turn at
-   most ``turn_step_deg`` and move at most ``movement_step`` per frame (Table 3);
+   most ``turn_step_deg`` and move at most ``movement_step`` per frame (docs/design.md §8.6);
 5. a load-time check that each vantage lies on free floor and is reachable from the start, which
    raises :class:`~fg_tea.errors.InputError` naming the site and the nearest usable free cell.
 
@@ -339,7 +339,7 @@ def wrap_deg(angle: float) -> float:
 
 
 def follow_path(pose: Pose, corners: Sequence[Point], config: EnvConfig) -> list[Pose]:
-    """Per-frame poses that drive the agent from `pose` through `corners` (blueprint 9.1).
+    """Per-frame poses that drive the agent from `pose` through `corners` (docs/design.md §8.2).
 
     Each frame either turns in place (heading error > ``turn_before_move_deg``) or turns and moves
     along the straight segment to the next corner. Turns are at most ``turn_step_deg`` and moves

@@ -1,9 +1,9 @@
 """Hidden truth: which tea states really hold, where each object really is, and how actions change them.
 
-This module answers *what is actually the case* behind the agent's beliefs (blueprint section 7.4,
-section 10). It holds the simulator-side counterpart of the Bernoulli task states of eq. (21)
-(``kettle.contains_water`` ...), the object relations of section 10.1 (site, held, contained in),
-the deterministic truth effects of section 10.2 (fill, boil, pour, steep, serve, and add_milk and
+This module answers *what is actually the case* behind the agent's beliefs (docs/design.md §1
+and §8.5). It holds the simulator-side counterpart of the Bernoulli task states of eq. (21)
+(``kettle.contains_water`` ...), the object relations of docs/design.md §8.5 (site, held, contained in),
+the deterministic truth effects of §8.5 (fill, boil, pour, steep, serve, and add_milk and
 add_sugar for the milk-and-sugar task), and the noisy
 binary sensor of eqs. (23, 24) from which the agent's state observations are drawn:
 
@@ -81,7 +81,7 @@ class TeaTruth:
 
     def apply_effect(self, effect: str, obj: str, destination: str | None = None,
                      rng: np.random.Generator | None = None) -> None:
-        """Apply a deterministic truth effect (blueprint section 10.2).
+        """Apply a deterministic truth effect (docs/design.md §8.5).
 
         Args:
             effect: one of ``fill`` (obj gains water), ``boil`` (obj's water becomes hot if it has
@@ -158,7 +158,7 @@ class TeaTruth:
             return u < sensitivity
         return u >= specificity
 
-    # --- relations (section 10.1) --------------------------------------------------------
+    # --- relations (docs/design.md §8.5) -----------------------------------------------------
 
     def contents_of(self, container: str) -> list[str]:
         """Objects directly contained in `container`, sorted by name."""

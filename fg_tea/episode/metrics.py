@@ -1,4 +1,4 @@
-"""Episode metrics as pure functions of the event log (blueprint sections 11.2 and 15.4).
+"""Episode metrics as pure functions of the event log (docs/design.md §9).
 
 Because they read only logged events, an old log can be re-scored with new metrics:
 ``score(read_log(path))``.

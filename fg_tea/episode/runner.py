@@ -1,4 +1,4 @@
-"""The episode: the loop of the blueprint's Listing 3 over fg_tea's layers, one event at a time.
+"""The episode: the loop of docs/design.md §1 over fg_tea's layers, one event at a time.
 
     truth s* -> observation o -> belief q(s) -> decision pi -> changed world s*'      (eq. 1)
 
@@ -6,7 +6,7 @@ Each :meth:`EpisodeRunner.step` asks the task executor for the next action and c
 
 - SEARCH: the planner scores every (unresolved object, site) pair on the task frontier; the
   environment goes to the chosen site and looks; the belief engine absorbs every detection and
-  miss; every object found has its search confirmed, whichever search was being served (11.1);
+  miss; every object found has its search confirmed, whichever search was being served (docs/design.md §6.1);
 - INSPECT: the environment reads the hidden state through a noisy sensor; the executor absorbs it;
 - practical actions: unmet belief preconditions are first verified by inspection (bounded); the
   environment carries the action out; the executor applies its belief effects, or its recovery
@@ -44,7 +44,7 @@ REASON_FRAME_LIMIT = "frame_limit"
 
 @dataclass(frozen=True)
 class RunConfig:
-    """Episode parameters (blueprint Table 3 where it applies)."""
+    """Episode parameters (defaults: docs/design.md §8.6 where it applies)."""
 
     seed: int = 0
     planner: str = "efe"

@@ -1,7 +1,7 @@
-"""Planning: which object-site inspection is worth doing next? (blueprint section 5, eqs. 8-17)
+"""Planning: which object-site inspection is worth doing next? (docs/design.md §6, eqs. (8)-(17))
 
 All planners share one interface (:class:`~fg_tea.planning.base.Planner`) and are built by name
-from a model file, so every ablation of section 15.4 is a switch in the TOML, not a code edit:
+from a model file, so every ablation (docs/design.md §11) is a switch in the TOML, not a code edit:
 
 - ``information_weight = 0`` (w_e), ``relevance_weight = 0`` (lambda) and ``repeat_penalty = 0``
   (w_a) reach the EFE score through :class:`~fg_tea.model.PlanningWeights`;

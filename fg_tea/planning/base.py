@@ -1,4 +1,4 @@
-"""Planning interface: which object-site inspection is worth doing next? (blueprint section 5)
+"""Planning interface: which object-site inspection is worth doing next? (docs/design.md §6)
 
 A search policy is "inspect semantic site j for object o" (eqs. 8, 9). Every planner answers the
 same question through one pure function,
@@ -13,7 +13,7 @@ The pieces defined here:
 - :class:`DistanceModel` — travel distance in metres from the agent to a site's vantage point
   (d_j of eq. 12) and between two vantage points. The environment supplies geodesic distances on
   its occupancy grid; :func:`euclidean_distances` builds straight-line ones from the scenario's
-  vantage coordinates (the Euclidean ablation of section 15.4).
+  vantage coordinates (the Euclidean ablation, docs/design.md §11).
 - :class:`Candidate` — one scored (object, site) pair with every term of eqs. 12 and 16.
 - :class:`Decision` — the argmin of eq. 17 with all candidates, ready for the episode log.
 """
@@ -88,7 +88,7 @@ class DistanceTable:
 
 
 def euclidean_distances(scenario: Scenario, agent_xy: Sequence[float]) -> DistanceTable:
-    """Straight-line distances between the agent and every viewpoint's floor point (ablation, 15.4).
+    """Straight-line distances between the agent and every viewpoint's floor point (docs/design.md §11).
 
     Args:
         scenario: the house; only viewpoint coordinates (site and room vantages) are read.

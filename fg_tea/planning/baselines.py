@@ -6,7 +6,7 @@ simpler rules, so experiments can measure what each term of eqs. 12-16 buys:
 - :class:`NearestPlanner` — the nearest site not yet inspected (distance only, no belief);
 - :class:`GreedyProbabilityPlanner` — the most probable (object, site), argmax q(L_o = j);
 - :class:`RandomPlanner` — a uniformly random uninspected site from a seeded Generator;
-- :class:`~fg_tea.planning.efe.FactorisedEFEPlanner` — the blueprint's eqs. 10-11 on marginals
+- :class:`~fg_tea.planning.efe.FactorisedEFEPlanner` — docs/design.md eqs. (10)-(11) on marginals
   (defined in :mod:`fg_tea.planning.efe`, re-exported here).
 
 Site-level baselines (nearest, random) label their choice with the most relevant object (eq. 15;

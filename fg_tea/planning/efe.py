@@ -10,15 +10,15 @@ the caller's :class:`~fg_tea.planning.base.DistanceModel`; q is the location mar
 number of earlier inspections of site j with negative evidence in this search; r_o is the task
 relevance of eq. 15. Weights come from the model file (:class:`~fg_tea.model.PlanningWeights`).
 
-The repeat term deviates from eq. 12 on purpose. The blueprint's indicator [j already inspected]
+The repeat term deviates from eq. 12 on purpose. Eq. 12's original indicator [j already inspected]
 equals n_j for the first repeat, but a flat penalty lets a zero-travel re-inspection win forever:
 once an object has been missed everywhere (a detector miss), the site the agent stands at has
 d_j = 0, q ≈ 0 and I ≈ 0, so its score w_a - lambda r_o can beat every site that costs travel, and
 the agent looks at the same empty surface again and again (found in the detector-miss sweeps).
 Counting repeats makes each further look dearer, so the search moves on.
 
-**Information gain, factorised beliefs** (``belief.correlated`` is False) — the blueprint's
-eqs. 10-11 exactly:
+**Information gain, factorised beliefs** (``belief.correlated`` is False) — docs/design.md
+eqs. (10)-(11) exactly:
 
     E[H_after | pi_oj] = q_j * 0 + (1 - q_j) * H(q^{-j}),   q^{-j}(i) ∝ q(i) * (mu if i = j else 1)
     I(o, j) = H(q) - E[H_after | pi_oj]
@@ -26,7 +26,8 @@ eqs. 10-11 exactly:
 with q = q(L_o), q_j = q(L_o = j), q^{-j} the miss posterior of eq. 6 and H the entropy of eq. 7
 (nats). This is an approximation even for a factorised belief: it treats "present" as "detected"
 (probability q_j rather than (1 - mu) q_j + fp (1 - q_j)), sets the entropy after a detection to 0,
-and looks only at o's own detection. It is kept verbatim because it is the blueprint's agent.
+and looks only at o's own detection. It is kept unchanged because it is the original design's
+agent (docs/design.md §6.2, §10).
 
 **Information gain, joint beliefs** (``belief.correlated`` is True) — exact. One inspection of
 site j produces the joint outcome D_j = (D_u)_{u in U} of every unresolved object u in `objects`
@@ -51,7 +52,7 @@ after a detection keeps whatever entropy the model implies rather than being set
 observing more can only add information, the joint I(o, j) is at least the mutual information
 between L_o and o's own detection at j.
 
-The blueprint's factorised score on a joint belief (eqs. 10-11 applied to the marginals) is
+The original factorised score on a joint belief (eqs. 10-11 applied to the marginals) is
 :class:`FactorisedEFEPlanner`, a baseline.
 """
 
@@ -373,7 +374,7 @@ class EFEPlanner:
 
 
 class FactorisedEFEPlanner(EFEPlanner):
-    """The blueprint's agent: eqs. 10-11 on the marginals, even when the belief is joint."""
+    """The original design's agent: docs/design.md eqs. (10)-(11) on the marginals, even if joint."""
 
     name = "factorised_efe"
 

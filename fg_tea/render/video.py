@@ -1,4 +1,4 @@
-"""Re-render an episode's video from its log, without re-running the agent (blueprint section 12).
+"""Re-render an episode's video from its log, without re-running the agent (docs/design.md §9).
 
 The log holds everything a frame needs: the agent pose at every frame of motion, where objects
 stand after each action, which object is held, and the beliefs, decision, task statuses and
@@ -37,7 +37,7 @@ VIEWS = ("multi", "first", "third")
 
 @dataclass(frozen=True)
 class VideoOptions:
-    """Rendering options (blueprint Table 3 and section 12.1).
+    """Rendering options (defaults: docs/design.md §8.6; the views: §9).
 
     Attributes:
         width, height: output size in pixels (even).

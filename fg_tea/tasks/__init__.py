@@ -1,4 +1,4 @@
-"""The task layer: what must happen, in which order, and what can be skipped (blueprint section 6).
+"""The task layer: what must happen, in which order, and what can be skipped (docs/design.md §7).
 
 Declarative actions (:mod:`~fg_tea.tasks.actions`), the validated task DAG with statuses and task
 relevance [14, 15, 18] (:mod:`~fg_tea.tasks.graph`), task files as data

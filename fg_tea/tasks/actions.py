@@ -1,4 +1,4 @@
-"""Declarative task actions: what should happen, never how (blueprint section 6.1).
+"""Declarative task actions: what should happen, never how (docs/design.md §7.1).
 
 A :class:`TaskAction` is pure data: a verb from the simulator-independent vocabulary (SEARCH,
 INSPECT, PICK, NAVIGATE, PLACE, INSERT, FILL, POUR, USE, WAIT), the object it acts on, an optional
@@ -28,7 +28,7 @@ UNREACHABLE_REASONS = ("unreachable", "site_unreachable")
 
 @dataclass(frozen=True)
 class RecoveryPolicy:
-    """What to do when the environment reports that an action failed (blueprint section 16.3).
+    """What to do when the environment reports that an action failed (docs/design.md §7.6).
 
     Attributes:
         max_retries: how many times the failed action may be tried again (0 = never); the
@@ -67,7 +67,7 @@ class TaskAction:
         preconditions: belief preconditions checked before completion (eq. 20).
         requires_affordance: for USE and WAIT, the affordance the object must have (``heatable``).
         recovery: what to do if the environment reports failure.
-        description: the human-readable role (blueprint Table 2).
+        description: the human-readable role (docs/design.md §7.2).
     """
 
     id: str

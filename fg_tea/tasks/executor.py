@@ -6,7 +6,7 @@ environment and reports back observations and outcomes. It owns
 
 - **skipping** [19]: before returning the next action, every ready action whose belief goals all
   hold, q(z = true) >= theta, is completed with a structured ``skip`` event;
-- **checks** before completion: affordances (blueprint section 10.3: PICK graspable, INSERT a
+- **checks** before completion: affordances (docs/design.md §7.5: PICK graspable, INSERT a
   container destination, FILL fillable, POUR a held pourable source and a container
   destination, USE/WAIT the declared affordance), symbolic relations (PICK with free hands,
   PLACE/INSERT/POUR a held object) and belief preconditions [20]. A failed check raises
@@ -16,9 +16,9 @@ environment and reports back observations and outcomes. It owns
   q'(z') = sum_z P(z'|z, a) q(z) [27] by default, the direct q'(z) = rho, 1 - rho [25, 26] when the
   model's ``transition_form`` is ``"direct"``; **observations** of INSPECT actions through the
   noisy binary sensor [23, 24];
-- **symbolic object state** (section 10.1): held, current site, contained in (an inserted
+- **symbolic object state** (docs/design.md §7.5): held, current site, contained in (an inserted
   teabag shares the mug's site, and contents travel with their container);
-- **recovery** (section 16.3): a failed action is marked failed, beliefs learn from the failure
+- **recovery** (docs/design.md §7.6): a failed action is marked failed, beliefs learn from the failure
   where it carries evidence (``object_not_at_site`` is a miss at that site, eqs. 5-6, and reopens
   the object's search), and the action's declared policy decides: retry (bounded), re-inspect
   states first, or exclude an unreachable site from the search candidates. With no retries left
@@ -104,7 +104,7 @@ class TaskError(RuntimeError):
 
 
 class AffordanceError(TaskError):
-    """An object lacks the affordance or relation (held, free hands) an action needs (sec. 10.3)."""
+    """An object lacks an affordance or relation (held, free hands) an action needs (docs/design.md §7.5)."""
 
 
 class PreconditionError(TaskError):
@@ -142,7 +142,7 @@ class Violation:
 
 @dataclass
 class ObjectState:
-    """The agent's symbolic picture of one object (blueprint section 10.1).
+    """The agent's symbolic picture of one object (docs/design.md §7.5).
 
     Attributes:
         name: the object.
@@ -169,7 +169,7 @@ class ObjectState:
 
 @dataclass(frozen=True)
 class RecoveryDecision:
-    """What the runner must do after a failed action (blueprint section 16.3).
+    """What the runner must do after a failed action (docs/design.md §7.6).
 
     Attributes:
         action: the failed action id.
@@ -206,7 +206,7 @@ class RecoveryDecision:
 
 
 class TaskExecutor:
-    """Executes a task graph against the agent's beliefs (blueprint sections 6, 7.3-7.4, 10, 11).
+    """Executes a task graph against the agent's beliefs (docs/design.md §7, §3.6).
 
     Args:
         graph: the task (fresh: every action pending).
@@ -398,7 +398,7 @@ class TaskExecutor:
         """Record that an inspection found `obj` at `site`; complete its SEARCH actions.
 
         Called for every object an inspection resolves, whichever search the planner was serving
-        (blueprint section 11.1). Search actions are completed whatever their status.
+        (docs/design.md §6.1). Search actions are completed whatever their status.
 
         Returns:
             The ``confirm_search`` event.

@@ -1,4 +1,4 @@
-"""The household task graph: a DAG of declarative actions with statuses (blueprint section 6).
+"""The household task graph: a DAG of declarative actions with statuses (docs/design.md §7.1).
 
 Nodes are :class:`~fg_tea.tasks.actions.TaskAction` values held in a networkx ``DiGraph`` whose
 edges run from a dependency to the action that needs it. Insertion order is kept, so that ties
@@ -10,8 +10,8 @@ ready when every dependency is finished:
 
     ready(a_i) <=> for all a_k in dep(a_i): status(a_k) in {complete, skipped}         [18]
 
-(the blueprint's eq. 18 says "complete"; a skipped action is a completed one whose result was
-"already true"). Task relevance of each object's search node biases the search planner:
+(the original eq. 18 says "complete", docs/design.md §10 item 8; a skipped action is a completed
+one whose result was "already true"). Task relevance of each object's search node biases the search planner:
 
     r~_o = 1 + N_unfinished_descendants(o)                                               [14]
     r_o  = r~_o / max_o' r~_o'                                                           [15]

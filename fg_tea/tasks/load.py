@@ -1,7 +1,7 @@
 """Tasks are data files: load and validate a household task into a :class:`TaskGraph`.
 
 A task file (``scenarios/tasks/NAME.json``) lists declarative actions and their dependencies
-(blueprint section 6). Belief effects, goals and preconditions are not written in the task: they
+(docs/design.md §7.1). Belief effects, goals and preconditions are not written in the task: they
 come from the generative model's named transitions (``models/*.toml``: fill, boil, pour, steep,
 serve), whose role templates ``{object}`` and ``{destination}`` are filled in from the action.
 So the same task runs under every model variant, and the numbers (success probabilities
@@ -49,9 +49,9 @@ Action fields:
   appended to the transition's.
 - ``depends_on``: ids of actions that must be complete or skipped first (eq. 18).
 - ``recovery``: ``{"max_retries": int >= 0, "reinspect": [state templates],
-  "exclude_site": bool}`` (blueprint section 16.3); default: no retry.
+  "exclude_site": bool}`` (docs/design.md §7.6); default: no retry.
 
-Objects can gain states (blueprint section 7.1). Every state an action reads or writes must be
+Objects can gain states (docs/design.md §2). Every state an action reads or writes must be
 declared, either in the scenario object's ``state_priors`` or in the task's ``declares_states``
 section (object -> state -> prior q(z = true)); the graph carries the latter and the executor
 adds them to the belief with ``BeliefEngine.ensure_state`` when it starts. Declaring at load
