@@ -1,4 +1,4 @@
-"""Factorised beliefs equal the blueprint's closed forms to 1e-12, arithmetic written out.
+"""Factorised beliefs equal the closed forms of docs/design.md §4.2 to 1e-12, arithmetic written out.
 
 Equations: prior [2], positive evidence [4], negative evidence [5, 6], noisy state reading
 [23, 24], direct action effects [25, 26] and full transitions P(z'|z, a) [27], including the
@@ -218,7 +218,7 @@ def test_boil_of_an_empty_kettle_does_nothing(factorised):
                                                    "kettle.water_hot": 0.01})
     belief.apply_effects(effects(factorised, "boil", "kettle"))
     assert belief.state("kettle.water_hot") == pytest.approx(0.01, abs=TOL)
-    # from the blueprint's prior 0.35 instead: 0.01 + 0.99 * 0.35 * 0.995 = 0.3547675
+    # from the bundled prior 0.35 instead: 0.01 + 0.99 * 0.35 * 0.995 = 0.3547675
     belief = three_sites(factorised, state_priors={"kettle.contains_water": 0.35,
                                                    "kettle.water_hot": 0.01})
     belief.apply_effects(effects(factorised, "boil", "kettle"))

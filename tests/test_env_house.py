@@ -1,4 +1,4 @@
-"""What the PyBullet house must show (issue 5): scene, navigation, perception, truth, determinism."""
+"""What the PyBullet house must show (docs/design.md §8): scene, navigation, perception, truth, determinism."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Full episodes: the runner, the event-sourced log, determinism and the CLI (issue 6)."""
+"""Full episodes: the runner, the event-sourced log, determinism and the CLI (docs/design.md §1, §9)."""
 
 from __future__ import annotations
 

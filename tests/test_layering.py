@@ -1,4 +1,4 @@
-"""The agent side never imports the simulator (architecture: truth lives only in the environment).
+"""The agent side never imports the simulator (docs/design.md §1: truth lives only in the environment).
 
 Every module under fg_tea/beliefs, fg_tea/planning and fg_tea/tasks, plus fg_tea/scenario.py and
 fg_tea/model.py when present, and the simulator-free environment modules (base, truth,

@@ -207,7 +207,7 @@ def test_joint_gain_rewards_co_location():
     assert gain_own[pantry] == pytest.approx(0.5152, abs=1e-4)     # regression
     assert gain_fact[pantry] == pytest.approx(0.5257, abs=1e-4)    # regression
     assert gain_joint[pantry] > gain_fact[pantry] + 0.01
-    # The planner uses the joint gain; the blueprint's baseline uses eqs. 10-11 on the marginals.
+    # The planner uses the joint gain; the factorised_efe baseline uses eqs. 10-11 on the marginals.
     rel = {o: 1.0 for o in belief.objects}
     dist = euclidean_distances(scenario, scenario.start_position)
     efe = EFEPlanner(strong.planning).choose(belief, list(belief.objects), rel, dist, {})
@@ -318,7 +318,7 @@ def test_site_found_empty_is_not_chosen_while_penalised(hand):
     belief.observe_site("A", {"mug": False})
     assert make_planner("efe", weak).choose(belief, ["mug"], rel, dist, {"A": 1}).site == "A"
 
-    # The blueprint's default model (mu = 0.05, w_a = 1) moves on too, on every object.
+    # The default model (mu = 0.05, w_a = 1) moves on too, on every object.
     belief = BeliefEngine(scenario, model)
     planner = make_planner("efe", model)
     inspected: dict[str, int] = {}
@@ -446,7 +446,7 @@ def test_zero_travel_reinspection_cannot_win_forever():
     """A missed object (detector miss) must not trap the agent at the site it stands on.
 
     The mug was missed once at every site (so its belief is spread over six far sites); the agent
-    stands at A, 9 m from the others. A's score with the blueprint's flat indicator is
+    stands at A, 9 m from the others. A's score with eq. 12's flat indicator is
     w_a - w_p q_A - w_e I_A ≈ 1 - 0 - 0 = 1, while each far site costs about
     0.2 * 9 - 3 * (1/6) - 1.5 * I + 1 ≈ 1.9 - 1.5 I: A wins, and keeps winning after every further
     miss. Counting repeats adds w_a per look, so a far site wins within a few looks.

@@ -98,7 +98,7 @@ def test_kl_by_hand_on_the_tiny_house():
     assert step0 == pytest.approx(0.0315839, abs=1e-7) and step1 == pytest.approx(0.1308120, abs=1e-7)
 
 
-def test_kl_with_the_blueprint_collapse_on_the_tiny_house():
+def test_kl_with_the_eq4_collapse_on_the_tiny_house():
     # Eq. 4 collapses the kettle to t = (1, eps) / (1 + eps), eps = 1e-4, in both models (KL 0 on
     # the kettle). Jeffrey's rule moves the joint teabag to t_a (0.75, 0.25) + t_b (0.25, 0.75).
     eps = 1e-4

@@ -1,4 +1,4 @@
-"""Sweeps and their analysis (issue 7).
+"""Sweeps and their analysis (docs/design.md §11).
 
 - paired job plans and stable keys;
 - serial, process-pool and Ray backends write byte-identical CSVs for the same seeds;

@@ -302,7 +302,7 @@ def test_picking_a_non_graspable_object_raises_and_changes_nothing(tmp_path):
     assert ex.check(pick)[0].affordance == "graspable"
 
 
-# ------------------------------------------------------------------ recovery (section 16.3)
+# ------------------------------------------------------------------ recovery (docs/design.md §7.6)
 def test_injected_fill_failure_reinspects_and_retries_then_completes():
     ex, scenario = make("default_apartment")
     run(ex, ScriptedWorld(scenario, fail_plan={"fill_kettle": ["injected_failure"]}))

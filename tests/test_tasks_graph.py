@@ -1,4 +1,5 @@
-"""Task graph structure: Table 2, readiness [18], relevance [14, 15], validation and task files."""
+"""Task graph structure: the make-tea graph (docs/design.md §7.2), readiness [18], relevance [14, 15],
+validation and task files."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from fg_tea.tasks import TaskAction, TaskGraph, load_task
 
 ROOT = Path(__file__).resolve().parent.parent
 
-# Blueprint Table 2, written out: action -> (kind, dependencies).
+# The make-tea graph of docs/design.md §7.2, written out: action -> (kind, dependencies).
 TABLE_2 = {
     "search_mug": ("SEARCH", set()),
     "pick_mug": ("PICK", {"search_mug"}),
@@ -68,7 +69,7 @@ def _load_error(tmp_path, model, scenario, actions, **extra) -> InputError:
     return info.value
 
 
-# ------------------------------------------------------------------ Table 2
+# ------------------------------------------------------------------ the make-tea graph (§7.2)
 def test_make_tea_has_exactly_the_18_actions_and_dependencies_of_table_2(tea):
     assert list(tea.ids) == list(TABLE_2)  # same ids, same insertion order
     assert len(tea) == 18

@@ -1,4 +1,4 @@
-"""World sampler: declared distributions over hidden truth (issue 7)."""
+"""World sampler: declared distributions over hidden truth (docs/design.md §11)."""
 
 from __future__ import annotations
 
