@@ -1,9 +1,9 @@
-"""Ablations of blueprint section 15.4 against the full model, on the same sampled worlds.
+"""Ablations (docs/design.md §11) against the full model, on the same sampled worlds.
 
 Each ablation is a named model file in ``models/ablations`` (a switch in the TOML, not a code
 edit), run with the EFE planner on the same N worlds and seeds as the full factorised model:
 
-| configuration | blueprint 15.4 | what changes |
+| configuration | original ablation | what changes |
 |---|---|---|
 | no_epistemic | yes | w_e = 0: probability-and-distance search |
 | no_relevance | yes | lambda = 0: no top-down task relevance |
@@ -12,15 +12,19 @@ edit), run with the EFE planner on the same N worlds and seeds as the full facto
 | certain_effects | yes | every action effect succeeds with probability 1 |
 | no_site_association | yes | detections not checked against the inspected site (eq. 29) |
 | no_repeat_penalty | extra | w_a = 0 |
-| direct_effects | extra | the blueprint's direct effects q'(z) = rho (eqs. 25-26) |
+| direct_effects | extra | direct effects q'(z) = rho (docs/design.md eqs. 25-26) |
+
+"Original ablation": yes for the six ablations fg_tea's original design listed, extra for the
+switches fg_tea added (docs/design.md §11 lists them all).
 
 Every ablation is reported against the full model as paired differences (ablation − full, world
 by world) with 95 % Student-t intervals. Writes ``ablations.csv`` (one row per episode, resumable
 like every sweep) and ``ablations.md`` (plus ``ablations.png``) to ``--out`` (default
-``experiments/results/ablations``).
+``runs/experiments/ablations``). The committed results in ``experiments/results/ablations`` change
+only when ``--out`` names that folder:
 
-    python experiments/ablations.py                       # 100 worlds x 9 configurations
-    python experiments/ablations.py --worlds 3 --ablations no_epistemic weak_negative
+    python experiments/ablations.py --out experiments/results/ablations   # README table, 100 worlds
+    python experiments/ablations.py --worlds 3 --ablations no_epistemic weak_negative   # under runs/
 """
 
 from __future__ import annotations
@@ -37,9 +41,11 @@ from fg_tea.errors import InputError
 from fg_tea.model import load_model
 from fg_tea.sweep import ablation_names, add_execution_arguments, model_path, plan_sweep, run_sweep
 
-DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "ablations"
-#: The six ablations listed in blueprint section 15.4 (the others are extra switches).
-BLUEPRINT = ("no_epistemic", "no_relevance", "weak_negative", "euclidean", "certain_effects",
+#: Default output folder, relative to the working directory like every fg-tea output under runs/;
+#: the committed results (experiments/results/ablations) are written only when --out names them.
+DEFAULT_OUT = Path("runs") / "experiments" / "ablations"
+#: The six ablations the original design listed (the others are extra switches).
+ORIGINAL = ("no_epistemic", "no_relevance", "weak_negative", "euclidean", "certain_effects",
              "no_site_association")
 
 
@@ -52,7 +58,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                    help="ablation models (default: every file in models/ablations)")
     p.add_argument("--planner", default="efe", help="planner (default: %(default)s)")
     add_execution_arguments(p, "ablations.csv")
-    p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder")
+    p.add_argument("--out", default=str(DEFAULT_OUT),
+                   help="output folder (default: %(default)s; committed: experiments/results/ablations)")
     return p.parse_args(argv)
 
 
@@ -60,7 +67,7 @@ def report(rows: list[dict], full: str, ablations: list[str], out: Path, command
     """Write ablations.md and ablations.png from the sweep rows; return the markdown path."""
     metrics = METRICS + ("success",)
     diffs = {d["model"]: d for d in paired_differences(rows, "model", full, metrics, by=("planner",))}
-    header = ["configuration", "blueprint 15.4", "what changes", "pairs", "search travel (m): full",
+    header = ["configuration", "original ablation", "what changes", "pairs", "search travel (m): full",
               "ablation", "difference [95% CI]", "inspections: difference", "total travel (m): difference",
               "success rate: full → ablation"]
     body = []
@@ -69,7 +76,7 @@ def report(rows: list[dict], full: str, ablations: list[str], out: Path, command
         d = diffs.get(model.name)
         if d is None:
             continue
-        body.append([model.name, "yes" if name in BLUEPRINT else "extra", model.description, d["pairs"],
+        body.append([model.name, "yes" if name in ORIGINAL else "extra", model.description, d["pairs"],
                      f"{d['search_distance_baseline'].mean:.2f}", f"{d['search_distance_other'].mean:.2f}",
                      d["search_distance"].fmt(2), d["inspections"].fmt(2), d["total_distance"].fmt(2),
                      f"{d['success_baseline'].mean:.3f} → {d['success_other'].mean:.3f}"])
@@ -78,7 +85,7 @@ def report(rows: list[dict], full: str, ablations: list[str], out: Path, command
                             ("model", "planner"))
     worlds = len({r["world_seed"] for r in rows})
     text = "\n".join([
-        "# Ablations (blueprint 15.4) against the full model", "",
+        "# Ablations (docs/design.md §11) against the full model", "",
         "Reproduce with:", "", f"    {command}", "",
         f"{worlds} worlds of `{rows[0]['world'] if rows else '?'}`, planner `{rows[0]['planner'] if rows else '?'}`; "
         f"every configuration solves the same worlds with the same seeds. Differences are "
@@ -95,14 +102,15 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
         bundled = ablation_names()
-        ablations = args.ablations or ([a for a in BLUEPRINT if a in bundled]
-                                       + [a for a in bundled if a not in BLUEPRINT])
+        ablations = args.ablations or ([a for a in ORIGINAL if a in bundled]
+                                       + [a for a in bundled if a not in ORIGINAL])
         out = Path(args.out)
         jobs = plan_sweep([args.world], args.worlds, [args.full, *ablations], [args.planner], env=args.env)
         rows = run_sweep(jobs, out / "ablations.csv", args.backend, workers=args.workers or None,
                          address=args.address, resume=args.resume, label="ablations")
         command = shlex.join(["python", "experiments/ablations.py", "--worlds", str(args.worlds),
-                              "--world", args.world, "--planner", args.planner, "--ablations", *ablations])
+                              "--world", args.world, "--planner", args.planner, "--ablations", *ablations,
+                              "--out", args.out])
         path = report(rows, load_model(model_path(args.full)).name, ablations, out, command)
     except InputError as exc:
         print(f"ablations: error: {exc}", file=sys.stderr)

@@ -21,11 +21,13 @@ joint model searches less) as a function of three knobs, each swept with the oth
 
 Writes ``value_of_correlation.csv`` (one row per episode; resumable), ``value_of_correlation.md``
 and one plot per sweep (``voc_correlation.png``, ``voc_miss_rate.png``,
-``voc_prior_violation.png``) to ``--out`` (default ``experiments/results/value_of_correlation``).
+``voc_prior_violation.png``, ``voc_room_correlation.png``) to ``--out`` (default
+``runs/experiments/value_of_correlation``). The committed results in
+``experiments/results/value_of_correlation`` change only when ``--out`` names that folder:
 
-    python experiments/value_of_correlation.py              # 30 worlds per point: ~9 min on 2 cores
-
-    python experiments/value_of_correlation.py --worlds 100
+    python experiments/value_of_correlation.py --out experiments/results/value_of_correlation
+                                                            # 30 worlds per point: ~9 min on 2 cores
+    python experiments/value_of_correlation.py --worlds 100  # writes under runs/
 """
 
 from __future__ import annotations
@@ -41,7 +43,9 @@ from fg_tea.analysis import (Interval, markdown_table, paired_differences,
 from fg_tea.errors import InputError
 from fg_tea.sweep import add_execution_arguments, plan_sweep, run_sweep
 
-DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "value_of_correlation"
+#: Default output folder, relative to the working directory like every fg-tea output under runs/;
+#: the committed results (experiments/results/value_of_correlation) change only when --out names them.
+DEFAULT_OUT = Path("runs") / "experiments" / "value_of_correlation"
 METRICS = ("search_distance", "inspections", "total_distance")
 FULL = {"correlation": (0.0, 0.25, 0.5, 0.75, 0.9), "miss_rate": (0.0, 0.1, 0.2, 0.3),
         "prior_violation": (0.0, 0.25, 0.5), "room_correlation": (0.0, 0.25, 0.5, 0.75, 0.9)}
@@ -84,7 +88,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--sweeps", nargs="+", choices=tuple(FULL), default=list(FULL))
     p.add_argument("--quick", action="store_true", help="two values per sweep (smoke test)")
     add_execution_arguments(p, "value_of_correlation.csv")
-    p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder")
+    p.add_argument("--out", default=str(DEFAULT_OUT),
+                   help="output folder (default: %(default)s; "
+                        "committed: experiments/results/value_of_correlation)")
     return p.parse_args(argv)
 
 
@@ -105,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     by_key = {r["key"]: r for r in rows}
     command = shlex.join(["python", "experiments/value_of_correlation.py", "--worlds", str(args.worlds),
                           "--world", args.world, "--planner", args.planner, "--sweeps", *args.sweeps]
-                         + (["--quick"] if args.quick else []))
+                         + (["--quick"] if args.quick else []) + ["--out", args.out])
     lines = ["# The value of correlation", "", "Reproduce with:", "", f"    {command}", "",
              f"Saved by the joint model = factorised − joint, world by world ({args.worlds} worlds per "
              f"point, planner `{args.planner}`, 95 % Student-t intervals); positive = the joint model "
