@@ -3,7 +3,7 @@
 Side by side in one run, on the same factors, for factorised and joint location models of
 N objects x K sites (N in 3, 5, 8; K in 6, 12, 24; sites in rooms of four; joint = capacity 1 on
 every third site with penalty 0.05, teabag-kettle co-location x3 / x2, and exclusivity 0.05
-between every pair of objects, as in PERFORMANCE_NOTES.md):
+between every pair of objects; the relational factors of docs/design.md §3.7):
 
 - (a) **update**: one evidence update (every object missed at one site, eqs. 5-6) followed by
   all N location marginals;
@@ -28,7 +28,10 @@ exceeds the budget are marked ``> budget``, and sizes whose K^N tables cannot be
 ``infeasible``. All methods are checked against the engine in the same run (max |difference|).
 
 Run ``python experiments/bench_inference.py`` (a few minutes on 2 cores; writes
-``experiments/results/bench_inference.md``) or ``--quick`` for a smoke run.
+``runs/experiments/bench_inference/bench_inference.md``) or ``--quick`` for a smoke run (no file
+unless ``--out`` is given). The committed table changes only when ``--out`` names it:
+
+    python experiments/bench_inference.py --out experiments/results/bench_inference.md
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")   # one thread per method, as in PERFORMANCE_NOTES.md
+    os.environ.setdefault(_var, "1")   # one thread per method, so every method is timed alike
 
 import numpy as np  # noqa: E402
 
@@ -52,6 +55,9 @@ from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, assemble_graph  # noq
 from fg_tea.model import Model, Relation, load_model  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
+#: Output of the full run, relative to the working directory like every fg-tea output under runs/;
+#: the committed table (experiments/results/bench_inference.md) changes only when --out names it.
+DEFAULT_OUT = Path("runs") / "experiments" / "bench_inference" / "bench_inference.md"
 METHODS = ("engine", "gtsam", "pgmpy", "dense")
 SITES_PER_ROOM = 4
 
@@ -416,13 +422,20 @@ def report(result: dict, sizes, structures, budget: float, target: dict) -> str:
     return "\n".join(out)
 
 
+def output_path(args: argparse.Namespace) -> Path | None:
+    """Where the markdown goes: ``--out`` if given, else DEFAULT_OUT for a full run, none for --quick."""
+    if args.out is not None:
+        return args.out
+    return None if args.quick else DEFAULT_OUT
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="tiny smoke run (3×6 and 3×8 only)")
     parser.add_argument("--budget", type=float, default=None, help="seconds per call (default 5, quick 1)")
     parser.add_argument("--out", type=Path, default=None,
-                        help="markdown output (default: experiments/results/bench_inference.md for "
-                             "the full run, none for --quick)")
+                        help=f"markdown output (default: {DEFAULT_OUT} for the full run, none for "
+                             "--quick; committed: experiments/results/bench_inference.md)")
     args = parser.parse_args(argv)
     if args.quick:
         sizes, budget = [(3, 6), (3, 8)], args.budget or 1.0
@@ -438,7 +451,7 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print(text)
     print(f"(total {time.perf_counter() - start:.0f} s)")
-    out = args.out if args.out is not None else (None if args.quick else ROOT / "experiments" / "results" / "bench_inference.md")
+    out = output_path(args)
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(text)

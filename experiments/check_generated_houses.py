@@ -6,7 +6,8 @@ builds it in the PyBullet house and runs one headless make-tea episode through t
 API (``EpisodeRunner(...).step()`` until done, ``RunConfig(seed=...)``). Any exception, an episode
 that does not succeed, or one still running after ``--max-steps`` runner steps counts as a
 failure. It prints a table per room count (houses, failures, sites, episode frames, seconds) and
-writes ``runs/check_generated_houses/houses.csv`` (one row per house) and ``summary.md``.
+writes ``houses.csv`` (one row per house) and ``summary.md`` to ``--out`` (default
+``runs/experiments/check_generated_houses``).
 
     python experiments/check_generated_houses.py                 # 50 seeds x rooms 3-10, serial
     python experiments/check_generated_houses.py --seeds 5 --rooms 3 4 --workers 2
@@ -27,6 +28,8 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+#: Default output folder, relative to the working directory like every fg-tea output under runs/.
+DEFAULT_OUT = Path("runs") / "experiments" / "check_generated_houses"
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
@@ -88,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--model", default="factorised", help="model (default: factorised)")
     p.add_argument("--max-steps", type=int, default=2000, help="runner steps per episode (default: 2000)")
     p.add_argument("--workers", type=int, default=1, help="processes (default: 1)")
-    p.add_argument("--out", default="runs/check_generated_houses", help="output folder")
+    p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder (default: %(default)s)")
     args = p.parse_args(argv)
 
     jobs = [(r, s, args.model, args.max_steps) for r in args.rooms for s in range(args.seeds)]

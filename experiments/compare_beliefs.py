@@ -1,10 +1,10 @@
-"""Factorised versus joint beliefs, with every planner, over many sampled worlds (issue 7).
+"""Factorised versus joint beliefs, with every planner, over many sampled worlds (docs/design.md §11).
 
 Runs N worlds (default 200) of a world distribution (default ``correlated``: the teabag is kept
 with the kettle half of the time) x models (default factorised, joint) x planners (default efe,
 factorised_efe, nearest, greedy, random, optimal), headless in the PyBullet house, on a process
 pool over every core; every configuration solves the same worlds with the same seeds. Writes to
-``--out`` (default ``experiments/results/compare``):
+``--out`` (default ``runs/experiments/compare_beliefs``):
 
 - ``episodes.csv``: one row per episode (all log metrics, seeds, model, planner, world
   parameters, true sites, kettle water truth, per-inspection entropy trace);
@@ -18,9 +18,13 @@ Resuming is on by default: episodes whose key is already in ``episodes.csv`` are
 ``--no-resume`` discards the CSV and starts afresh.
 
 This script is the same code path as ``fg-tea compare`` (it only changes the default output
-folder), so the README's table is reproduced by either:
+folder). The committed results in ``experiments/results/compare`` change only when ``--out`` names
+that folder (their ``summary.md`` starts with the exact command that made them):
 
-    python experiments/compare_beliefs.py                  # 200 worlds: 4 min 37 s on this 2-core machine
+    python experiments/compare_beliefs.py --out experiments/results/compare   # 200 worlds: 4 min 37 s
+
+and these write under ``runs/experiments/compare_beliefs``:
+
     python experiments/compare_beliefs.py --quick          # 10 worlds, 4 planners (CI)
     python experiments/compare_beliefs.py --backend ray --address auto
 """
@@ -32,11 +36,12 @@ from pathlib import Path
 
 from fg_tea.cli import main as fg_tea_main
 
-DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "compare"
+#: Default output folder, relative to the working directory like every fg-tea output under runs/.
+DEFAULT_OUT = Path("runs") / "experiments" / "compare_beliefs"
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run ``fg-tea compare`` with ``--out`` defaulting to experiments/results/compare."""
+    """Run ``fg-tea compare`` with ``--out`` defaulting to runs/experiments/compare_beliefs."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if any(a in ("-h", "--help") for a in argv):
         print(__doc__)

@@ -6,7 +6,8 @@ sampled worlds of ``--world``, for each model, with the EFE planner in the PyBul
 (``--env fake`` for the oracle house). ``fg-tea compare`` has no failure-rate option (its jobs
 hold scalar environment overrides only), hence this script. Prints success (``complete``),
 success true in the world (``complete`` and every believed goal true in the final truth), and
-the other episodes' end reasons; writes one CSV row per episode under ``--out``.
+the other episodes' end reasons; writes one CSV row per episode under ``--out`` (default
+``runs/experiments/failure_injection``).
 
     python experiments/failure_injection.py --worlds 100 --rate 0.2      # ~3 min on 2 cores
 """
@@ -22,6 +23,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+#: Default output folder, relative to the working directory like every fg-tea output under runs/.
+DEFAULT_OUT = Path("runs") / "experiments" / "failure_injection"
 VERBS = ("PICK", "NAVIGATE", "PLACE", "INSERT", "FILL", "POUR", "USE", "WAIT")
 
 
@@ -51,7 +54,7 @@ def run_one(args: tuple[str, int, str, float, str]) -> dict:
             "frames": m["frames"]}
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--worlds", type=int, default=100)
     p.add_argument("--world", default="correlated")
@@ -59,8 +62,8 @@ def main() -> int:
     p.add_argument("--rate", type=float, default=0.2)
     p.add_argument("--env", choices=("pybullet", "fake"), default="pybullet")
     p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--out", default="runs/failure_injection")
-    a = p.parse_args()
+    p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder (default: %(default)s)")
+    a = p.parse_args(argv)
     jobs = [(a.world, s, m, a.rate, a.env) for m in a.models for s in range(a.worlds)]
     with ProcessPoolExecutor(a.workers) as pool:
         rows = list(pool.map(run_one, jobs))

@@ -1,13 +1,19 @@
-"""Inspect the beliefs of one episode, step by step, from Python (the worked API example).
+r"""Inspect the beliefs of one episode, step by step, from Python (the worked API example).
 
 Builds the PyBullet house, steps an :class:`~fg_tea.episode.runner.EpisodeRunner` one event at a
 time and, after each step, prints what happened (decision, observation, action) and the belief
 it left: every object's location marginal q(L_o) over the sites and every hidden-state
 probability q(z = true). Finally it plots the marginals against the step (one heatmap per
-object) and the hidden states (one line each) to a PNG.
+object) and the hidden states (one line each) to a PNG, by default
+``runs/experiments/inspect_marginals/inspect_marginals.png``.
 
     python experiments/inspect_marginals.py [--model joint] [--scenario default_apartment]
-                                            [--seed 0] [--out inspect_marginals.png]
+                                            [--seed 0] [--out FILE.png]
+
+The README's figure changes only when ``--out`` names it:
+
+    python experiments/inspect_marginals.py --scenario prior_violation \
+        --out docs/inspect_marginals_prior_violation.png
 """
 
 from __future__ import annotations
@@ -22,6 +28,9 @@ from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.files import atomic_path
 from fg_tea.model import load_model
 from fg_tea.scenario import load_scenario
+
+#: Default PNG, relative to the working directory like every fg-tea output under runs/.
+DEFAULT_OUT = Path("runs") / "experiments" / "inspect_marginals" / "inspect_marginals.png"
 
 
 def describe(event: dict) -> str | None:
@@ -95,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", default="joint", help="bundled model name or .toml path")
     parser.add_argument("--scenario", default="default_apartment", help="scenario name or path")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, default=Path("inspect_marginals.png"))
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="PNG to write (default: %(default)s)")
     args = parser.parse_args(argv)
 
     # 1. Data: the house and the agent's generative model.
