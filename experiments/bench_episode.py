@@ -1,6 +1,6 @@
 """Benchmark whole episodes: headless (--no-video) and with video, per model, side by side.
 
-Targets (issue 6): a headless default episode under 2 s of wall time after import, and video
+Targets: a headless default episode under 2 s of wall time after import, and video
 rendering at >= 20 output frames per second at 640x360, on this 2-core machine. Measured in one
 run so the numbers share the machine's load; ratios are to the factorised headless episode.
 

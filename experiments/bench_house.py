@@ -1,6 +1,6 @@
 """How fast is the PyBullet house? Scene build, one inspection and per-frame render costs.
 
-Reports, side by side in one run (issue 5): scene build + distance fields (construction and first
+Reports, side by side in one run: scene build + distance fields (construction and first
 reset), one inspection with movement excluded (the agent already stands at the vantage, facing
 the site; the egocentric render and the pixel counts of eq. 28 with the association test of
 eq. 29), both with the region-of-interest render (default) and the full image, and the render time

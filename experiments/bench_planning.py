@@ -1,6 +1,6 @@
 """Decision latency of every planner at 3 objects x {6, 8, 12} sites, factorised and joint beliefs.
 
-Which question it answers: how long does one planning decision (blueprint eq. 17, or a baseline
+Which question it answers: how long does one planning decision (docs/design.md eq. (17), or a baseline
 behind the same interface) take on the agent's belief, and does the EFE planner meet the target of
 under 5 ms per decision on the joint 3-object x 8-site model?
 
