@@ -48,7 +48,7 @@ from typing import Sequence
 
 import numpy as np
 
-from fg_tea.beliefs.structured import StructuredLocationModel, SubsetAlgebra
+from fg_tea.beliefs.structured import StructuredLocationModel, SubsetAlgebra, subset_index
 
 OUTCOME_LIMIT = 1 << 17  # entries of one object's P(L_o = a, Y_{-o}) table before restricting
 MI_TOLERANCE = 1e-12     # gains are clipped at 0 from below within this tolerance
@@ -57,8 +57,30 @@ MI_TOLERANCE = 1e-12     # gains are clipped at 0 from below within this toleran
 def _neg_xlogx_sum(p: np.ndarray, axis=None) -> np.ndarray:
     """sum -p log p (nats), 0 where p = 0."""
     p = np.asarray(p, dtype=float)
-    safe = np.where(p > 0, p, 1.0)
-    return -(p * np.log(safe)).sum(axis=axis)
+    logs = np.log(p, out=np.zeros_like(p), where=p > 0)
+    return -(p * logs).sum(axis=axis)
+
+
+def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarray:
+    """Turn the trailing class axes of x into outcome axes: axis c_b becomes
+    y_b = sum_c x[..., c, ...] tables[b][..., c, y].
+
+    Args:
+        x: shape B + E + (m + 1,) * s, with B the first `nb` axes (one table per index of B)
+            and E any further axes.
+        tables: s arrays of shape B + (m + 1, m + 1), class -> outcome.
+
+    Each step is one matrix product over the last axis, after which the new outcome axis is
+    rotated to the front of the class block; after s steps the order is the original one.
+    """
+    s = len(tables)
+    first = x.ndim - s
+    for b in reversed(range(s)):
+        shape = x.shape
+        flat = x.reshape(shape[:nb] + (-1, shape[-1]))
+        y = np.matmul(flat, tables[b]).reshape(shape)
+        x = np.moveaxis(y, -1, first)
+    return x
 
 
 def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
@@ -75,16 +97,6 @@ def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
         f[1 + c, 1 + c] = prob[c]
     f[:, 0] = 1.0 - f[:, 1:].sum(axis=1)
     return np.clip(f, 0.0, 1.0)
-
-
-def _transform(t: np.ndarray, tables: Sequence[np.ndarray | None], lead: int = 0) -> np.ndarray:
-    """Apply tables[i] (class -> outcome) to axis lead + i of `t` (None leaves the axis alone)."""
-    for i, f in enumerate(tables):
-        if f is None:
-            continue
-        ax = lead + i
-        t = np.moveaxis(np.tensordot(t, f, axes=([ax], [0])), -1, ax)
-    return t
 
 
 class JointViewGain:
@@ -124,6 +136,7 @@ class JointViewGain:
         self.coupling = (np.zeros((n, n)) if coupling is None else np.asarray(coupling, float))
         self._split: dict[int, np.ndarray] = {}
         self._out: dict[int, np.ndarray] = {}
+        self._close: dict[int, dict] = {}
         self.restricted = 0
 
     # ------------------------------------------------------------------ per-room weights
@@ -160,6 +173,56 @@ class JointViewGain:
             self._out[r0] = cached
         return cached
 
+    def _close_weights(self, r0: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """W_v and W_{v,o,a} of the close look at every site of room r0 (see _view_weights)."""
+        cached = self._close.get(r0)
+        if cached is not None:
+            return cached
+        sm, alg = self.sm, self.alg
+        room = [int(j) for j in sm.room_sites[r0]]
+        excl = np.stack(sm._excl[r0])                         # C_{R∖j} for each j, (L, 2^N)
+        w_room = sm._w[r0]
+        out = self._room_out(r0)
+        w_v = alg.completions(excl, w_room)                   # (L, 2^N)
+        outside = np.array([a for a in range(self.k) if int(sm.room_of[a]) != r0], dtype=int)
+        w_oa = np.zeros((len(room), self.k, self.n, self.full + 1))
+        if len(outside):
+            w_oa[:, outside] = self._completions_without_o(excl, out[outside])
+        for t, j in enumerate(room):
+            rest = [a for a in room if a != j]
+            if not rest:
+                continue
+            pre = [alg.delta()]
+            for a in rest:
+                pre.append(alg.conv(pre[-1], sm.g[a]))
+            suf = [alg.delta()]
+            for a in rest[::-1]:
+                suf.append(alg.conv(sm.g[a], suf[-1]))
+            suf = suf[::-1]
+            c_rest = alg.conv(np.stack(pre[:-1]), np.stack(suf[1:]))          # C_{R∖{j,a}}
+            c_oa = alg.conv(self.mem[None] * sm.g[rest][:, None, :], c_rest[:, None, :])
+            w_oa[t, rest] = alg.completions(c_oa, w_room)
+        cached = {j: (w_v[t], w_oa[t]) for t, j in enumerate(room)}
+        self._close[r0] = cached
+        return cached
+
+    def _completions_without_o(self, c: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """completions(c[l], w[a, o]) for every l, a, o, shape (L, A, N, 2^N), using that
+        w[a, o](T) = 0 whenever o is in T (o stands outside): only sets without o take part, as
+        one matrix product per object over the 2^(N-1) such sets."""
+        n, alg = self.n, self.alg
+        if n == 1:
+            return alg.completions(c[:, None, None, :], w[None])
+        ix = subset_index(n - 1)
+        out = np.zeros((c.shape[0],) + w.shape)
+        low = np.arange(1 << (n - 1))
+        for o in range(n):
+            expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
+            mat = np.zeros((c.shape[0], len(low), len(low)))
+            mat[:, ix.xunion, ix.xa] = c[:, expand[ix.xb]]
+            out[:, :, o, expand] = np.matmul(w[None, :, o, expand], mat)
+        return out
+
     def _view_weights(self, sites: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         """W_v(T), shape (2^N,), and W_{v,o,a}(T), shape (K, N, 2^N) (0 for a in view)."""
         sm, alg = self.sm, self.alg
@@ -169,6 +232,10 @@ class JointViewGain:
         r0 = rooms.pop()
         in_view = set(int(j) for j in sites)
         rest = [int(j) for j in sm.room_sites[r0] if int(j) not in in_view]
+        if not rest:                                           # a glance over the whole room
+            return sm._w[r0], self._room_out(r0)
+        if len(sites) == 1:
+            return self._close_weights(r0)[int(sites[0])]
         pre = [alg.delta()]
         for j in rest:
             pre.append(alg.conv(pre[-1], sm.g[j]))
@@ -177,90 +244,107 @@ class JointViewGain:
             suf.append(alg.conv(sm.g[j], suf[-1]))
         suf = suf[::-1]
         w_room = sm._w[r0]
-        out = self._room_out(r0)
-        if rest:
-            c_d = pre[-1]
-            w_v = alg.completions(c_d, w_room)
-            w_oa = alg.completions(c_d, out)
-            for i, a in enumerate(rest):
-                c_oa = alg.conv(self.mem * sm.g[a], alg.conv(pre[i], suf[i + 1]))   # (N, 2^N)
-                w_oa[a] = alg.completions(c_oa, w_room)
-        else:
-            w_v, w_oa = w_room, out
+        c_d = pre[-1]
+        w_v = alg.completions(c_d, w_room)
+        w_oa = alg.completions(c_d, self._room_out(r0))
+        for i, a in enumerate(rest):
+            c_oa = alg.conv(self.mem * sm.g[a], alg.conv(pre[i], suf[i + 1]))   # (N, 2^N)
+            w_oa[a] = alg.completions(c_oa, w_room)
         return w_v, w_oa
 
-    # ------------------------------------------------------------------ class tables
-    def _tables(self, sites: Sequence[int], tracked: Sequence[int], w_v: np.ndarray,
-                w_oa: np.ndarray, targets: Sequence[int]) -> tuple[np.ndarray, dict]:
-        """Z-normalised P(C_tracked) (shape (m+1,)*s) and, for each target position i,
-        P(L_o = a, C_{tracked∖o}) for out-of-view a (shape (K_out,) + (m+1,)*(s-1))."""
+    # ------------------------------------------------------------------ batched class tables
+    def _batch(self, sites: np.ndarray, prob: np.ndarray, tracked: Sequence[int],
+               targets: Sequence[int], w_v: np.ndarray, w_oa: np.ndarray) -> np.ndarray:
+        """I(L_o ; Y_tracked) for o = tracked[i], i in targets, for G looks of m sites each.
+
+        Args:
+            sites: in-view sites, shape (G, m).
+            prob: p_{u,c} of the tracked objects, shape (G, s, m).
+            w_v, w_oa: shapes (G, 2^N) and (G, K, N, 2^N).
+
+        Returns:
+            shape (G, len(targets)), nats.
+        """
         sm = self.sm
-        m, s = len(sites), len(tracked)
+        g_n, m = sites.shape
+        s, targets = len(tracked), list(targets)
+        n_t = len(targets)
         free = [o for o in range(self.n) if o not in tracked]
-        codes = np.indices((m + 1,) * s).reshape(s, -1).T if s else np.zeros((1, 0), int)
-        bits = np.array([1 << o for o in tracked], dtype=np.int64)
-        a_mask = [(codes == t + 1) @ bits for t in range(m)]              # per site, (n_c,)
-        t_mask = (codes > 0) @ bits
         f = len(free)
+        codes = np.indices((m + 1,) * s).reshape(s, -1).T
+        bits = np.array([1 << o for o in tracked], dtype=np.int64)
         emb = np.zeros(1 << f, dtype=np.int64)
         for b, o in enumerate(free):
             emb[(np.arange(1 << f) >> b) & 1 == 1] |= 1 << o
-        psi = np.zeros((len(codes), 1 << f))
-        psi[:, 0] = 1.0
+        psi = np.ones((g_n, len(codes), 1 << f))
+        psi[:, :, 1:] = 0.0
         fa = SubsetAlgebra(f) if f else None
-        for t, j in enumerate(sites):
-            kern = sm.g[j][a_mask[t][:, None] | emb[None, :]]            # (n_c, 2^f)
+        for t in range(m):
+            a_mask = (codes == t + 1) @ bits
+            kern = sm.g[sites[:, t]][:, a_mask[:, None] | emb[None, :]]     # (G, n_c, 2^f)
             psi = fa.conv(psi, kern) if f else psi * kern
-        masks = t_mask[:, None] | emb[None, :]                             # (n_c, 2^f)
-        shape = (m + 1,) * s
-        p_c = (psi * w_v[masks]).sum(axis=1).reshape(shape) / sm.z
-        out_sites = np.array([a for a in range(self.k) if a not in set(sites)], dtype=int)
-        outs = {}
-        for i in targets:
-            rows = codes[:, i] == 0
-            o = tracked[i]
-            vals = w_oa[out_sites][:, o][:, masks[rows]]                  # (K_out, n_rows, 2^f)
-            tab = np.einsum("arf,rf->ar", vals, psi[rows]) / sm.z
-            outs[i] = tab.reshape((len(out_sites),) + (m + 1,) * (s - 1))
-        return p_c, outs
-
-    # ------------------------------------------------------------------ mutual information
-    def _gains_for(self, sites: Sequence[int], prob: np.ndarray, tracked: Sequence[int],
-                   targets: Sequence[int], w_v: np.ndarray, w_oa: np.ndarray) -> np.ndarray:
-        """I(L_o ; Y_tracked) for o = tracked[i], i in targets."""
-        prob_of = {u: prob[p] for p, u in enumerate(self.observed)}
-        tables = [detection_table(prob_of[u], self.fp) for u in tracked]
-        p_c, outs = self._tables(sites, tracked, w_v, w_oa, targets)
-        s, m = len(tracked), len(sites)
-        h_y = _neg_xlogx_sum(_transform(p_c, tables))
-        res = []
-        for i in targets:
-            o = tracked[i]
-            part = _transform(p_c, [None if b == i else tables[b] for b in range(s)])
-            by_class = np.moveaxis(part, i, 0)                       # P(C_o = c, Y_{-o})
-            p_class = by_class.reshape(m + 1, -1).sum(axis=1)
-            h_own = _neg_xlogx_sum(tables[i], axis=1)                 # H(Y_o | C_o = c)
-            h_in = _neg_xlogx_sum(by_class[1:]) + float(p_class[1:] @ h_own[1:])
-            out = _transform(outs[i], [tables[b] for b in range(s) if b != i], lead=1)
-            p_out = float(outs[i].sum())
-            h_out = _neg_xlogx_sum(out) + p_out * _neg_xlogx_sum(tables[i][0])
-            h_o = _neg_xlogx_sum(self.q[o])
-            res.append(h_o + h_y - h_in - h_out)
-        gain = np.array(res)
+        masks = ((codes > 0) @ bits)[:, None] | emb[None, :]                # (n_c, 2^f)
+        cls = (g_n,) + (m + 1,) * s
+        p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
+        # P(L_o = a, C_{tracked∖o}) for every site a (0 for a in view), each target.
+        rows = np.stack([np.nonzero(codes[:, i] == 0)[0] for i in targets])   # (T, n_r)
+        o_sel = np.array([tracked[i] for i in targets])
+        vals = w_oa[:, :, o_sel[:, None, None], masks[rows]]                # (G, K, T, n_r, 2^f)
+        outs = (vals * psi[:, None, rows]).sum(axis=4) / sm.z
+        outs = outs.reshape((g_n, self.k, n_t) + (m + 1,) * (s - 1))
+        # Detection tables per look and tracked object: (G, s, class, outcome).
+        tab = np.zeros((g_n, s, m + 1, m + 1))
+        tab[:, :, :, 1:] = self.fp
+        c_idx = np.arange(1, m + 1)
+        tab[:, :, c_idx, c_idx] = prob
+        tab[:, :, :, 0] = 1.0 - tab[:, :, :, 1:].sum(axis=3)
+        tab = np.clip(tab, 0.0, 1.0)
+        y = _outcomes(p_c, [tab[:, b] for b in range(s)], 1)
+        h_y = _neg_xlogx_sum(y, axis=tuple(range(1, 1 + s)))                          # (G,)
+        # P(C_o, Y_{-o}) for each target: every axis but o's transformed (o's: the identity).
+        part = np.broadcast_to(p_c[:, None], (g_n, n_t) + cls[1:])
+        eye = np.eye(m + 1)
+        own_axis = np.array(targets)
+        part_tabs = [np.where((own_axis == b)[None, :, None, None], eye, tab[:, None, b])
+                     for b in range(s)]
+        part = _outcomes(part, part_tabs, 2)
+        h_part = _neg_xlogx_sum(part, axis=tuple(range(2, 2 + s)))                   # (G, T)
+        # Out-of-view: the other tracked objects' axes transformed; layout (G, T, K, ...).
+        outs = np.moveaxis(outs, 2, 1)
+        others = np.array([[x for x in range(s) if x != targets[t]] for t in range(n_t)],
+                          dtype=int).reshape(n_t, s - 1)
+        outs = _outcomes(outs, [tab[:, others[:, b]] for b in range(s - 1)], 2)
+        axes = tuple(range(3, 3 + s - 1))
+        out_y = outs.sum(axis=2)                                     # P(C_o = 0, Y_{-o}), (G, T, ...)
+        h_out_y = _neg_xlogx_sum(out_y, axis=tuple(range(2, 2 + s - 1)))
+        h_out = _neg_xlogx_sum(outs, axis=(2,) + axes)                                # (G, T)
+        own = tab[:, targets]                                                         # (G, T, c, y)
+        h_own = _neg_xlogx_sum(own, axis=3)                                           # (G, T, c)
+        q = self.q[o_sel]                                                             # (T, K)
+        p_in = q[:, sites].transpose(1, 0, 2)                          # q(L_o = s_c), (G, T, m)
+        p_out = 1.0 - p_in.sum(axis=2)
+        h_in = h_part - h_out_y + (p_in * h_own[:, :, 1:]).sum(axis=2)
+        h_o = _neg_xlogx_sum(q, axis=1)                                               # (T,)
+        h_lo_y = h_in + h_out + p_out * h_own[:, :, 0]
+        gain = h_o[None, :] + h_y[:, None] - h_lo_y
         return np.where(np.abs(gain) < MI_TOLERANCE, np.maximum(gain, 0.0), gain)
 
     def _tracked_for(self, o: int, m: int) -> list[int]:
         """o and the observed objects most coupled to it, as many as the outcome limit allows."""
-        n_out = self.k
         others = [u for u in self.observed if u != o]
         order = sorted(others, key=lambda u: (-self.coupling[o, u], self.observed.index(u)))
         tracked = [o]
         for u in order:
-            size = n_out * (m + 1) ** len(tracked) * 2 ** (self.n - len(tracked) - 1)
+            size = self.k * (m + 1) ** len(tracked) * 2 ** (self.n - len(tracked) - 1)
             if size > self.outcome_limit:
                 break
             tracked.append(u)
         return sorted(tracked)
+
+    def _exact(self, m: int) -> bool:
+        s = len(self.observed)
+        size = self.k * (m + 1) ** (s - 1) * 2 ** (self.n - s)
+        return self.outcome_limit is None or size <= self.outcome_limit
 
     def gain(self, sites: Sequence[int], prob: np.ndarray) -> np.ndarray:
         """I(L_u ; Y_v) for every observed u (constructor order), shape (len(observed),), nats.
@@ -269,28 +353,40 @@ class JointViewGain:
             sites: belief indices of the in-view sites s_1..s_m (all in one room).
             prob: p_{u,c}, shape (len(observed), m).
         """
-        sites = [int(j) for j in sites]
-        prob = np.asarray(prob, dtype=float).reshape(len(self.observed), len(sites))
-        m = len(sites)
-        w_v, w_oa = self._view_weights(sites)
-        full_size = self.k * (m + 1) ** (len(self.observed) - 1) * 2 ** (self.n - len(self.observed))
-        if self.outcome_limit is None or full_size <= self.outcome_limit:
-            tracked = sorted(self.observed)
-            g = self._gains_for(sites, prob, tracked, range(len(tracked)), w_v, w_oa)
-            by_obj = dict(zip(tracked, g))
-            return np.array([by_obj[u] for u in self.observed])
-        out = np.empty(len(self.observed))
-        for p, o in enumerate(self.observed):
-            tracked = self._tracked_for(o, m)
-            out[p] = self._gains_for(sites, prob, tracked, [tracked.index(o)], w_v, w_oa)[0]
-            self.restricted += 1
-        return out
+        return self.gains([(sites, prob)])[:, 0]
 
     def gains(self, views: Sequence[tuple[Sequence[int], np.ndarray]]) -> np.ndarray:
-        """I(L_u ; Y_v) for every observed u and view, shape (len(observed), len(views)), nats."""
+        """I(L_u ; Y_v) for every observed u and view, shape (len(observed), len(views)), nats.
+
+        Looks with the same number of in-view sites are evaluated together.
+        """
         self.restricted = 0
-        return np.stack([self.gain(s, p) for s, p in views], axis=1) if views else \
-            np.zeros((len(self.observed), 0))
+        n_obs = len(self.observed)
+        out = np.zeros((n_obs, len(views)))
+        groups: dict[int, list[int]] = {}
+        weights = []
+        for c, (sites, _) in enumerate(views):
+            weights.append(self._view_weights([int(j) for j in sites]))
+            groups.setdefault(len(sites), []).append(c)
+        order = np.argsort(self.observed)
+        tracked_all = sorted(self.observed)
+        for m, members in groups.items():
+            sites = np.array([[int(j) for j in views[c][0]] for c in members], dtype=int)
+            probs = np.stack([np.asarray(views[c][1], float).reshape(n_obs, m) for c in members])
+            w_v = np.stack([weights[c][0] for c in members])
+            w_oa = np.stack([weights[c][1] for c in members])
+            if self._exact(m):
+                g = self._batch(sites, probs[:, order], tracked_all, range(n_obs), w_v, w_oa)
+                out[np.asarray(order)[:, None], np.array(members)[None, :]] = g.T
+                continue
+            pos = {u: p for p, u in enumerate(self.observed)}
+            for p, o in enumerate(self.observed):
+                tracked = self._tracked_for(o, m)
+                g = self._batch(sites, probs[:, [pos[u] for u in tracked]], tracked,
+                                [tracked.index(o)], w_v, w_oa)
+                out[p, members] = g[:, 0]
+                self.restricted += len(members)
+        return out
 
 
 __all__ = ["JointViewGain", "OUTCOME_LIMIT", "detection_table"]
