@@ -1,7 +1,7 @@
 """The structured joint information gain equals brute force and the dense joint, without the joint.
 
 :class:`fg_tea.planning.joint_gain.JointViewGain` computes I(L_o ; Y_v) for every unresolved
-object and viewpoint from the subset dynamic program (docs/design.md §6.2, eq. 43). Checked here:
+object and viewpoint from the subset dynamic program (docs/design.md §6.2, eqs. 44-45). Checked here:
 against enumeration of every arrangement and every outcome (close looks, glances, sub-room views,
 capacity, same-site and same-room factors, untracked objects, false positives) to 1e-9; against
 the dense implementation through the planner on beliefs after evidence, at sizes where the dense

@@ -4,7 +4,7 @@ dense joint?
 The exact mutual information I(L_o ; Y_v) between an unresolved object's location L_o and the
 joint outcome Y_v = (Y_u)_u of a look from viewpoint v (for every unresolved u: seen at in-view
 site c, or not seen) is computed from the subset dynamic program of
-:mod:`fg_tea.beliefs.structured` (docs/design.md §4.4, §6.2, eq. 43), never from a K^N table.
+:mod:`fg_tea.beliefs.structured` (docs/design.md §4.4, §6.2, eqs. 44-45), never from a K^N table.
 
 Why it is tractable. Given the locations, each Y_u depends on L_u only through its **class**
 C_u: which in-view site u stands on (1..m), or "outside the view" (0), because the detection
@@ -70,7 +70,7 @@ def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarra
             and E any further axes.
         tables: s arrays of shape B + (m + 1, m + 1), class -> outcome.
 
-    Each step is one matrix product over the last axis, after which the new outcome axis is
+    Each step is one contraction over the last axis, after which the new outcome axis is
     rotated to the front of the class block; after s steps the order is the original one.
     """
     s = len(tables)
@@ -78,7 +78,7 @@ def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarra
     for b in reversed(range(s)):
         shape = x.shape
         flat = x.reshape(shape[:nb] + (-1, shape[-1]))
-        y = np.matmul(flat, tables[b]).reshape(shape)
+        y = np.einsum("...rc,...cy->...ry", flat, tables[b]).reshape(shape)
         x = np.moveaxis(y, -1, first)
     return x
 
@@ -220,7 +220,9 @@ class JointViewGain:
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
             mat = np.zeros((c.shape[0], len(low), len(low)))
             mat[:, ix.xunion, ix.xa] = c[:, expand[ix.xb]]
-            out[:, :, o, expand] = np.matmul(w[None, :, o, expand], mat)
+            # einsum, not matmul: small products, and a multi-threaded BLAS only waits on a
+            # busy machine.
+            out[:, :, o, expand] = np.einsum("ak,lkb->lab", w[:, o, expand], mat)
         return out
 
     def _view_weights(self, sites: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
