@@ -1,8 +1,12 @@
-"""Decision latency of every planner at 3 objects x {6, 8, 12} sites, factorised and joint beliefs.
+"""Decision latency of every planner, factorised and joint beliefs: 3 objects x {6, 8, 12} sites
+with close looks, and 5 x 24 and 8 x 48 with room glances.
 
 Which question it answers: how long does one planning decision (docs/design.md eq. (17), or a baseline
-behind the same interface) take on the agent's belief, and does the EFE planner meet the target of
-under 5 ms per decision on the joint 3-object x 8-site model?
+behind the same interface) take on the agent's belief, and does the EFE planner meet its targets:
+under 5 ms per decision on the joint 3-object x 8-site model; with room glances, under 20 ms at
+5 x 24 and under 150 ms at 8 x 48 (the joint gain from the subset dynamic program,
+docs/design.md §6.2 eqs. 44-45, the dense joint being out of reach); and one joint belief update at
+8 x 48 under 10 ms?
 
 Houses are synthetic, random but seeded: K sites scattered over four rooms of a 10 m x 8 m floor,
 random affordance weights for mug, kettle and teabag, a few sites with capacity 1-2; built through
@@ -13,20 +17,38 @@ copy of the belief before the clock starts), as in an episode, so caches hold on
 optimal one included) plans over all K sites. The optimal planner runs only where it is feasible
 and prints "refused" beyond its site limit.
 
+The larger sizes (``--sizes``, objects x sites) use houses of about five sites per room (as the
+generated houses have), a room vantage at each room's centre, and the bundled models' visibility
+detector with room glances. Expected pixel counts are synthetic, from the distance d (metres)
+between viewpoint and site: n = A_c / d^2 with A = 1200 px m^2 for the kettle and 300 for the
+other objects (a close look at 0.6 m gives 830-3300 px, a glance from 2.5 m 50-190 px), so the
+curve gives close looks near p_max and glances in between. Objects beyond the five tea objects
+are generic things (no relation but capacity). Every timed decision follows one miss of every
+object at a random room glance. The row ``belief_update`` times that update itself (the look's
+evidence absorbed and every location marginal recomputed).
+
+``--json FILE`` writes one record per (model, planner, size): ``model``, ``planner``,
+``objects``, ``sites``, ``median_ms`` (null where the planner refused), plus ``status`` and, for
+the joint EFE at the glance sizes, the largest relative error of any restricted gain
+(``approximation_max_rel_error``, measured against the exact gain on the same beliefs).
+
 Usage::
 
     PYTHONPATH=. python experiments/bench_planning.py [--repeats 20] [--seed 0] [--sites 6 8 12]
+        [--sizes 5x24 8x48] [--json runs/bench_planning.json]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import sys
 import time
 
 import numpy as np
 
+from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.model import load_model
 from fg_tea.planning import euclidean_distances, make_planner, planner_names
@@ -36,6 +58,15 @@ OBJECTS = ("mug", "kettle", "teabag")
 ROOMS = (("kitchen", (0.0, 0.0), (5.0, 4.0)), ("dining", (0.0, 4.0), (5.0, 8.0)),
          ("living", (5.0, 0.0), (10.0, 4.0)), ("study", (5.0, 4.0), (10.0, 8.0)))
 TARGET_MS = 5.0
+GLANCE_TARGETS_MS = {(5, 24): 20.0, (8, 48): 150.0}   # joint EFE per decision, with room glances
+UPDATE_TARGET_MS = {(8, 48): 10.0}                    # joint belief update
+MORE_OBJECTS = ("mug", "kettle", "teabag", "milk", "sugar", "spoon", "lemon", "honey",
+                "jar", "tin", "cloth")
+ROOM_NAMES = ("kitchen", "pantry", "dining", "living", "study", "hall", "bedroom", "bath",
+              "office", "den", "porch", "attic")
+SITES_PER_ROOM = 5
+PIXEL_AREA = {"kettle": 1200.0}   # px m^2; every other category 300
+EXACT_CHECK_LIMIT = 1 << 26       # table entries (~0.5 GB) above which the exact gain is not run
 
 
 def synthetic_scenario(n_sites: int, rng: np.random.Generator):
@@ -58,74 +89,247 @@ def synthetic_scenario(n_sites: int, rng: np.random.Generator):
         "sites": sites, "objects": objects}, f"<synthetic {n_sites} sites>")
 
 
-def time_decisions(planner_name: str, model, scenario, repeats: int, seed: int) -> tuple[str, list[float]]:
-    """Median-ready decision times (ms) of one planner, or ("refused", []) when it declines."""
+def glance_scenario(n_objects: int, n_sites: int, rng: np.random.Generator):
+    """A seeded house of rooms of about five sites, a room vantage at each room's centre, and
+    `n_objects` objects (the tea objects first)."""
+    n_rooms = max(1, round(n_sites / SITES_PER_ROOM))
+    cols = int(np.ceil(np.sqrt(n_rooms)))
+    objects = MORE_OBJECTS[:n_objects]
+    sites, vantages = [], []
+    for r in range(n_rooms):
+        lo = np.array([5.0 * (r % cols), 4.0 * (r // cols)])
+        hi = lo + [5.0, 4.0]
+        vantages.append({"name": f"{ROOM_NAMES[r]}_centre", "room": ROOM_NAMES[r],
+                         "position": [float(x) for x in (lo + hi) / 2]})
+    for i in range(n_sites):
+        r = i % n_rooms
+        lo = np.array([5.0 * (r % cols), 4.0 * (r // cols)])
+        x, y = rng.uniform(lo + 0.6, lo + [4.4, 3.4])
+        site = {"name": f"site_{i:02d}", "room": ROOM_NAMES[r], "position": [float(x), float(y), 0.8],
+                "vantage_position": [float(x), float(y) - 0.5, 0.0],
+                "affordances": {o: float(rng.uniform(0.01, 1.0)) for o in objects}}
+        if rng.random() < 0.25:
+            site["capacity"] = int(rng.integers(1, 3))
+        sites.append(site)
+    objs = [{"name": o, "category": o, "true_site": sites[int(rng.integers(n_sites))]["name"],
+             "semantic_id": 100 + i} for i, o in enumerate(objects)]
+    size = [5.0 * cols, 4.0 * int(np.ceil(n_rooms / cols))]
+    return parse_scenario({
+        "schema_version": 2, "name": f"synthetic_{n_objects}x{n_sites}",
+        "start_pose": {"position": [size[0] / 2, size[1] / 2]},
+        "house": {"floor": {"min": [0, 0], "max": size}, "walls": [], "furniture": []},
+        "sites": sites, "objects": objs, "room_vantages": vantages},
+        f"<synthetic {n_objects}x{n_sites}>")
+
+
+def synthetic_pixels(scenario) -> dict:
+    """Expected pixels n = A_c / d^2 per viewpoint, in-view site and category (see module doc)."""
+    pos = {s.name: np.array(s.position[:2]) for s in scenario.sites}
+    cats = sorted({o.category for o in scenario.objects})
+    table = {}
+    for vp in scenario.viewpoints:
+        here = np.array(vp.position, dtype=float)
+        table[vp.name] = {s: {c: PIXEL_AREA.get(c, 300.0) / max(0.36, float(np.sum((pos[s] - here) ** 2)))
+                              for c in cats} for s in vp.sites}
+    return table
+
+
+def time_decisions(planner_name: str, model, scenario, repeats: int, seed: int,
+                   views: ViewModel | None = None) -> tuple[str, list[float]]:
+    """Median-ready decision times (ms) of one planner, or ("refused", []) when it declines.
+
+    With `views`, each decision follows a missed room glance and plans over every viewpoint;
+    ``planner_name = "belief_update"`` times that update instead of a decision.
+    """
     rng = np.random.default_rng(seed)
     base = BeliefEngine(scenario, model)
-    planner = make_planner(planner_name, model, np.random.default_rng(seed))
-    relevance = {"mug": 1.0, "kettle": 0.9, "teabag": 0.6}
-    times = []
+    objects = list(scenario.object_names)
+    update = planner_name == "belief_update"
+    planner = None if update else make_planner(planner_name, model, np.random.default_rng(seed))
+    relevance = {o: 1.0 - 0.4 * i / max(1, len(objects) - 1) for i, o in enumerate(objects)}
+    glances = [v for v in views.views if v.kind == "room"] if views is not None else []
+    hi = scenario.house.floor_max
+    times, cpu = [], []
     for _ in range(repeats):
         belief = base.copy()
-        site = scenario.site_names[int(rng.integers(len(scenario.sites)))]
-        belief.observe_site(site, {o: False for o in OBJECTS})
-        distances = euclidean_distances(scenario, rng.uniform([0, 0], [10, 8]))
+        start = time.perf_counter()
+        if glances:
+            belief.observe_view(glances[int(rng.integers(len(glances)))], {o: None for o in objects})
+        else:
+            site = scenario.site_names[int(rng.integers(len(scenario.sites)))]
+            belief.observe_site(site, {o: False for o in objects})
+        belief.location_matrix()
+        if update:
+            times.append((time.perf_counter() - start) * 1e3)
+            continue
+        distances = euclidean_distances(scenario, rng.uniform([0, 0], hi))
         start = time.perf_counter()
         try:
-            planner.choose(belief, list(OBJECTS), relevance, distances, {})
+            planner.choose(belief, objects, relevance, distances, {}, views=views)
         except ValueError as exc:
-            if "exceed the limit" in str(exc):
+            if "exceed the limit" in str(exc) or "limit" in str(exc) and planner_name == "optimal":
                 return "refused", []
             raise
         times.append((time.perf_counter() - start) * 1e3)
     return "ok", times
 
 
+def approximation_error(model, scenario, views: ViewModel, repeats: int, seed: int) -> float | str | None:
+    """Largest relative error of a restricted joint gain against the exact one (None when no gain
+    was restricted, "exact infeasible" when the exact tables would not fit in memory), on the same
+    beliefs the decisions are timed on (at most 3 of them)."""
+    from fg_tea.planning.efe import coupling_strength
+    from fg_tea.planning.joint_gain import JointViewGain
+
+    rng = np.random.default_rng(seed)
+    base = BeliefEngine(scenario, model)
+    objects = list(scenario.object_names)
+    glances = [v for v in views.views if v.kind == "room"]
+    n, k = len(objects), len(scenario.sites)
+    m = max(len(v.sites) for v in glances)
+    if len(glances) * k * n * (m + 1) ** n > EXACT_CHECK_LIMIT:
+        return "exact infeasible"
+    worst, any_restricted = 0.0, False
+    for _ in range(min(3, repeats)):
+        belief = base.copy()
+        belief.observe_view(glances[int(rng.integers(len(glances)))], {o: None for o in objects})
+        sm = belief.structured_model()
+        idx = list(range(len(objects)))
+        look = [(v.sites, v.probability[idx]) for v in views.views if v.kind == "room"]
+        approx = JointViewGain(sm, idx, model.false_positive_rate, coupling=coupling_strength(belief))
+        got = approx.gains(look)
+        if not approx.restricted:
+            continue
+        any_restricted = True
+        exact = JointViewGain(sm, idx, model.false_positive_rate, outcome_limit=None).gains(look)
+        worst = max(worst, float(np.max(np.abs(got - exact) / np.maximum(exact, 1e-300))))
+    return worst if any_restricted else None
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """'5x24' -> (5, 24)."""
+    try:
+        n, k = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size {text!r} is not OBJECTSxSITES, e.g. 5x24") from None
+    if not (1 <= n <= len(MORE_OBJECTS) and 2 <= k <= 96):
+        raise argparse.ArgumentTypeError(f"size {text!r}: objects 1-{len(MORE_OBJECTS)}, sites 2-96")
+    return n, k
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=10, help="decisions timed per cell (default 10)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--sites", type=int, nargs="+", default=[6, 8, 12])
+    parser.add_argument("--sites", type=int, nargs="*", default=[6, 8, 12],
+                        help="site counts of the 3-object close-look houses")
+    parser.add_argument("--sizes", type=parse_size, nargs="*", default=[(5, 24), (8, 48)],
+                        help="OBJECTSxSITES houses with room glances (default 5x24 8x48)")
+    parser.add_argument("--json", metavar="FILE", help="write one record per model, planner, size")
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats must be at least 1")
 
     models = {"factorised": load_model("factorised"), "joint": load_model("joint")}
     names = planner_names()
-    cells = [(m, k) for m in models for k in args.sites]
-    results: dict[tuple[str, int, str], str | float] = {}
-    total, done = len(cells) * len(names), 0
-    for m, k in cells:
-        scenario = synthetic_scenario(k, np.random.default_rng(args.seed * 1000 + k))
-        for name in names:
-            status, times = time_decisions(name, models[m], scenario, args.repeats, args.seed)
+    # (model, objects, sites, glances): the 3-object sizes plan over close looks (as before
+    # viewpoints existed); the larger ones over close looks and room glances.
+    cells = [(m, 3, k, False) for m in ("factorised", "joint") for k in args.sites]
+    cells += [(m, n, k, True) for m in ("factorised", "joint") for n, k in args.sizes]
+    results: dict[tuple, str | float] = {}
+    approx: dict[tuple, float | None] = {}
+    columns = {cell: list(names) + (["belief_update"] if cell[3] else []) for cell in cells}
+    total, done = sum(len(c) for c in columns.values()), 0
+    for cell in cells:
+        m, n, k, glances = cell
+        if glances:
+            scenario = glance_scenario(n, k, np.random.default_rng(args.seed * 1000 + 100 * n + k))
+            model = models[m]
+            views = ViewModel(scenario, model, expected_pixels=synthetic_pixels(scenario))
+        else:
+            scenario = synthetic_scenario(k, np.random.default_rng(args.seed * 1000 + k))
+            model, views = models[m], None
+        for name in columns[cell]:
+            status, times = time_decisions(name, model, scenario, args.repeats, args.seed, views)
             done += 1
             value = statistics.median(times) if times else status
-            results[(m, k, name)] = value
+            results[(cell, name)] = value
             shown = f"{value:8.3f} ms" if isinstance(value, float) else value
-            print(f"[{done:2d}/{total}] {m:10s} 3x{k:<2d} {name:15s} {shown}", flush=True)
+            size = f"{n}x{k}" + ("g" if glances else "")
+            print(f"[{done:2d}/{total}] {m:10s} {size:7s} {name:15s} {shown}", flush=True)
+        if glances and m == "joint":
+            approx[cell] = approximation_error(model, scenario, views, args.repeats, args.seed)
 
     print()
-    print(f"median decision latency (ms) over {args.repeats} decisions; ratio = planner / efe")
-    header = f"{'model':10s} {'size':5s} " + " ".join(f"{n:>20s}" for n in names)
+    print(f"median decision latency (ms) over {args.repeats} decisions; ratio = planner / efe; "
+          "g = with room glances")
+    header = f"{'model':10s} {'size':7s} " + " ".join(f"{n:>20s}" for n in list(names) + ["belief_update"])
     print(header)
     print("-" * len(header))
-    for m, k in cells:
-        ref = results[(m, k, "efe")]
+    for cell in cells:
+        m, n, k, glances = cell
+        ref = results[(cell, "efe")]
         row = []
-        for n in names:
-            v = results[(m, k, n)]
-            row.append(f"{v:9.3f} ({v / ref:6.2f}x)" if isinstance(v, float) else f"{v:>20s}")
-        print(f"{m:10s} 3x{k:<3d} " + " ".join(f"{c:>20s}" for c in row))
+        for name in columns[cell]:
+            v = results[(cell, name)]
+            if isinstance(v, float) and name != "belief_update":
+                row.append(f"{v:9.3f} ({v / ref:6.2f}x)")
+            elif isinstance(v, float):
+                row.append(f"{v:9.3f}")
+            else:
+                row.append(f"{v:>20s}")
+        size = f"{n}x{k}" + ("g" if glances else "")
+        print(f"{m:10s} {size:7s} " + " ".join(f"{c:>20s}" for c in row))
     print()
-    key = ("joint", 8, "efe")
+    for cell, err in approx.items():
+        _, n, k, _ = cell
+        text = ("every gain exact" if err is None else
+                f"restricted gains; exact reference {err}" if isinstance(err, str) else
+                f"restricted gains, largest relative error against the exact gain {err:.2e}")
+        print(f"joint gain at {n}x{k} with glances: {text}")
+
+    if args.json:
+        records = []
+        for cell in cells:
+            m, n, k, glances = cell
+            for name in columns[cell]:
+                v = results[(cell, name)]
+                rec = {"model": m, "planner": name, "objects": n, "sites": k,
+                       "median_ms": v if isinstance(v, float) else None,
+                       "status": "ok" if isinstance(v, float) else v, "room_glances": glances,
+                       "repeats": args.repeats}
+                if name == "efe" and cell in approx:
+                    rec["approximation_max_rel_error"] = approx[cell]
+                records.append(rec)
+        with open(args.json, "w") as fh:
+            json.dump(records, fh, indent=1)
+            fh.write("\n")
+        print(f"json: {args.json} ({len(records)} records)")
+
+    met = True
+    key = (("joint", 3, 8, False), "efe")
     if key in results and isinstance(results[key], float):
-        met = results[key] < TARGET_MS
+        ok = results[key] < TARGET_MS
+        met &= ok
         print(f"target: EFE decision on the joint 3x8 model < {TARGET_MS:.0f} ms: "
-              f"{results[key]:.3f} ms -> {'met' if met else 'NOT met'}")
-        return 0 if met else 1
-    print("target: joint 3x8 not measured (pass --sites including 8)")
-    return 0
+              f"{results[key]:.3f} ms -> {'met' if ok else 'NOT met'}")
+    else:
+        print("target: joint 3x8 not measured (pass --sites including 8)")
+    for (n, k), target in GLANCE_TARGETS_MS.items():
+        key = (("joint", n, k, True), "efe")
+        if key in results and isinstance(results[key], float):
+            ok = results[key] < target
+            met &= ok
+            print(f"target: joint EFE decision at {n}x{k} with glances < {target:.0f} ms: "
+                  f"{results[key]:.3f} ms -> {'met' if ok else 'NOT met'}")
+    for (n, k), target in UPDATE_TARGET_MS.items():
+        key = (("joint", n, k, True), "belief_update")
+        if key in results and isinstance(results[key], float):
+            ok = results[key] < target
+            met &= ok
+            print(f"target: joint belief update at {n}x{k} < {target:.0f} ms: "
+                  f"{results[key]:.3f} ms -> {'met' if ok else 'NOT met'}")
+    return 0 if met else 1
 
 
 if __name__ == "__main__":

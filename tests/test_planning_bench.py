@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 SCRIPT = Path(__file__).resolve().parents[1] / "experiments" / "bench_planning.py"
@@ -12,9 +13,31 @@ def test_bench_planning_smoke(capsys):
     spec = importlib.util.spec_from_file_location("bench_planning", SCRIPT)
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
-    status = bench.main(["--repeats", "1", "--sites", "8", "12"])
+    status = bench.main(["--repeats", "1", "--sites", "8", "12", "--sizes"])
     out = capsys.readouterr().out
     assert status in (0, 1)  # 1 = target missed (timing depends on the machine)
     assert "[24/24]" in out and "ratio = planner / efe" in out
     assert "joint      3x12" in out and "refused" in out  # optimal declines 12 sites
     assert "target: EFE decision on the joint 3x8 model < 5 ms" in out
+
+
+def test_bench_planning_glance_sizes_and_json(capsys, tmp_path):
+    # The short form of the larger sizes: 5 objects x 10 sites with room glances (above the dense-gain switch, so the structured gain runs), with --json.
+    spec = importlib.util.spec_from_file_location("bench_planning", SCRIPT)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    out_file = tmp_path / "bench.json"
+    status = bench.main(["--repeats", "1", "--sites", "--sizes", "5x10", "--json", str(out_file)])
+    out = capsys.readouterr().out
+    assert status in (0, 1)
+    assert "joint      5x10g" in out and "belief_update" in out
+    records = json.loads(out_file.read_text())
+    keys = {"model", "planner", "objects", "sites", "median_ms"}
+    assert all(keys <= set(r) for r in records)
+    cells = {(r["model"], r["planner"], r["objects"], r["sites"]) for r in records}
+    assert ("joint", "efe", 5, 10) in cells and ("factorised", "factorised_efe", 5, 10) in cells
+    assert ("joint", "belief_update", 5, 10) in cells
+    efe = next(r for r in records if r["model"] == "joint" and r["planner"] == "efe")
+    assert efe["median_ms"] > 0
+    optimal = next(r for r in records if r["planner"] == "optimal" and r["model"] == "joint")
+    assert optimal["status"] in ("ok", "refused")

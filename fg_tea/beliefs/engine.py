@@ -239,6 +239,30 @@ class BeliefEngine:
             self._cache["structured"] = cached
         return cached
 
+    def structured_model(self) -> StructuredLocationModel | None:
+        """The subset dynamic program of the current location belief (docs/design.md §4.4).
+
+        Factorised beliefs get one without relational factors (exact for them too). Returns None
+        when the relational factors are not site/room-local or there are more than
+        :data:`~fg_tea.beliefs.structured.MAX_OBJECTS` objects. The object is cached until the
+        next location evidence; treat it as read only.
+        """
+        if self._correlated:
+            return self._structured() if self._structurable else None
+        if len(self.objects) > MAX_OBJECTS:
+            return None
+        cached = self._cache.get("structured")
+        if cached is None:
+            cached = StructuredLocationModel(self._unary, self.graph.rooms, self.graph.capacities,
+                                             None, None)
+            self._cache["structured"] = cached
+        return cached
+
+    @property
+    def pair_weights(self) -> PairWeights:
+        """Same-site and same-room weights between objects (eq. 35), belief order; 1 = none."""
+        return self._pair_weights
+
     def _location_factors(self) -> list[Factor]:
         return self._loc_factors + list(self.graph.relational)
 

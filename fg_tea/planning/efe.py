@@ -63,11 +63,14 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.beliefs.structured import NumericalGuardError
 from fg_tea.model import PlanningWeights
 from fg_tea.planning.base import (Candidate, Decision, DistanceModel, check_inputs,
                                   distance_vector, repeat_counts)
+from fg_tea.planning.joint_gain import JointViewGain
 
 INFORMATION_MODES = ("auto", "factorised", "joint")
+DENSE_GAIN_LIMIT = 50_000  # joint states up to which the dense joint answers the joint gain
 CHUNK_ENTRIES = 1 << 22  # largest (sites x outcomes x joint states) product held at once
 
 
@@ -244,6 +247,35 @@ def view_joint_information_gain(joint: np.ndarray, unresolved: Sequence[int], si
     return out
 
 
+def coupling_strength(belief) -> np.ndarray:
+    """How strongly each pair of objects' locations interact, shape (N, N): |ln s_ab| + |ln r_ab|
+    of eq. (35) (0 without a relation). Orders the outcomes kept when a look's joint outcome is
+    too large to enumerate (:class:`~fg_tea.planning.joint_gain.JointViewGain`)."""
+    pw = getattr(belief, "pair_weights", None)
+    if pw is None:
+        n = len(belief.objects)
+        return np.zeros((n, n))
+    with np.errstate(divide="ignore"):
+        return np.abs(np.log(pw.same_site)) + np.abs(np.log(pw.same_room))
+
+
+def structured_gain(belief, obj_idx: Sequence[int]) -> JointViewGain | None:
+    """The structured joint-gain solver for this belief, or None where the dense joint is the
+    cheaper exact route (at most :data:`DENSE_GAIN_LIMIT` joint states) or the only one
+    (relational factors that are not site/room-local; a failed numerical guard)."""
+    size = len(belief.sites) ** len(belief.objects)
+    if size <= DENSE_GAIN_LIMIT:
+        return None
+    sm = belief.structured_model() if hasattr(belief, "structured_model") else None
+    if sm is None:
+        return None
+    try:
+        return JointViewGain(sm, obj_idx, belief.model.false_positive_rate,
+                             coupling=coupling_strength(belief))
+    except NumericalGuardError:
+        return None
+
+
 class EFEPlanner:
     """The EFE-style planner of eqs. 12-17.
 
@@ -275,6 +307,10 @@ class EFEPlanner:
             mode = "joint" if belief.correlated else "factorised"
         model = belief.model
         if mode == "joint":
+            solver = structured_gain(belief, idx)
+            if solver is not None:
+                close = np.full((len(idx), 1), 1.0 - model.miss_likelihood)
+                return solver.gains([([j], close) for j in range(len(belief.sites))]), mode
             return joint_information_gain(belief.location_joint(), idx, model.miss_likelihood,
                                           model.false_positive_rate), mode
         q = belief.location_matrix()[idx]
@@ -339,7 +375,8 @@ class EFEPlanner:
             mode = "joint" if belief.correlated else "factorised"
         q_all = belief.location_matrix()
         q = q_all[obj_idx]
-        joint = belief.location_joint() if mode == "joint" else None
+        solver = structured_gain(belief, obj_idx) if mode == "joint" else None
+        joint = belief.location_joint() if mode == "joint" and solver is None else None
         fp = belief.model.false_positive_rate
         n, m = len(objects), len(eligible)
         find, gain = np.empty((n, m)), np.empty((n, m))
@@ -348,11 +385,13 @@ class EFEPlanner:
             miss = np.ones((n, k))
             miss[:, list(v.sites)] = v.miss[obj_idx]
             find[:, c], factorised = view_factorised_information_gain(q, prob, miss, views.max_probability)
-            if mode == "joint":
+            if joint is not None:
                 gain[:, c] = view_joint_information_gain(joint, obj_idx, v.sites,
                                                          v.probability[obj_idx], fp)
-            else:
+            elif solver is None:
                 gain[:, c] = factorised
+        if solver is not None:
+            gain = solver.gains([(v.sites, v.probability[obj_idx]) for v in eligible])
         d = np.array([float(distances.from_agent(v.name)) for v in eligible])
         counts = np.array([int(inspected.get(v.name, 0)) for v in eligible])
         if np.any(counts < 0):
@@ -369,6 +408,9 @@ class EFEPlanner:
         info = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
                 "w_e": w.information_weight, "w_a": w.repeat_penalty, "lambda": w.relevance_weight,
                 "distance": str(getattr(distances, "kind", w.distance)), "viewpoints": m}
+        if solver is not None:
+            info["gain_solver"] = "structured"
+            info["restricted_gains"] = solver.restricted
         return Decision(objects[i], eligible[c].name, float(total[i, c]), tuple(candidates),
                         self.name, info)
 
@@ -382,6 +424,6 @@ class FactorisedEFEPlanner(EFEPlanner):
         super().__init__(weights, information="factorised")
 
 
-__all__ = ["EFEPlanner", "FactorisedEFEPlanner", "factorised_information_gain",
+__all__ = ["EFEPlanner", "FactorisedEFEPlanner", "coupling_strength", "structured_gain", "factorised_information_gain",
            "joint_information_gain", "view_factorised_information_gain",
            "view_joint_information_gain", "entropies"]

@@ -1,0 +1,394 @@
+"""How much does one look tell about each object's location when beliefs are joint — without the
+dense joint?
+
+The exact mutual information I(L_o ; Y_v) between an unresolved object's location L_o and the
+joint outcome Y_v = (Y_u)_u of a look from viewpoint v (for every unresolved u: seen at in-view
+site c, or not seen) is computed from the subset dynamic program of
+:mod:`fg_tea.beliefs.structured` (docs/design.md §4.4, §6.2, eqs. 44-45), never from a K^N table.
+
+Why it is tractable. Given the locations, each Y_u depends on L_u only through its **class**
+C_u: which in-view site u stands on (1..m), or "outside the view" (0), because the detection
+model is p_{u,c} at in-view site c and the false-positive rate fp at every other site. The class
+configuration of all objects is the tuple of in-view site sets (S_1, ..., S_m), and the
+structured model gives its probability in closed form. The in-view sites of a look all lie in
+one room R (a close look: one site; a glance: the room's sites), so
+
+    Z P(S_1 = A_1, ..., S_m = A_m) = prod_t g_{s_t}(A_t) * W_v(A_1 ∪ ... ∪ A_m)
+    W_v(T) = sum_{X disjoint T} C_D(X) rho(T ∪ X) O_R(all objects not in T ∪ X)
+
+with g, rho as in eq. (36), D the sites of R out of view, C_D the subset convolution of their g,
+and O_R the convolution of every other room's weight. Fixing L_o = a for an out-of-view site a
+changes only W_v (o's factor moves into the room of a), giving W_{v,o,a}; then
+
+    Z P(L_o = a, S_1 = A_1, ..., S_m = A_m) = prod_t g_{s_t}(A_t) * W_{v,o,a}(A_1 ∪ ... ∪ A_m).
+
+Objects whose outcome is not tracked (objects already found) are summed over in-view sites by
+a subset convolution over them. The outcome likelihood factorises over objects given classes,
+so P(L_o = a, Y) follows by one (m+1) x (m+1) matrix per axis, and
+
+    I(L_o ; Y_v) = H(L_o) + H(Y_v) - H(L_o, Y_v)                              (eq. 42)
+
+exactly, with H(L_o, Y_v) split into in-view a (L_o determined by C_o) and out-of-view a
+(Y_o independent of everything else given C_o = 0).
+
+Cost. Per decision: one batched subset convolution per pair of rooms (the W_{v,o,a} of
+glances) and one "completion" per close look, about (K + R) N K 3^N; per viewpoint the class
+tables, about N K (m+1)^(N-1). The latter is exponential in the number of tracked objects with
+base m + 1: a glance over m = 5 sites with 8 unresolved objects has 6^8 = 1.7 million joint
+outcomes, each needed for every (o, a). Above :data:`OUTCOME_LIMIT` entries per object the
+outcome is restricted to o and the objects most strongly coupled to it (the *tracked* set);
+the others' outcomes are summed out. That gives I(L_o ; Y_{v,tracked}) <= I(L_o ; Y_v), a lower
+bound whose error is measured in ``tests/test_planning_joint_gain.py`` and by
+``experiments/bench_planning.py``.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from fg_tea.beliefs.structured import StructuredLocationModel, SubsetAlgebra, subset_index
+
+OUTCOME_LIMIT = 1 << 17  # entries of one object's P(L_o = a, Y_{-o}) table before restricting
+MI_TOLERANCE = 1e-12     # gains are clipped at 0 from below within this tolerance
+
+
+def _neg_xlogx_sum(p: np.ndarray, axis=None) -> np.ndarray:
+    """sum -p log p (nats), 0 where p = 0."""
+    p = np.asarray(p, dtype=float)
+    logs = np.log(p, out=np.zeros_like(p), where=p > 0)
+    return -(p * logs).sum(axis=axis)
+
+
+def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarray:
+    """Turn the trailing class axes of x into outcome axes: axis c_b becomes
+    y_b = sum_c x[..., c, ...] tables[b][..., c, y].
+
+    Args:
+        x: shape B + E + (m + 1,) * s, with B the first `nb` axes (one table per index of B)
+            and E any further axes.
+        tables: s arrays of shape B + (m + 1, m + 1), class -> outcome.
+
+    Each step is one contraction over the last axis, after which the new outcome axis is
+    rotated to the front of the class block; after s steps the order is the original one.
+    """
+    s = len(tables)
+    first = x.ndim - s
+    for b in reversed(range(s)):
+        shape = x.shape
+        flat = x.reshape(shape[:nb] + (-1, shape[-1]))
+        y = np.einsum("...rc,...cy->...ry", flat, tables[b]).reshape(shape)
+        x = np.moveaxis(y, -1, first)
+    return x
+
+
+def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
+    """P(Y_u = y | C_u = c) for one object, shape (m + 1, m + 1): rows class, columns outcome.
+
+    Args:
+        prob: p_{u,c} for the m in-view sites, shape (m,).
+        fp: P(seen at one given in-view site | standing elsewhere), per site.
+    """
+    m = len(prob)
+    f = np.zeros((m + 1, m + 1))
+    f[:, 1:] = fp
+    for c in range(m):
+        f[1 + c, 1 + c] = prob[c]
+    f[:, 0] = 1.0 - f[:, 1:].sum(axis=1)
+    return np.clip(f, 0.0, 1.0)
+
+
+class JointViewGain:
+    """Exact I(L_o ; Y_v) for every unresolved object and viewpoint of one decision.
+
+    Args:
+        model: the structured location model of the current belief (forward pass done).
+        observed: belief indices of the unresolved objects whose outcome a look reports.
+        fp: false-positive rate per in-view site.
+        outcome_limit: largest P(L_o = a, Y_{-o}) table (entries) computed exactly per object
+            and viewpoint; above it the tracked outcome set is restricted (module docstring).
+            None = always exact.
+
+    Attributes:
+        restricted: number of (object, viewpoint) gains computed on a restricted outcome set in
+            the last :meth:`gains` call (0 = every gain exact).
+    """
+
+    def __init__(self, model: StructuredLocationModel, observed: Sequence[int], fp: float,
+                 outcome_limit: int | None = OUTCOME_LIMIT, coupling: np.ndarray | None = None) -> None:
+        self.sm = model
+        self.observed = [int(u) for u in observed]
+        if len(set(self.observed)) != len(self.observed):
+            raise ValueError(f"observed objects repeated: {self.observed}")
+        self.fp = float(fp)
+        self.outcome_limit = outcome_limit
+        sm = model
+        sm._singles()
+        self.q = sm._q                                   # (N, K) exact marginals
+        self.n, self.k = sm.n, sm.k
+        self.alg: SubsetAlgebra = sm.alg
+        ix = self.alg.ix
+        self.full = ix.full
+        self.comp = self.full ^ np.arange(self.full + 1)
+        self.mem = ix.members.T                          # (N, 2^N)
+        n = self.n
+        self.coupling = (np.zeros((n, n)) if coupling is None else np.asarray(coupling, float))
+        self._split: dict[int, np.ndarray] = {}
+        self._out: dict[int, np.ndarray] = {}
+        self._close: dict[int, dict] = {}
+        self.restricted = 0
+
+    # ------------------------------------------------------------------ per-room weights
+    def _room_split(self, r: int) -> np.ndarray:
+        """h_R^{o@a}(X) = rho(X) * sum_{B ∋ o} g_a(B) C_{R∖a}(X∖B), shape (|R|, N, 2^N)."""
+        cached = self._split.get(r)
+        if cached is None:
+            sm, alg = self.sm, self.alg
+            excl = sm._excl[r]
+            cached = np.stack([sm.rho * alg.conv(self.mem * sm.g[a], excl[t])
+                               for t, a in enumerate(sm.room_sites[r])])
+            self._split[r] = cached
+        return cached
+
+    def _room_out(self, r0: int) -> np.ndarray:
+        """Out[a, o, T] = rho(T) * (weight of every object not in T outside room r0, with o at a),
+        for a outside r0 (rows of r0's sites are 0), shape (K, N, 2^N)."""
+        cached = self._out.get(r0)
+        if cached is None:
+            sm, alg = self.sm, self.alg
+            others = [r for r in range(len(sm.room_sites)) if r != r0]
+            pre = [alg.delta()]
+            for r in others:
+                pre.append(alg.conv(pre[-1], sm.h[r]))
+            suf = [alg.delta()]
+            for r in others[::-1]:
+                suf.append(alg.conv(sm.h[r], suf[-1]))
+            suf = suf[::-1]
+            oa = np.zeros((self.k, self.n, self.full + 1))
+            for i, r in enumerate(others):
+                excl = alg.conv(pre[i], suf[i + 1])              # every room but r0 and r
+                oa[sm.room_sites[r]] = alg.conv(self._room_split(r), excl)
+            cached = sm.rho * oa[:, :, self.comp]
+            self._out[r0] = cached
+        return cached
+
+    def _close_weights(self, r0: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """W_v and W_{v,o,a} of the close look at every site of room r0 (see _view_weights)."""
+        cached = self._close.get(r0)
+        if cached is not None:
+            return cached
+        sm, alg = self.sm, self.alg
+        room = [int(j) for j in sm.room_sites[r0]]
+        excl = np.stack(sm._excl[r0])                         # C_{R∖j} for each j, (L, 2^N)
+        w_room = sm._w[r0]
+        out = self._room_out(r0)
+        w_v = alg.completions(excl, w_room)                   # (L, 2^N)
+        outside = np.array([a for a in range(self.k) if int(sm.room_of[a]) != r0], dtype=int)
+        w_oa = np.zeros((len(room), self.k, self.n, self.full + 1))
+        if len(outside):
+            w_oa[:, outside] = self._completions_without_o(excl, out[outside])
+        for t, j in enumerate(room):
+            rest = [a for a in room if a != j]
+            if not rest:
+                continue
+            pre = [alg.delta()]
+            for a in rest:
+                pre.append(alg.conv(pre[-1], sm.g[a]))
+            suf = [alg.delta()]
+            for a in rest[::-1]:
+                suf.append(alg.conv(sm.g[a], suf[-1]))
+            suf = suf[::-1]
+            c_rest = alg.conv(np.stack(pre[:-1]), np.stack(suf[1:]))          # C_{R∖{j,a}}
+            c_oa = alg.conv(self.mem[None] * sm.g[rest][:, None, :], c_rest[:, None, :])
+            w_oa[t, rest] = alg.completions(c_oa, w_room)
+        cached = {j: (w_v[t], w_oa[t]) for t, j in enumerate(room)}
+        self._close[r0] = cached
+        return cached
+
+    def _completions_without_o(self, c: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """completions(c[l], w[a, o]) for every l, a, o, shape (L, A, N, 2^N), using that
+        w[a, o](T) = 0 whenever o is in T (o stands outside): only sets without o take part, as
+        one matrix product per object over the 2^(N-1) such sets."""
+        n, alg = self.n, self.alg
+        if n == 1:
+            return alg.completions(c[:, None, None, :], w[None])
+        ix = subset_index(n - 1)
+        out = np.zeros((c.shape[0],) + w.shape)
+        low = np.arange(1 << (n - 1))
+        for o in range(n):
+            expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
+            mat = np.zeros((c.shape[0], len(low), len(low)))
+            mat[:, ix.xunion, ix.xa] = c[:, expand[ix.xb]]
+            # einsum, not matmul: small products, and a multi-threaded BLAS only waits on a
+            # busy machine.
+            out[:, :, o, expand] = np.einsum("ak,lkb->lab", w[:, o, expand], mat)
+        return out
+
+    def _view_weights(self, sites: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """W_v(T), shape (2^N,), and W_{v,o,a}(T), shape (K, N, 2^N) (0 for a in view)."""
+        sm, alg = self.sm, self.alg
+        rooms = {int(sm.room_of[j]) for j in sites}
+        if len(rooms) != 1:
+            raise ValueError("the structured gain needs every in-view site in one room")
+        r0 = rooms.pop()
+        in_view = set(int(j) for j in sites)
+        rest = [int(j) for j in sm.room_sites[r0] if int(j) not in in_view]
+        if not rest:                                           # a glance over the whole room
+            return sm._w[r0], self._room_out(r0)
+        if len(sites) == 1:
+            return self._close_weights(r0)[int(sites[0])]
+        pre = [alg.delta()]
+        for j in rest:
+            pre.append(alg.conv(pre[-1], sm.g[j]))
+        suf = [alg.delta()]
+        for j in rest[::-1]:
+            suf.append(alg.conv(sm.g[j], suf[-1]))
+        suf = suf[::-1]
+        w_room = sm._w[r0]
+        c_d = pre[-1]
+        w_v = alg.completions(c_d, w_room)
+        w_oa = alg.completions(c_d, self._room_out(r0))
+        for i, a in enumerate(rest):
+            c_oa = alg.conv(self.mem * sm.g[a], alg.conv(pre[i], suf[i + 1]))   # (N, 2^N)
+            w_oa[a] = alg.completions(c_oa, w_room)
+        return w_v, w_oa
+
+    # ------------------------------------------------------------------ batched class tables
+    def _batch(self, sites: np.ndarray, prob: np.ndarray, tracked: Sequence[int],
+               targets: Sequence[int], w_v: np.ndarray, w_oa: np.ndarray) -> np.ndarray:
+        """I(L_o ; Y_tracked) for o = tracked[i], i in targets, for G looks of m sites each.
+
+        Args:
+            sites: in-view sites, shape (G, m).
+            prob: p_{u,c} of the tracked objects, shape (G, s, m).
+            w_v, w_oa: shapes (G, 2^N) and (G, K, N, 2^N).
+
+        Returns:
+            shape (G, len(targets)), nats.
+        """
+        sm = self.sm
+        g_n, m = sites.shape
+        s, targets = len(tracked), list(targets)
+        n_t = len(targets)
+        free = [o for o in range(self.n) if o not in tracked]
+        f = len(free)
+        codes = np.indices((m + 1,) * s).reshape(s, -1).T
+        bits = np.array([1 << o for o in tracked], dtype=np.int64)
+        emb = np.zeros(1 << f, dtype=np.int64)
+        for b, o in enumerate(free):
+            emb[(np.arange(1 << f) >> b) & 1 == 1] |= 1 << o
+        psi = np.ones((g_n, len(codes), 1 << f))
+        psi[:, :, 1:] = 0.0
+        fa = SubsetAlgebra(f) if f else None
+        for t in range(m):
+            a_mask = (codes == t + 1) @ bits
+            kern = sm.g[sites[:, t]][:, a_mask[:, None] | emb[None, :]]     # (G, n_c, 2^f)
+            psi = fa.conv(psi, kern) if f else psi * kern
+        masks = ((codes > 0) @ bits)[:, None] | emb[None, :]                # (n_c, 2^f)
+        cls = (g_n,) + (m + 1,) * s
+        p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
+        # P(L_o = a, C_{tracked∖o}) for every site a (0 for a in view), each target.
+        rows = np.stack([np.nonzero(codes[:, i] == 0)[0] for i in targets])   # (T, n_r)
+        o_sel = np.array([tracked[i] for i in targets])
+        vals = w_oa[:, :, o_sel[:, None, None], masks[rows]]                # (G, K, T, n_r, 2^f)
+        outs = (vals * psi[:, None, rows]).sum(axis=4) / sm.z
+        outs = outs.reshape((g_n, self.k, n_t) + (m + 1,) * (s - 1))
+        # Detection tables per look and tracked object: (G, s, class, outcome).
+        tab = np.zeros((g_n, s, m + 1, m + 1))
+        tab[:, :, :, 1:] = self.fp
+        c_idx = np.arange(1, m + 1)
+        tab[:, :, c_idx, c_idx] = prob
+        tab[:, :, :, 0] = 1.0 - tab[:, :, :, 1:].sum(axis=3)
+        tab = np.clip(tab, 0.0, 1.0)
+        y = _outcomes(p_c, [tab[:, b] for b in range(s)], 1)
+        h_y = _neg_xlogx_sum(y, axis=tuple(range(1, 1 + s)))                          # (G,)
+        # P(C_o, Y_{-o}) for each target: every axis but o's transformed (o's: the identity).
+        part = np.broadcast_to(p_c[:, None], (g_n, n_t) + cls[1:])
+        eye = np.eye(m + 1)
+        own_axis = np.array(targets)
+        part_tabs = [np.where((own_axis == b)[None, :, None, None], eye, tab[:, None, b])
+                     for b in range(s)]
+        part = _outcomes(part, part_tabs, 2)
+        h_part = _neg_xlogx_sum(part, axis=tuple(range(2, 2 + s)))                   # (G, T)
+        # Out-of-view: the other tracked objects' axes transformed; layout (G, T, K, ...).
+        outs = np.moveaxis(outs, 2, 1)
+        others = np.array([[x for x in range(s) if x != targets[t]] for t in range(n_t)],
+                          dtype=int).reshape(n_t, s - 1)
+        outs = _outcomes(outs, [tab[:, others[:, b]] for b in range(s - 1)], 2)
+        axes = tuple(range(3, 3 + s - 1))
+        out_y = outs.sum(axis=2)                                     # P(C_o = 0, Y_{-o}), (G, T, ...)
+        h_out_y = _neg_xlogx_sum(out_y, axis=tuple(range(2, 2 + s - 1)))
+        h_out = _neg_xlogx_sum(outs, axis=(2,) + axes)                                # (G, T)
+        own = tab[:, targets]                                                         # (G, T, c, y)
+        h_own = _neg_xlogx_sum(own, axis=3)                                           # (G, T, c)
+        q = self.q[o_sel]                                                             # (T, K)
+        p_in = q[:, sites].transpose(1, 0, 2)                          # q(L_o = s_c), (G, T, m)
+        p_out = 1.0 - p_in.sum(axis=2)
+        h_in = h_part - h_out_y + (p_in * h_own[:, :, 1:]).sum(axis=2)
+        h_o = _neg_xlogx_sum(q, axis=1)                                               # (T,)
+        h_lo_y = h_in + h_out + p_out * h_own[:, :, 0]
+        gain = h_o[None, :] + h_y[:, None] - h_lo_y
+        return np.where(np.abs(gain) < MI_TOLERANCE, np.maximum(gain, 0.0), gain)
+
+    def _tracked_for(self, o: int, m: int) -> list[int]:
+        """o and the observed objects most coupled to it, as many as the outcome limit allows."""
+        others = [u for u in self.observed if u != o]
+        order = sorted(others, key=lambda u: (-self.coupling[o, u], self.observed.index(u)))
+        tracked = [o]
+        for u in order:
+            size = self.k * (m + 1) ** len(tracked) * 2 ** (self.n - len(tracked) - 1)
+            if size > self.outcome_limit:
+                break
+            tracked.append(u)
+        return sorted(tracked)
+
+    def _exact(self, m: int) -> bool:
+        s = len(self.observed)
+        size = self.k * (m + 1) ** (s - 1) * 2 ** (self.n - s)
+        return self.outcome_limit is None or size <= self.outcome_limit
+
+    def gain(self, sites: Sequence[int], prob: np.ndarray) -> np.ndarray:
+        """I(L_u ; Y_v) for every observed u (constructor order), shape (len(observed),), nats.
+
+        Args:
+            sites: belief indices of the in-view sites s_1..s_m (all in one room).
+            prob: p_{u,c}, shape (len(observed), m).
+        """
+        return self.gains([(sites, prob)])[:, 0]
+
+    def gains(self, views: Sequence[tuple[Sequence[int], np.ndarray]]) -> np.ndarray:
+        """I(L_u ; Y_v) for every observed u and view, shape (len(observed), len(views)), nats.
+
+        Looks with the same number of in-view sites are evaluated together.
+        """
+        self.restricted = 0
+        n_obs = len(self.observed)
+        out = np.zeros((n_obs, len(views)))
+        groups: dict[int, list[int]] = {}
+        weights = []
+        for c, (sites, _) in enumerate(views):
+            weights.append(self._view_weights([int(j) for j in sites]))
+            groups.setdefault(len(sites), []).append(c)
+        order = np.argsort(self.observed)
+        tracked_all = sorted(self.observed)
+        for m, members in groups.items():
+            sites = np.array([[int(j) for j in views[c][0]] for c in members], dtype=int)
+            probs = np.stack([np.asarray(views[c][1], float).reshape(n_obs, m) for c in members])
+            w_v = np.stack([weights[c][0] for c in members])
+            w_oa = np.stack([weights[c][1] for c in members])
+            if self._exact(m):
+                g = self._batch(sites, probs[:, order], tracked_all, range(n_obs), w_v, w_oa)
+                out[np.asarray(order)[:, None], np.array(members)[None, :]] = g.T
+                continue
+            pos = {u: p for p, u in enumerate(self.observed)}
+            for p, o in enumerate(self.observed):
+                tracked = self._tracked_for(o, m)
+                g = self._batch(sites, probs[:, [pos[u] for u in tracked]], tracked,
+                                [tracked.index(o)], w_v, w_oa)
+                out[p, members] = g[:, 0]
+                self.restricted += len(members)
+        return out
+
+
+__all__ = ["JointViewGain", "OUTCOME_LIMIT", "detection_table"]
