@@ -372,39 +372,42 @@ class LookaheadPlanner:
 
     def _outcomes(self, problem: SearchProblem, node: _Node, a: int) -> list[tuple[float, _Node]]:
         """The children of looking from viewpoint `a`: (probability, node), in a fixed order."""
-        s = problem.seen[a] * node.unfound[None, :]                # (T, n) P(seen u | t)
         us = np.flatnonzero(node.unfound)
+        s = problem.seen[a][:, us]                                 # (T, n') P(seen u | t)
         looked = node.looked.copy()
         looked[a] += 1
+        subsets = list(itertools.chain.from_iterable(
+            itertools.combinations(range(len(us)), size) for size in range(len(us) + 1)))
+        bits = np.zeros((len(us), len(subsets)), dtype=bool)
+        for c, subset in enumerate(subsets):
+            bits[list(subset), c] = True
+        lik = np.prod(np.where(bits[None, :, :], s[:, :, None], 1.0 - s[:, :, None]), axis=1)
+        weights = node.w[:, None] * lik                            # (T, subsets)
+        masses = weights.sum(axis=0)
         out = []
-        for size in range(len(us) + 1):
-            for subset in itertools.combinations(us, size):
-                lik = np.ones(len(node.w))
-                for u in us:
-                    lik = lik * (s[:, u] if u in subset else 1.0 - s[:, u])
-                wt = node.w * lik
-                if wt.sum() < OUTCOME_FLOOR:
+        for c in np.flatnonzero(masses >= OUTCOME_FLOOR):
+            subset = us[list(subsets[c])]
+            wt = weights[:, c]
+            unfound = node.unfound.copy()
+            unfound[subset] = False
+            if len(subset) == 0 or problem.kinds[a] == "site":
+                groups = [wt]
+            else:  # a glance: which in-view site each seen object stood at
+                code = np.zeros(len(wt), dtype=np.int64)
+                for u in subset:
+                    code = code * problem.n_sites + problem.loc[:, u]
+                nz = np.flatnonzero(wt > 0)
+                keys, inverse = np.unique(code[nz], return_inverse=True)
+                groups = []
+                for g in range(len(keys)):
+                    part = np.zeros_like(wt)
+                    part[nz[inverse == g]] = wt[nz[inverse == g]]
+                    groups.append(part)
+            for part in groups:
+                mass = float(part.sum())
+                if mass < OUTCOME_FLOOR:
                     continue
-                unfound = node.unfound.copy()
-                unfound[list(subset)] = False
-                if size == 0 or problem.kinds[a] == "site":
-                    groups = [(wt, None)]
-                else:  # a glance: which in-view site each seen object stood at
-                    code = np.zeros(len(wt), dtype=np.int64)
-                    for u in subset:
-                        code = code * problem.n_sites + problem.loc[:, u]
-                    nz = np.flatnonzero(wt > 0)
-                    keys, inverse = np.unique(code[nz], return_inverse=True)
-                    groups = []
-                    for g in range(len(keys)):
-                        part = np.zeros_like(wt)
-                        part[nz[inverse == g]] = wt[nz[inverse == g]]
-                        groups.append((part, None))
-                for part, _ in groups:
-                    mass = float(part.sum())
-                    if mass < OUTCOME_FLOOR:
-                        continue
-                    out.append((mass, _Node(a, part / mass, unfound, node.depth - 1, looked)))
+                out.append((mass, _Node(a, part / mass, unfound, node.depth - 1, looked)))
         total = sum(m for m, _ in out)
         return [(m / total, c) for m, c in out]
 
