@@ -43,7 +43,9 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
 
 With ``depth = 1`` and no rollout there is nothing to look ahead with: the planner returns the
 EFE planner's choice (a test checks it). Planner specs: ``lookahead`` (defaults) or
-``lookahead:depth=2,width=4,rollout=mppm,nodes=400,look=0.144``.
+``lookahead:depth=2,width=3,rollout=mppm,nodes=60,look=0.144`` (the defaults: a pilot on the
+default apartment's correlated worlds found depth 1 and depth 2 within noise of each other in
+travel, and 60 nodes keeps a three-object decision to a few milliseconds).
 """
 
 from __future__ import annotations
@@ -80,9 +82,9 @@ class LookaheadSettings:
     """
 
     depth: int = 2
-    width: int = 4
+    width: int = 3
     rollout: str = "mppm"
-    nodes: int = 400
+    nodes: int = 60
     look: float = LOOK_COST
 
     def __post_init__(self) -> None:
