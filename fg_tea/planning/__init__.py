@@ -11,14 +11,15 @@ from a model file, so every ablation of section 15.4 is a switch in the TOML, no
   :class:`~fg_tea.planning.base.DistanceModel`; :func:`distances_for` picks the right one).
 
 Registry names: ``efe``, ``factorised_efe``, ``nearest``, ``greedy``, ``random``, ``optimal``,
-``lookahead``, and the peers ``pouct:1000``, ``pouct:100``, ``pomcp:1000`` (pomdp-py, the optional
-``[peers]`` extra). Families take settings after a colon: ``lookahead:depth=2,width=4``
+``lookahead``, and, when pomdp-py (the optional ``[peers]`` extra) is installed, the peers
+``pouct:100``, ``pouct:1000``, ``pomcp:1000``. Families take settings after a colon: ``lookahead:depth=2,width=4``
 (:class:`~fg_tea.planning.lookahead.LookaheadSettings`), ``pouct:N`` and ``pomcp:N`` (N
 simulations per decision); :func:`check_planner_name` accepts any well-formed one.
 """
 
 from __future__ import annotations
 
+import importlib.util
 from typing import Callable, Sequence
 
 import numpy as np
@@ -47,10 +48,13 @@ _REGISTRY: dict[str, Callable[[Model, np.random.Generator | None], Planner]] = {
     "random": _random,
     "optimal": lambda model, rng: OptimalPlanner(),
     "lookahead": lambda model, rng: LookaheadPlanner(model.planning),
-    "pouct:100": lambda model, rng: _peer("pouct", "100", model, rng),
-    "pouct:1000": lambda model, rng: _peer("pouct", "1000", model, rng),
-    "pomcp:1000": lambda model, rng: _peer("pomcp", "1000", model, rng),
 }
+if importlib.util.find_spec("pomdp_py") is not None:  # the optional [peers] extra
+    _REGISTRY.update({
+        "pouct:100": lambda model, rng: _peer("pouct", "100", model, rng),
+        "pouct:1000": lambda model, rng: _peer("pouct", "1000", model, rng),
+        "pomcp:1000": lambda model, rng: _peer("pomcp", "1000", model, rng),
+    })
 
 
 def _peer(kind: str, spec: str, model: Model, rng: np.random.Generator | None) -> Planner:
