@@ -548,8 +548,8 @@ def _add_run_parsers(sub) -> None:
     p.add_argument("--out", help="output folder (default: runs/SCENARIO-MODEL-seedN)")
     p.add_argument("--no-video", action="store_true", help="headless: write the log only")
     p.add_argument("--max-frames", type=_integer(1, 10_000_000), default=50_000, help="frame limit (default: %(default)s)")
-    p.add_argument("--planner", default="efe",
-                   choices=("efe", "factorised_efe", "nearest", "greedy", "random", "optimal"),
+    from fg_tea.planning import planner_names as _planner_names
+    p.add_argument("--planner", default="efe", choices=_planner_names(),
                    help="search planner (default: %(default)s)")
     p.add_argument("--task", default="make_tea", help="task file or bundled name (default: %(default)s)")
     p.add_argument("--preparation-site", help="site where the tea is made (default: the scenario's)")

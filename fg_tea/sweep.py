@@ -226,15 +226,16 @@ def check_jobs(jobs: Sequence[Job]) -> None:
     """
     from fg_tea.env.base import EnvConfig
     from fg_tea.model import Model
-    from fg_tea.planning import planner_names
+    from fg_tea.planning import check_planner_name
 
     env_fields = {f.name for f in dataclasses.fields(EnvConfig)}
     model_fields = {f.name for f in dataclasses.fields(Model)} - {"name", "source"}
     seen: set = set()
     for job in jobs:
-        if job.planner not in planner_names():
-            raise InputError(_CLI, "planner", f"unknown planner {job.planner!r} "
-                             f"(known: {', '.join(planner_names())})")
+        try:
+            check_planner_name(job.planner)
+        except ValueError as exc:
+            raise InputError(_CLI, "planner", str(exc)) from None
         if job.env not in ENVIRONMENTS:
             raise InputError(_CLI, "env", f"unknown environment {job.env!r} (known: {', '.join(ENVIRONMENTS)})")
         for name, _ in job.env_overrides:

@@ -10,11 +10,16 @@ from a model file, so every ablation (docs/design.md §11) is a switch in the TO
 - ``distance = "euclidean"`` selects the distances the caller builds (the planners take any
   :class:`~fg_tea.planning.base.DistanceModel`; :func:`distances_for` picks the right one).
 
-Registry names: ``efe``, ``factorised_efe``, ``nearest``, ``greedy``, ``random``, ``optimal``.
+Registry names: ``efe``, ``factorised_efe``, ``nearest``, ``greedy``, ``random``, ``optimal``,
+``lookahead``, and, when pomdp-py (the optional ``[peers]`` extra) is installed, the peers
+``pouct:100``, ``pouct:1000``, ``pomcp:1000``. Families take settings after a colon: ``lookahead:depth=2,width=4``
+(:class:`~fg_tea.planning.lookahead.LookaheadSettings`), ``pouct:N`` and ``pomcp:N`` (N
+simulations per decision); :func:`check_planner_name` accepts any well-formed one.
 """
 
 from __future__ import annotations
 
+import importlib.util
 from typing import Callable, Sequence
 
 import numpy as np
@@ -24,6 +29,7 @@ from fg_tea.planning.base import (Candidate, Decision, DistanceModel, DistanceTa
                                   euclidean_distances)
 from fg_tea.planning.baselines import GreedyProbabilityPlanner, NearestPlanner, RandomPlanner
 from fg_tea.planning.efe import EFEPlanner, FactorisedEFEPlanner
+from fg_tea.planning.lookahead import LookaheadPlanner, LookaheadSettings
 from fg_tea.planning.optimal import OptimalPlanner
 from fg_tea.scenario import Scenario
 
@@ -41,7 +47,48 @@ _REGISTRY: dict[str, Callable[[Model, np.random.Generator | None], Planner]] = {
     "greedy": lambda model, rng: GreedyProbabilityPlanner(),
     "random": _random,
     "optimal": lambda model, rng: OptimalPlanner(),
+    "lookahead": lambda model, rng: LookaheadPlanner(model.planning),
 }
+if importlib.util.find_spec("pomdp_py") is not None:  # the optional [peers] extra
+    _REGISTRY.update({
+        "pouct:100": lambda model, rng: _peer("pouct", "100", model, rng),
+        "pouct:1000": lambda model, rng: _peer("pouct", "1000", model, rng),
+        "pomcp:1000": lambda model, rng: _peer("pomcp", "1000", model, rng),
+    })
+
+
+def _peer(kind: str, spec: str, model: Model, rng: np.random.Generator | None) -> Planner:
+    from fg_tea.planning.peers import make_peer  # pomdp-py is optional: import on use
+    return make_peer(kind, spec, model, rng)
+
+
+#: Planner families whose names take settings after a colon: name -> factory(spec, model, rng).
+_FAMILIES: dict[str, Callable[[str, Model, np.random.Generator | None], Planner]] = {
+    "lookahead": lambda spec, model, rng: LookaheadPlanner(model.planning,
+                                                           LookaheadSettings.parse(spec)),
+    "pouct": lambda spec, model, rng: _peer("pouct", spec, model, rng),
+    "pomcp": lambda spec, model, rng: _peer("pomcp", spec, model, rng),
+}
+
+
+def _check_family_spec(family: str, spec: str) -> None:
+    if family == "lookahead":
+        LookaheadSettings.parse(spec)
+    elif not (spec.isdigit() and int(spec) >= 1):
+        raise ValueError(f"planner {family}:{spec}: the setting is the number of simulations "
+                         "per decision, a positive integer")
+
+
+def check_planner_name(name: str) -> None:
+    """Raise ValueError unless `name` is a registered planner or a well-formed family spec."""
+    if name in _REGISTRY:
+        return
+    family, sep, spec = name.partition(":")
+    if sep and family in _FAMILIES:
+        _check_family_spec(family, spec)
+        return
+    raise ValueError(f"unknown planner {name!r} (known: {', '.join(_REGISTRY)}; families "
+                     f"{', '.join(f + ':...' for f in _FAMILIES)})")
 
 
 def planner_names() -> tuple[str, ...]:
@@ -53,18 +100,18 @@ def make_planner(name: str, model: Model, rng: np.random.Generator | None = None
     """Build a planner by registry name, configured from the model file.
 
     Args:
-        name: one of :func:`planner_names`.
+        name: one of :func:`planner_names`, or a family spec such as ``lookahead:depth=3``.
         model: the agent's model; its ``planning`` weights configure the EFE planners.
         rng: the Generator for ``random`` (required there, ignored elsewhere).
 
     Raises:
         ValueError: unknown name, or ``random`` without a Generator.
     """
-    try:
-        factory = _REGISTRY[name]
-    except KeyError:
-        raise ValueError(f"unknown planner {name!r} (known: {', '.join(_REGISTRY)})") from None
-    return factory(model, rng)
+    if name in _REGISTRY:
+        return _REGISTRY[name](model, rng)
+    check_planner_name(name)
+    family, _, spec = name.partition(":")
+    return _FAMILIES[family](spec, model, rng)
 
 
 def distances_for(model: Model, scenario: Scenario, agent_xy: Sequence[float],
@@ -90,5 +137,5 @@ def distances_for(model: Model, scenario: Scenario, agent_xy: Sequence[float],
 
 __all__ = ["Candidate", "Decision", "DistanceModel", "DistanceTable", "Planner", "EFEPlanner",
            "FactorisedEFEPlanner", "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
-           "OptimalPlanner", "euclidean_distances", "distances_for", "make_planner",
-           "planner_names"]
+           "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "euclidean_distances",
+           "distances_for", "make_planner", "planner_names", "check_planner_name"]

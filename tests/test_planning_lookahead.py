@@ -1,0 +1,191 @@
+"""The lookahead planner: it reduces to EFE at depth 1 without a rollout, is deterministic, prices a
+re-look under the miss model, conditions exactly like the belief engine, and beats EFE's travel."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fg_tea.beliefs.engine import BeliefEngine
+from fg_tea.env.fake import FakeHouse
+from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+from fg_tea.model import load_model
+from fg_tea.planning import (DistanceTable, LookaheadPlanner, LookaheadSettings, check_planner_name,
+                             make_planner, planner_names)
+from fg_tea.planning.lookahead import build_problem, rollout_values
+from fg_tea.scenario import load_scenario
+from fg_tea.episode.log import encode
+from fg_tea.sweep import world_path
+from fg_tea.worlds import load_world
+from houses import make_scenario
+
+
+def _world(name):
+    return load_world(world_path(name))
+
+
+def _decisions(scenario, model, planner, seed, miss_rate=0.05):
+    env = FakeHouse(scenario, env_config_for(model, detection_miss_rate=miss_rate))
+    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
+    runner.run()
+    env.close()
+    return [(e["object"], e["site"], e["viewpoint_kind"]) for e in runner.log.events
+            if e["event"] == "decision"], runner
+
+
+@pytest.mark.parametrize("model_name", ["factorised_close", "joint_close", "factorised", "joint"])
+@pytest.mark.parametrize("world_seed", [0, 3])
+def test_depth_one_without_rollout_is_efe(model_name, world_seed):
+    """Whole episodes (so many beliefs, close looks and room glances) choose exactly as EFE."""
+    scenario = _world("correlated").sample(world_seed)
+    model = load_model(model_name)
+    efe, _ = _decisions(scenario, model, "efe", world_seed)
+    look, runner = _decisions(scenario, model, "lookahead:depth=1,rollout=none", world_seed)
+    assert look == efe and len(efe) >= 1
+    assert all(e["planner"] == "lookahead" for e in runner.log.events if e["event"] == "decision")
+
+
+def test_depth_one_without_rollout_is_efe_in_a_generated_house():
+    scenario = load_scenario("generated_small")
+    model = load_model("factorised")
+    efe, _ = _decisions(scenario, model, "efe", 1)
+    look, _ = _decisions(scenario, model, "lookahead:depth=1,rollout=none", 1)
+    assert look == efe
+
+
+def _episode_log(planner, model_name="factorised", seed=2):
+    scenario = _world("correlated").sample(seed)
+    model = load_model(model_name)
+    env = FakeHouse(scenario, env_config_for(model, detection_miss_rate=0.05))
+    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
+    runner.run()
+    return "\n".join(encode(e) for e in runner.log.events)
+
+
+@pytest.mark.parametrize("model_name", ["factorised", "joint_close"])
+def test_same_budget_same_log(model_name):
+    a = _episode_log("lookahead:depth=2,width=3,nodes=50", model_name)
+    b = _episode_log("lookahead:depth=2,width=3,nodes=50", model_name)
+    assert a == b
+
+
+def test_decision_record_has_counts_and_values():
+    _, runner = _decisions(_world("correlated").sample(4), load_model("joint"),
+                           "lookahead:depth=2,width=3,nodes=80", 4)
+    decisions = [e for e in runner.log.events if e["event"] == "decision"]
+    assert decisions
+    for e in decisions:
+        info = e["info"]
+        assert info["nodes"] >= 1 and info["leaves"] >= 1 and info["nodes"] <= 80 + 64
+        assert info["best_value"] <= info["second_value"]
+        assert e["total"] == pytest.approx(info["best_value"])
+        assert min(c["total"] for c in e["candidates"]) == pytest.approx(info["best_value"])
+
+
+def _two_site_house():
+    """Two sites 6 m apart; the mug is very probably at `near` (where the agent stands)."""
+    sites = [("near", "kitchen", (0.0, 0.0), {"mug": 0.9}, None),
+             ("far", "kitchen", (6.0, 0.0), {"mug": 0.1}, None),
+             ("farther", "kitchen", (6.0, 3.0), {"mug": 0.05}, None)]
+    return make_scenario(sites, [("mug", "mug", "near")])
+
+
+def _at_near(scenario):
+    names = [s.name for s in scenario.sites]
+    pts = np.array([s.vantage for s in scenario.sites])
+    matrix = np.linalg.norm(pts[:, None] - pts[None], axis=2)
+    return DistanceTable(tuple(names), tuple(matrix[0]), tuple(map(tuple, matrix)))
+
+
+def test_relook_is_preferred_when_the_detector_misses_often():
+    """After one miss at `near`: with mu = 0.6 the mug is still most likely there, so look again;
+    with mu = 1e-3 the re-look (0.144 m) is worth less than its 0.6 % chance of saving the trip."""
+    scenario = _two_site_house()
+    distances = _at_near(scenario)
+    planner = LookaheadPlanner(load_model("factorised_close").planning,
+                               LookaheadSettings(depth=2, width=3))
+    for mu, expected in ((0.6, "near"), (1e-3, "far")):
+        model = load_model("factorised_close").with_overrides(miss_likelihood=mu)
+        belief = BeliefEngine(scenario, model)
+        belief.observe_site("near", {"mug": False})
+        d = planner.choose(belief, ["mug"], {"mug": 1.0}, distances, {"near": 1})
+        assert d.site == expected, (mu, d.candidates)
+    # No flat penalty: the re-look's value is its travel-free look cost plus the expected rest.
+    model = load_model("factorised_close").with_overrides(miss_likelihood=0.6)
+    belief = BeliefEngine(scenario, model)
+    belief.observe_site("near", {"mug": False})
+    d = planner.choose(belief, ["mug"], {"mug": 1.0}, distances, {"near": 5})
+    assert d.site == "near"
+
+
+@pytest.mark.parametrize("model_name", ["factorised_close", "joint_close"])
+def test_tree_conditioning_matches_the_engine(model_name):
+    """A miss conditioned on the truth table gives the engine's hypothetical marginals (eq. 37)."""
+    scenario = _world("correlated").sample(1)
+    model = load_model(model_name)
+    belief = BeliefEngine(scenario, model)
+    objects = list(belief.objects)
+    distances = DistanceTable(tuple(belief.sites), tuple([1.0] * len(belief.sites)),
+                              tuple(tuple(0.0 if i == j else 1.0 for j in range(len(belief.sites)))
+                                    for i in range(len(belief.sites))))
+    problem = build_problem(belief, objects, distances, frozenset(), None, 0.1)
+    miss, _ = belief.hypothetical_all()
+    mu = model.miss_likelihood
+    k = len(belief.sites)
+    for j in range(k):
+        for o in range(len(objects)):
+            lik = np.where(problem.loc[:, o] == j, mu, 1.0)
+            w = problem.p * lik
+            w /= w.sum()
+            for p in range(len(objects)):
+                q = np.bincount(problem.loc[:, p], weights=w, minlength=k)
+                np.testing.assert_allclose(q, miss[o, j, p], atol=1e-12)
+
+
+def test_rollout_value_is_the_exact_cost_of_its_sequence():
+    """One object, close looks: the rollout's value is sum_s c_s P(not found before s)."""
+    scenario = _two_site_house()
+    model = load_model("factorised_close").with_overrides(miss_likelihood=0.2)
+    belief = BeliefEngine(scenario, model)
+    distances = _at_near(scenario)
+    problem = build_problem(belief, ["mug"], distances, frozenset(), None, 0.5)
+    first = np.full(1, -1)
+    value, _ = rollout_values(problem, np.array([-1]), problem.p[None], np.ones((1, 1), bool),
+                              first=first, max_looks=3)
+    q = belief.location("mug")
+    # The sweep: near (0 m), then the better per metre of far / farther, then the last.
+    order = [0] + sorted([1, 2], key=lambda j: -q[j] / distances.between("near", belief.sites[j]))
+    cost, pos, unfound = 0.0, None, 1.0
+    rem = np.ones(3)
+    for j in order:
+        step = (distances.from_agent(belief.sites[j]) if pos is None
+                else distances.between(belief.sites[pos], belief.sites[j])) + 0.5
+        cost += step * (q * rem).sum()
+        rem[j] *= 0.2
+        pos = j
+    assert first[0] == 0
+    assert value[0] == pytest.approx(cost, rel=1e-12)
+
+
+def test_lookahead_travels_less_than_efe_on_paired_worlds():
+    scenario_dist = _world("correlated")
+    model = load_model("factorised_close")
+    totals = {"efe": 0.0, "lookahead": 0.0}
+    for seed in range(6):
+        for planner in totals:
+            _, runner = _decisions(scenario_dist.sample(seed), model, planner, seed)
+            totals[planner] += runner.metrics()["search_distance"]
+    assert totals["lookahead"] < totals["efe"]
+
+
+def test_specs_and_registry():
+    assert "lookahead" in planner_names()
+    check_planner_name("lookahead:depth=3,width=2,rollout=none,nodes=10,look=0")
+    s = LookaheadSettings.parse("depth=3, width=2")
+    assert (s.depth, s.width, s.rollout) == (3, 2, "mppm")
+    for bad in ("lookahead:depth=0", "lookahead:deep=2", "lookahead:depth=two",
+                "lookahead:rollout=random", "lookahead:look=-1", "pouct:0", "pouct:x", "nope:1"):
+        with pytest.raises(ValueError):
+            check_planner_name(bad)
+    planner = make_planner("lookahead:depth=3", load_model("factorised"))
+    assert isinstance(planner, LookaheadPlanner) and planner.settings.depth == 3
