@@ -124,6 +124,9 @@ class EpisodeRunner:
                                      max_reopenings=config.max_reopenings)
         self.planner = make_planner(config.planner, model,
                                     rng=np.random.default_rng([config.seed, 0x9E7]))
+        check_size = getattr(self.planner, "check_size", None)
+        if check_size is not None:  # the optimal planner refuses too large a house up front
+            check_size(len(scenario.sites), len(self.executor.pending_search_objects()))
         self.state = EpisodeState()
         self.views: ViewModel | None = None  # built at start, from the environment's geometry
         self.last_decision = None

@@ -10,7 +10,9 @@ from a model file, so every ablation of section 15.4 is a switch in the TOML, no
 - ``distance = "euclidean"`` selects the distances the caller builds (the planners take any
   :class:`~fg_tea.planning.base.DistanceModel`; :func:`distances_for` picks the right one).
 
-Registry names: ``efe``, ``factorised_efe``, ``nearest``, ``greedy``, ``random``, ``optimal``.
+Registry names: ``efe`` (eqs. 10-11 for factorised beliefs, exact mutual information for joint
+ones), ``factorised_efe`` (eqs. 10-11 always), ``mi_efe`` (exact mutual information always),
+``nearest``, ``greedy``, ``random``, ``optimal``.
 """
 
 from __future__ import annotations
@@ -37,6 +39,9 @@ def _random(model: Model, rng: np.random.Generator | None) -> Planner:
 _REGISTRY: dict[str, Callable[[Model, np.random.Generator | None], Planner]] = {
     "efe": lambda model, rng: EFEPlanner(model.planning),
     "factorised_efe": lambda model, rng: FactorisedEFEPlanner(model.planning),
+    # The exact mutual information of eqs. (38)/(42) whatever the belief's structure, so that
+    # belief structure and information gain can be compared as separate factors.
+    "mi_efe": lambda model, rng: EFEPlanner(model.planning, information="joint"),
     "nearest": lambda model, rng: NearestPlanner(),
     "greedy": lambda model, rng: GreedyProbabilityPlanner(),
     "random": _random,
