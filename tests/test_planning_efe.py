@@ -367,7 +367,7 @@ def test_planners_do_not_mutate_the_belief():
 
 # ------------------------------------------------------------------------------- registry, baselines
 def test_registry_builds_every_planner_from_the_model_file():
-    assert planner_names() == ("efe", "factorised_efe", "nearest", "greedy", "random", "optimal")
+    assert planner_names() == ("efe", "factorised_efe", "mi_efe", "nearest", "greedy", "random", "optimal")
     expectations = {"no_epistemic": ("information_weight", 0.0),
                     "no_relevance": ("relevance_weight", 0.0),
                     "no_repeat_penalty": ("repeat_penalty", 0.0),
