@@ -39,10 +39,14 @@ from fg_tea.files import atomic_path, atomic_write_text
 from fg_tea.sweep import REFUSED, STEP_LIMIT, write_csv_atomic
 
 #: Metrics summarised by default (search travel first: it is what the planners optimise).
-METRICS = ("search_distance", "total_distance", "inspections")
+METRICS = ("search_distance", "total_distance", "inspections", "spl")
+#: The clairvoyant yardstick, summarised beside the metrics (not differenced: it is a property
+#: of the world and the model's viewpoints, not of the search).
+YARDSTICK = "clairvoyant_search_travel"
 #: Human-readable names and units.
 LABELS = {"search_distance": "search travel (m)", "total_distance": "total travel (m)",
-          "inspections": "inspections", "success": "success rate", "repeated_sites": "repeated sites",
+          "inspections": "inspections", "success": "success rate",
+          "spl": "SPL", "clairvoyant_search_travel": "clairvoyant search travel (m)", "repeated_sites": "repeated sites",
           "entropy_reduction_per_inspection": "entropy reduction / inspection (nats)",
           "quality_kl_mean": "KL(joint ‖ factorised) (nats)", "quality_brier_mean": "Brier (mean)",
           "quality_brier_final": "Brier (final)", "quality_ece": "ECE"}
@@ -547,7 +551,7 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
     planners = _order((r["planner"] for r in rows),
                       ("efe", "factorised_efe", "nearest", "greedy", "random", "optimal"))
     ordered = sorted(rows, key=lambda r: (models.index(r["model"]), planners.index(r["planner"]), r["key"]))
-    summary = summary_table(ordered, ("model", "planner"), metrics)
+    summary = summary_table(ordered, ("model", "planner"), metrics + (YARDSTICK,))
     files: dict[str, Path] = {}
     worlds = sorted({(r["world"], r["world_seed"]) for r in rows})
     n_refused = sum(refused(r) for r in rows)
@@ -567,8 +571,12 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
               "",
               "Means with 95 % Student-t confidence intervals (success rate: Wilson interval). "
               "Search travel is the metres walked to inspect sites until every object was found; "
-              "total travel includes making the tea.", "",
-              "## Means per model and planner", "", summary_markdown(summary, metrics=metrics)]
+              "total travel includes making the tea. The clairvoyant search travel is the shortest "
+              "route from the start through viewpoints of the model that see every searched object "
+              "where it truly stands (perfect detection; docs/design.md §11); SPL = clairvoyant ÷ "
+              "max(search travel, clairvoyant) per episode, 0 when an object was never found.", "",
+              "## Means per model and planner", "",
+              summary_markdown(summary, metrics=metrics + (YARDSTICK,))]
     if baseline_model in models and joint_model in models:
         diffs = paired_differences([r for r in ordered if r["model"] in (baseline_model, joint_model)],
                                    "model", baseline_model, metrics + ("success",), by=("planner",))
@@ -605,7 +613,7 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
                   "error.", "",
                   summary_markdown(summary_table(ordered, ("model", "planner"), quality), metrics=quality,
                                    digits=3)]
-    write_csv_atomic(out / "summary.csv", _summary_csv_rows(summary, metrics))
+    write_csv_atomic(out / "summary.csv", _summary_csv_rows(summary, metrics + (YARDSTICK,)))
     files["summary.csv"] = out / "summary.csv"
     files["travel_inspections.png"] = plot_bars(summary, out / "travel_inspections.png",
                                                 ("search_distance", "total_distance", "inspections"),
@@ -623,7 +631,7 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
     return files
 
 
-__all__ = ["METRICS", "LABELS", "PAIR_ON", "Interval", "t_interval", "wilson_interval", "refused",
+__all__ = ["METRICS", "YARDSTICK", "LABELS", "PAIR_ON", "Interval", "t_interval", "wilson_interval", "refused",
            "step_limited", "excluded",
            "summary_table", "paired_differences", "ratio_to_reference", "markdown_table",
            "summary_markdown", "paired_markdown", "ratio_markdown", "save_figure",

@@ -388,6 +388,22 @@ def summary(events: list[dict]) -> str:
             f"{m['actions_skipped']} skipped, in {m['frames']} frames.")
 
 
+def planner_size_fault(planner: str, scenario, graph) -> str | None:
+    """Why `planner` cannot plan in this house for this task graph (too large), or None.
+
+    Only the Bayes-optimal planner has a size limit (docs/design.md §6.5): its first decision
+    plans over every site for every object the task searches for.
+    """
+    if planner != "optimal":
+        return None
+    from fg_tea.planning.optimal import size_fault
+
+    objects = {graph.action(n).object for n in graph.search_nodes()}
+    fault = size_fault(len(scenario.sites), len(objects))
+    return None if fault is None else (f"the Bayes-optimal planner refuses this house: {fault}; "
+                                       "use another planner")
+
+
 #: Every file `fg-tea run` writes into its output folder (stale ones are removed first).
 RUN_OUTPUTS = ("episode.jsonl", "episode.mp4", "timings.json")
 
@@ -415,7 +431,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from fg_tea.tasks.load import load_task
 
     check_scenario(scenario, model)
-    load_task(args.task, model, scenario, args.preparation_site)
+    graph = load_task(args.task, model, scenario, args.preparation_site)
+    fault = planner_size_fault(args.planner, scenario, graph)
+    if fault is not None:  # refused before any log is written
+        raise InputError(scenario.source or scenario.name, f"--planner {args.planner}", fault)
     out = Path(args.out) if args.out else \
         Path("runs") / safe_name(f"{scenario.name}-{model.name}-seed{args.seed}")
     _check_out_dir(out)
@@ -602,17 +621,31 @@ def cmd_compare(args: argparse.Namespace) -> int:
     n_worlds = args.worlds if args.worlds is not None else (10 if args.quick else 200)
     planners = args.planners or list(COMPARE_QUICK_PLANNERS if args.quick else COMPARE_PLANNERS)
     out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-{Path(args.world).stem}")
+    from fg_tea.model import load_model
+    from fg_tea.sweep import check_jobs, model_path, world_path
+    from fg_tea.tasks.load import load_task
+    from fg_tea.worlds import load_world
+
+    check_jobs(plan_sweep([args.world], 1, args.models, planners, first_seed=args.first_seed,
+                          env=args.env))  # unknown worlds, models and planners are named first
+    world = load_world(world_path(args.world))
+    base = world.base if world.base is not None else world.house(args.first_seed)
+    if "optimal" in planners:  # the Bayes-optimal DP's size limit, checked before any episode
+        graph = load_task("make_tea", load_model(model_path(args.models[0])), base)
+        fault = planner_size_fault("optimal", base, graph)
+        if fault is not None and args.planners:
+            where = "its houses" if world.generate is not None else "its house"
+            raise InputError(world.source or args.world, "--planners optimal",
+                             f"{fault} ({where}: {base.name}, world seed {args.first_seed})")
+        if fault is not None:
+            planners = [p for p in planners if p != "optimal"]
+            sys.stderr.write(f"compare: planner optimal left out of the default planners: "
+                             f"{fault.split(': ', 1)[-1].split('; ')[0]} in {base.name}\n")
     _check_out_dir(out)
     jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
                       env=args.env)
     if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
-        from fg_tea.model import load_model
-        from fg_tea.sweep import check_jobs, model_path, world_path
-        from fg_tea.worlds import load_world
-
-        check_jobs(jobs)  # unknown worlds and models are named as such first
-        world = load_world(world_path(args.world))
-        base = world.base if world.base is not None else world.house(0)
+        check_jobs(jobs)
         for ref in args.models:
             check_scenario(base, load_model(model_path(ref)))
     csv_path = out / "episodes.csv"

@@ -146,7 +146,9 @@ OBJECT_TEMPLATES: dict[str, dict] = {
                "state_priors": {"contains_water": 0.35, "water_hot": 0.01}},
     "teabag": {"asset": "teabag", "affordances": ["graspable", "steepable"], "state_priors": {"steeped": 0.02}},
     "milk": {"asset": "milk", "affordances": ["graspable", "pourable"], "state_priors": {}},
-    "sugar": {"asset": "sugar", "affordances": ["graspable"], "state_priors": {}},
+    # Sugar is spooned into the mug by POUR (make_tea_milk_sugar), which needs "pourable", as in
+    # scenarios/milk_sugar_apartment.json.
+    "sugar": {"asset": "sugar", "affordances": ["graspable", "pourable"], "state_priors": {}},
 }
 SEMANTIC_IDS = {"mug": 9001, "kettle": 9002, "teabag": 9003, "milk": 9004, "sugar": 9005}
 

@@ -60,7 +60,7 @@ REFUSED = "refused: "
 STEP_LIMIT = "step_limit: "
 #: Columns of a row that describe the configuration (everything else is an outcome).
 CONFIG_COLUMNS = ("key", "world", "world_seed", "seed", "knobs", "model", "model_ref", "structure",
-                  "planner", "env", "model_overrides", "env_overrides")
+                  "planner", "env", "task", "model_overrides", "env_overrides")
 _CLI = "<sweep>"
 
 
@@ -102,6 +102,7 @@ class Job:
         max_steps: the sweep's own limit on runner steps. The frame limit cannot end an episode
             whose planner re-inspects the site it stands at (zero travel, zero frames) forever;
             such an episode is stopped here and recorded with reason ``"step_limit: ..."``.
+        task: the task graph (bundled name or path), ``make_tea`` by default.
 
     Mappings are stored as sorted tuples of pairs, so jobs are hashable and keys are stable.
     """
@@ -117,6 +118,7 @@ class Job:
     env: str = "pybullet"
     max_frames: int = 50_000
     max_steps: int = 2_000
+    task: str = "make_tea"
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -152,6 +154,8 @@ class Job:
             parts.append(f"frames={self.max_frames}")
         if self.max_steps != 2_000:
             parts.append(f"steps={self.max_steps}")
+        if self.task != "make_tea":
+            parts.append(f"task={self.task}")
         return "|".join(parts)
 
 
@@ -267,7 +271,7 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
                first_seed: int = 0, knobs: Mapping[str, float] | None = None,
                model_overrides: Mapping[str, Any] | None = None,
                env_overrides: Mapping[str, Any] | None = None, env: str = "pybullet",
-               max_frames: int = 50_000, max_steps: int = 2_000) -> list[Job]:
+               max_frames: int = 50_000, max_steps: int = 2_000, task: str = "make_tea") -> list[Job]:
     """The paired job list: every (world, model, planner) solves world seeds first_seed.. first_seed+n-1.
 
     The episode seed equals the world seed, so paired configurations also share sensor noise
@@ -286,6 +290,7 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
         env: ``"pybullet"`` or ``"fake"``.
         max_frames: the frame limit of each episode.
         max_steps: the sweep's step limit of each episode (see :class:`Job`).
+        task: the task graph every job runs.
 
     Returns:
         Jobs ordered by world, world seed, model, planner.
@@ -300,7 +305,7 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
             raise InputError(_CLI, name, "expected at least one")
     return [Job(world=w, world_seed=s, model=m, planner=p, knobs=knobs or {},
                 model_overrides=model_overrides or {}, env_overrides=env_overrides or {},
-                env=env, max_frames=max_frames, max_steps=max_steps)
+                env=env, max_frames=max_frames, max_steps=max_steps, task=task)
             for w in worlds for s in range(first_seed, first_seed + n_worlds)
             for m in models for p in planners]
 
@@ -383,6 +388,7 @@ def run_job(job: Job) -> dict[str, Any]:
         InputError: the job names an unknown world or model.
         ValueError: a fault other than the optimal planner's site limit (a bug, not a result).
     """
+    from fg_tea.episode.metrics import score
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 
     world = _world(job.world, job.knobs)
@@ -390,10 +396,12 @@ def run_job(job: Job) -> dict[str, Any]:
     scenario = world.sample(job.world_seed)
     config = env_config_for(model, **dict(job.env_overrides))
     env = _make_env(job.env, scenario, config)
-    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=job.seed, planner=job.planner,
-                                                            max_frames=job.max_frames))
+    runner = None
     stopped = None
     try:
+        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=job.seed, planner=job.planner,
+                                                                max_frames=job.max_frames,
+                                                                task=job.task))
         for _ in range(job.max_steps):
             runner.step()
             if runner.done:
@@ -407,13 +415,14 @@ def run_job(job: Job) -> dict[str, Any]:
         stopped = REFUSED + " ".join(str(exc).split())
     finally:
         env.close()
-    metrics = runner.metrics()
+    events = runner.events if runner is not None else []
+    metrics = score(events)
     if stopped is not None:
         metrics.update(success=False, reason=stopped)
     row: dict[str, Any] = {
         "key": job.key, "world": world.name, "world_seed": job.world_seed, "seed": job.seed,
         "knobs": _joined(job.knobs), "model": model.name, "model_ref": job.model,
-        "structure": model.structure, "planner": job.planner, "env": job.env,
+        "structure": model.structure, "planner": job.planner, "env": job.env, "task": job.task,
         "model_overrides": _joined(job.model_overrides), "env_overrides": _joined(job.env_overrides),
         "prior_violation": world.prior_violation, "violation": world.violation,
     }
@@ -429,8 +438,9 @@ def run_job(job: Job) -> dict[str, Any]:
         for state, value in sorted(spec.hidden_state_truth.items()):
             row[f"truth_{spec.name}.{state}"] = bool(value)
     row.update(flatten_metrics(metrics))
-    row["entropy_trace"] = ";".join(repr(round(h, 6)) for h in entropy_trace(runner.events))
-    row.update(_quality_columns(runner.events, scenario, job.model_overrides))
+    row["entropy_trace"] = ";".join(repr(round(h, 6)) for h in entropy_trace(events))
+    if events:  # a planner that refused at construction leaves no log to re-score
+        row.update(_quality_columns(events, scenario, job.model_overrides))
     return row
 
 

@@ -75,6 +75,15 @@ class EnvAdapter(abc.ABC):
     def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
         """Go to the site's vantage point, face it, look once, report on `objects` only."""
 
+    def walking_distance(self, target: str, xy: Sequence[float]) -> float:
+        """Metres the agent would walk from floor point `xy` to viewpoint `target`; inf if none.
+
+        The length of the path the agent follows (what an observation's ``distance`` measures),
+        not the planner's estimate. For evaluation only (the clairvoyant yardstick of
+        :mod:`fg_tea.episode.yardstick`); adapters that cannot say raise NotImplementedError.
+        """
+        raise NotImplementedError(f"{type(self).__name__} does not report walking distances")
+
     def inspect_viewpoint(self, viewpoint: str, objects: Sequence[str]) -> InspectionResult:
         """Go to the viewpoint, face each site in view in turn, look, report on `objects` only.
 

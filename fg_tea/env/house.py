@@ -36,7 +36,7 @@ from fg_tea.env._pybullet import pybullet
 from fg_tea.env import assets
 from fg_tea.env.base import EnvConfig
 from fg_tea.interface import Pose
-from fg_tea.env.navigation import Navigator, follow_path, wall_boxes
+from fg_tea.env.navigation import Navigator, follow_path, path_length, wall_boxes
 from fg_tea.env.truth import TruthBackedAdapter, held_position
 from fg_tea.files import atomic_write_text
 from fg_tea.scenario import Scenario
@@ -183,6 +183,13 @@ class PyBulletHouse(TruthBackedAdapter):
 
     def _distance_from(self, k: int, xy: Sequence[float]) -> float:
         return self.navigator.distance(k, xy)
+
+    def _walk_length(self, k: int, xy: Sequence[float]) -> float:
+        vx, vy = self._viewpoints[k].position
+        if math.hypot(vx - xy[0], vy - xy[1]) < 1e-9:  # already there: _go_to does not move
+            return 0.0
+        corners = self.navigator.path(k, xy)
+        return math.inf if corners is None else path_length(corners)
 
     def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
         self._sync()

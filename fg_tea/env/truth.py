@@ -248,6 +248,13 @@ class TruthBackedAdapter(EnvAdapter):
     def _distance_from(self, goal: int, xy: Sequence[float]) -> float:
         """Planner travel distance (m) from floor point `xy` to target `goal`; inf if none."""
 
+    def _walk_length(self, goal: int, xy: Sequence[float]) -> float:
+        """Length (m) of the path :meth:`_route` would follow from `xy` to target `goal`.
+
+        The default is :meth:`_distance_from`, exact for adapters that move in straight lines.
+        """
+        return self._distance_from(goal, xy)
+
     @abc.abstractmethod
     def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
         """Segmentation pixels n_o [28] of each object, looking at site k from the current pose."""
@@ -301,6 +308,9 @@ class TruthBackedAdapter(EnvAdapter):
             vx, vy = self._viewpoints[kb].position
             return math.hypot(vx - start[0], vy - start[1])
         return self._distance_from(kb, start)
+
+    def walking_distance(self, target: str, xy: Sequence[float]) -> float:
+        return float(self._walk_length(self._target_index(target), xy))
 
     def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
         return self.inspect_viewpoint(site, objects)

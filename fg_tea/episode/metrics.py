@@ -80,6 +80,25 @@ def believed_goals_true(events: list[dict]) -> bool | None:
     return all(bool(truth.get(state, False)) for state in goals)
 
 
+def clairvoyant_search_travel(events: list[dict]) -> float | None:
+    """Metres of the clairvoyant route (``episode_end.yardstick``; docs/design.md §11), or None."""
+    end = next(iter_events(events, "episode_end"), None)
+    value = ((end or {}).get("yardstick") or {}).get("clairvoyant_search_travel")
+    return None if value is None else float(value)
+
+
+def search_spl(events: list[dict]) -> float | None:
+    """SPL of the search: clairvoyant ÷ max(search travel, clairvoyant); 0 if an object was never found.
+
+    The search succeeded when every searched object was found; the episode's own ``success``
+    (the task finished) is reported separately. None when the log has no yardstick.
+    """
+    from fg_tea.episode.yardstick import spl
+
+    found_all = all(n is not None for n in inspections_until_resolved(events).values())
+    return spl(found_all, search_distance(events), clairvoyant_search_travel(events))
+
+
 def _mean(values: Iterable[float]) -> float | None:
     values = list(values)
     return sum(values) / len(values) if values else None
@@ -101,6 +120,8 @@ def score(events: list[dict]) -> dict:
         "goals_true": believed_goals_true(events),
         "total_distance": round(total_distance(events), 6),
         "search_distance": round(search_distance(events), 6),
+        "clairvoyant_search_travel": clairvoyant_search_travel(events),
+        "spl": None if (value := search_spl(events)) is None else round(value, 9),
         "inspections": inspections(events),
         "inspections_until_resolved": inspections_until_resolved(events),
         "entropy_reduction_per_inspection": None if not reductions else round(_mean(reductions), 9),

@@ -124,11 +124,17 @@ class EpisodeRunner:
                                      max_reopenings=config.max_reopenings)
         self.planner = make_planner(config.planner, model,
                                     rng=np.random.default_rng([config.seed, 0x9E7]))
+        check_size = getattr(self.planner, "check_size", None)
+        if check_size is not None:  # the optimal planner refuses too large a house up front
+            check_size(len(scenario.sites), len(self.executor.pending_search_objects()))
         self.state = EpisodeState()
         self.views: ViewModel | None = None  # built at start, from the environment's geometry
         self.last_decision = None
         self._seen_executor_events = 0
         self._started = False
+        # For the clairvoyant yardstick only (written in episode_end, never read by the agent):
+        # the start floor point and the objects' true start sites, as the environment reports them.
+        self._yardstick_start: tuple[tuple[float, float], dict] | None = None
 
     # ------------------------------------------------------------------ properties
     @property
@@ -172,6 +178,11 @@ class EpisodeRunner:
             categories = sorted({self.scenario.object(o).category for o in self.belief.objects})
             expected = self.env.expected_pixel_counts(categories)
         self.views = ViewModel(self.scenario, model, self.belief.objects, expected)
+        self._yardstick_start = ((pose.x, pose.y), dict(self.env.truth_report().get("sites") or {}))
+        viewpoints = [{"name": v.name, "kind": v.kind, "position": list(v.position),
+                       "sites": list(v.sites), "room": v.room}
+                      for v in self.scenario.viewpoints if v.name in self.views.names]
+        self._viewpoints_logged = viewpoints
         return self._write({
             "event": "episode_start",
             "scenario": self.scenario.name, "scenario_file": self.scenario.source,
@@ -192,9 +203,7 @@ class EpisodeRunner:
                            "transition_form": model.transition_form},
             "sites": [{"name": s.name, "room": s.room, "vantage": list(s.vantage),
                        "position": list(s.position)} for s in self.scenario.sites],
-            "viewpoints": [{"name": v.name, "kind": v.kind, "position": list(v.position),
-                            "sites": list(v.sites), "room": v.room}
-                           for v in self.scenario.viewpoints if v.name in self.views.names],
+            "viewpoints": viewpoints,
             "objects": list(self.scenario.object_names),
             "searched": self.executor.pending_search_objects(),
             "graph": self.graph.to_json(),
@@ -394,10 +403,38 @@ class EpisodeRunner:
                "gtsam_agreement": self._gtsam_agreement(),
                # The world as it truly ended, for evaluation only: written after the agent's
                # last decision, never read by the agent side.
-               "world_truth": self.env.truth_report()}
+               "world_truth": self.env.truth_report(),
+               # The clairvoyant yardstick (fg_tea.episode.yardstick), for evaluation only.
+               "yardstick": self._yardstick()}
         self._write(end)
         # Metrics are a pure function of the events above; logged once more for convenience.
         self._write({"event": "metrics", **score(self.log.events)})
+
+
+    def _yardstick(self) -> dict | None:
+        """The clairvoyant route for this episode's searched objects, or None if unknown."""
+        if self._yardstick_start is None:
+            return None
+        from fg_tea.episode.yardstick import clairvoyant_report
+
+        start_xy, true_sites = self._yardstick_start
+        start = next((e for e in self.log.events if e.get("event") == "episode_start"), {})
+        objects = list(start.get("searched") or [])
+        if not true_sites or any(o not in true_sites for o in objects):
+            return None
+        viewpoints = self._viewpoints_logged
+        positions = {v["name"]: v["position"] for v in viewpoints}
+        walk = self.env.walking_distance
+        try:
+            report = clairvoyant_report(viewpoints, true_sites, objects,
+                                        lambda v: walk(v, start_xy),
+                                        lambda a, b: walk(b, positions[a]), start_xy)
+        except NotImplementedError:
+            return None
+        travel = report["clairvoyant_search_travel"]
+        if travel is not None:
+            report["clairvoyant_search_travel"] = round(travel, 6)
+        return report
 
 
 def _env_params(config: EnvConfig) -> dict:

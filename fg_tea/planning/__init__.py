@@ -10,7 +10,9 @@ from a model file, so every ablation (docs/design.md §11) is a switch in the TO
 - ``distance = "euclidean"`` selects the distances the caller builds (the planners take any
   :class:`~fg_tea.planning.base.DistanceModel`; :func:`distances_for` picks the right one).
 
-Registry names: ``efe``, ``factorised_efe``, ``nearest``, ``greedy``, ``random``, ``optimal``,
+Registry names: ``efe`` (eqs. 10-11 for factorised beliefs, exact mutual information for joint
+ones), ``factorised_efe`` (eqs. 10-11 always), ``mi_efe`` (exact mutual information always),
+``nearest``, ``greedy``, ``random``, ``optimal``,
 ``lookahead``, and, when pomdp-py (the optional ``[peers]`` extra) is installed, the peers
 ``pouct:100``, ``pouct:1000``, ``pomcp:1000``. Families take settings after a colon: ``lookahead:depth=2,width=4``
 (:class:`~fg_tea.planning.lookahead.LookaheadSettings`), ``pouct:N`` and ``pomcp:N`` (N
@@ -34,6 +36,15 @@ from fg_tea.planning.optimal import OptimalPlanner
 from fg_tea.scenario import Scenario
 
 
+class MutualInformationEFEPlanner(EFEPlanner):
+    """EFE with the exact mutual information of eqs. (38)/(42) whatever the belief's structure."""
+
+    name = "mi_efe"
+
+    def __init__(self, weights) -> None:
+        super().__init__(weights, information="joint")
+
+
 def _random(model: Model, rng: np.random.Generator | None) -> Planner:
     if rng is None:
         raise ValueError("planner 'random' needs a numpy.random.Generator (pass rng=...)")
@@ -43,6 +54,9 @@ def _random(model: Model, rng: np.random.Generator | None) -> Planner:
 _REGISTRY: dict[str, Callable[[Model, np.random.Generator | None], Planner]] = {
     "efe": lambda model, rng: EFEPlanner(model.planning),
     "factorised_efe": lambda model, rng: FactorisedEFEPlanner(model.planning),
+    # The exact mutual information of eqs. (38)/(42) whatever the belief's structure, so that
+    # belief structure and information gain can be compared as separate factors.
+    "mi_efe": lambda model, rng: MutualInformationEFEPlanner(model.planning),
     "nearest": lambda model, rng: NearestPlanner(),
     "greedy": lambda model, rng: GreedyProbabilityPlanner(),
     "random": _random,
@@ -136,6 +150,7 @@ def distances_for(model: Model, scenario: Scenario, agent_xy: Sequence[float],
 
 
 __all__ = ["Candidate", "Decision", "DistanceModel", "DistanceTable", "Planner", "EFEPlanner",
-           "FactorisedEFEPlanner", "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
+           "FactorisedEFEPlanner", "MutualInformationEFEPlanner",
+           "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
            "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "euclidean_distances",
            "distances_for", "make_planner", "planner_names", "check_planner_name"]

@@ -57,6 +57,22 @@ MAX_SITES = 10
 MAX_TRUTHS = 20_000
 
 
+def size_fault(n_sites: int, n_objects: int, max_sites: int = MAX_SITES,
+               max_truths: int = MAX_TRUTHS) -> str | None:
+    """Why a search over `n_sites` open sites for `n_objects` objects is too large, or None.
+
+    The first decision of an episode plans over every site and every object still to find, so
+    this checks, before an episode starts, the largest problem the planner will be asked.
+    """
+    if n_sites > max_sites:
+        return (f"{n_sites} sites exceed the limit of {max_sites} (exact DP over inspection "
+                f"orders visits 2^{n_sites} site subsets)")
+    if n_sites ** n_objects > max_truths:
+        return (f"{n_objects} objects over {n_sites} sites give {n_sites ** n_objects:,} hidden "
+                f"truths, more than the limit of {max_truths:,}")
+    return None
+
+
 def truth_table(belief, objects: Sequence[str], eligible: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
     """The hidden truths the DP ranges over and their probabilities.
 
@@ -167,6 +183,16 @@ class OptimalPlanner:
         self.max_sites = int(max_sites)
         self.max_truths = int(max_truths)
 
+    def check_size(self, n_sites: int, n_objects: int) -> None:
+        """Refuse, before an episode starts, a house too large for the DP.
+
+        Raises:
+            ValueError: ``"optimal planner: ..."`` with :func:`size_fault`'s reason.
+        """
+        fault = size_fault(n_sites, n_objects, self.max_sites, self.max_truths)
+        if fault is not None:
+            raise ValueError(f"optimal planner: {fault}; use another planner")
+
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
                excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
@@ -220,4 +246,4 @@ class OptimalPlanner:
         return Decision(best.object, best.site, best.total, tuple(candidates), self.name, info)
 
 
-__all__ = ["OptimalPlanner", "expected_travel_table", "truth_table", "MAX_SITES", "MAX_TRUTHS"]
+__all__ = ["OptimalPlanner", "expected_travel_table", "truth_table", "size_fault", "MAX_SITES", "MAX_TRUTHS"]

@@ -1,0 +1,107 @@
+"""The comparison at scale and the generated-house quick compare: SPL columns, tables, resume."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from fg_tea.sweep import read_rows
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _run(*argv: str, timeout: int = 600) -> subprocess.CompletedProcess:
+    proc = subprocess.run([sys.executable, *argv], capture_output=True, text=True, timeout=timeout,
+                          stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return proc
+
+
+def _check_spl(rows):
+    assert rows and all("clairvoyant_search_travel" in r and "spl" in r for r in rows)
+    for r in rows:
+        assert r["clairvoyant_search_travel"] > 0
+        assert 0.0 <= r["spl"] <= 1.0
+
+
+def test_compare_at_scale_tiny_fake_run_writes_every_table_and_resumes(tmp_path):
+    args = ("experiments/compare_at_scale.py", "--table", "houses", "--worlds", "2", "--sizes", "small",
+            "--tasks", "make_tea", "--planners", "factorised_efe", "mi_efe", "nearest", "--env", "fake",
+            "--backend", "serial", "--timing-worlds", "1", "--out", str(tmp_path))
+    _run(*args)
+    rows = read_rows(tmp_path / "episodes.csv")
+    assert len(rows) == 2 * 2 * 3  # worlds x {factorised, joint} x planners
+    assert {r["structure"] for r in rows} == {"factorised", "joint"}
+    _check_spl(rows)
+    text = (tmp_path / "houses.md").read_text()
+    assert "joint − factorised" in text and "exact MI" in text and "eqs. 10-11" in text
+    assert "median ms" in text and (tmp_path / "houses_heatmap.png").stat().st_size > 0
+    with (tmp_path / "houses_paired.csv").open(newline="") as fh:
+        paired = list(csv.DictReader(fh))
+    assert {r["planner"] for r in paired} == {"factorised_efe", "mi_efe", "nearest"}
+    assert all(r["pairs"] == "2" for r in paired)
+    before = (tmp_path / "episodes.csv").read_bytes()
+    _run(*args[:-4], "--timing-worlds", "0", "--out", str(tmp_path))
+    assert "for 0 new episodes" in (tmp_path / "houses.md").read_text()  # nothing ran again
+    assert (tmp_path / "episodes.csv").read_bytes() == before
+
+
+def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
+    _run("experiments/compare_at_scale.py", "--table", "detectability", "--worlds", "2", "--sizes",
+         "small", "--half-pixels", "25", "100", "--strengths", "0", "1", "--planners", "nearest",
+         "--env", "fake", "--backend", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
+    from fg_tea.model import load_model
+
+    model = load_model(tmp_path / "models" / "joint_n50_25.toml")
+    assert model.structure == "joint" and model.camera_curve.params("teabag").half_pixels == 25.0
+    assert model.detection_curve.params("teabag").half_pixels == 25.0
+    rows = read_rows(tmp_path / "episodes.csv")
+    assert len(rows) == 2 * 2 * 2 * 2  # worlds x models x n_50 x strengths
+    assert sorted({round(r["same_site_teabag_kettle"], 9) for r in rows}) == [0.0, round(2 / 3, 9)]
+    _check_spl(rows)
+    assert "| small | 25.0 | 0.0 |" in (tmp_path / "detectability.md").read_text()
+
+
+def test_generated_medium_quick_compare_fake_has_spl_and_no_optimal(tmp_path):
+    proc = _run("-m", "fg_tea.cli", "compare", "--world", "generated_medium", "--quick", "--worlds", "2",
+                "--env", "fake", "--backend", "serial", "--out", str(tmp_path))
+    assert "planner optimal left out" in proc.stderr
+    rows = read_rows(tmp_path / "episodes.csv")
+    assert "optimal" not in {r["planner"] for r in rows}
+    _check_spl(rows)
+    assert "SPL" in (tmp_path / "summary.md").read_text()
+
+
+def test_compare_refuses_optimal_on_a_large_world_before_any_work(tmp_path):
+    out = tmp_path / "never"
+    proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", "compare", "--world", "generated_medium",
+                           "--planners", "efe", "optimal", "--worlds", "1", "--out", str(out)],
+                          capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "optimal" in lines[0] and "sites exceed the limit of 10" in lines[0]
+    assert not out.exists()
+
+
+def test_run_refuses_optimal_on_a_large_house_before_writing_a_log(tmp_path):
+    out = tmp_path / "run"
+    proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", "run", "generated_medium", "--planner",
+                           "optimal", "--no-video", "--out", str(out)],
+                          capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "Bayes-optimal planner refuses" in proc.stderr
+    assert not (out / "episode.jsonl").exists()
+
+
+@pytest.mark.slow
+def test_generated_medium_quick_compare_in_the_pybullet_house(tmp_path):
+    """The CI command itself: 10 worlds x 2 models x the quick planners that fit (no optimal)."""
+    _run("-m", "fg_tea.cli", "compare", "--world", "generated_medium", "--quick", "--out", str(tmp_path),
+         timeout=1200)
+    rows = read_rows(tmp_path / "episodes.csv")
+    assert len(rows) == 10 * 2 * 3 and "optimal" not in {r["planner"] for r in rows}
+    _check_spl(rows)
