@@ -153,9 +153,13 @@ def test_optimal_is_never_worse_over_all_hidden_truths(seed, n_sites, joint):
     joint_table = belief.location_joint()
     expected = {}
     for name in planner_names():
-        planner = make_planner(name, model, np.random.default_rng(seed))
         total = 0.0
         for a, b in itertools.product(range(n_sites), repeat=2):
+            # A fresh planner with the same seed for every truth: a stochastic planner (random,
+            # POUCT) then follows one policy, a function of what it has observed. Sharing one
+            # generator across truths would let its draws differ per truth, a different policy
+            # for each, whose weighted sum can fall below the optimum by luck.
+            planner = make_planner(name, model, np.random.default_rng(seed))
             weight = joint_table[a, b]
             truth = {"mug": scenario.site_names[a], "teabag": scenario.site_names[b]}
             total += weight * simulate(planner, belief, truth, dist, objects)
