@@ -158,48 +158,37 @@ class Job:
 # ---------------------------------------------------------------------------------- resolving
 def ablation_names() -> tuple[str, ...]:
     """Names of the bundled ablation models (``models/ablations/*.toml``), sorted."""
-    from fg_tea.resources import bundled
+    from fg_tea.resources import bundled_names
 
-    return tuple(p.stem for p in bundled("models/ablations", ".toml"))
+    return tuple(bundled_names("ablations"))
 
 
 def model_names() -> tuple[str, ...]:
     """Names of the bundled models (``models/*.toml``), sorted."""
-    from fg_tea.resources import bundled
+    from fg_tea.resources import bundled_names
 
-    return tuple(p.stem for p in bundled("models", ".toml"))
+    return tuple(bundled_names("models"))
 
 
 def world_names() -> tuple[str, ...]:
     """Names of the bundled world distributions (``scenarios/worlds/*.json``), sorted."""
-    from fg_tea.resources import bundled
+    from fg_tea.resources import bundled_names
 
-    return tuple(p.stem for p in bundled("scenarios/worlds", ".json"))
+    return tuple(bundled_names("worlds"))
 
 
 def world_path(ref: str) -> Path:
     """The file of a world reference: a bundled world distribution or a path."""
-    from fg_tea.resources import _resolve
+    from fg_tea.resources import resolve_world
 
-    return _resolve(ref, "scenarios/worlds", ".json")
+    return resolve_world(ref)
 
 
 def model_path(ref: str) -> Path:
     """The file of a model reference: a bundled model, a bundled ablation, or a path."""
-    from fg_tea.resources import data_dir, resolve_model
+    from fg_tea.resources import resolve_model
 
-    path = resolve_model(ref)
-    if path.exists():
-        return path
-    path_ref = Path(ref)
-    if not path_ref.suffix and len(path_ref.parts) == 1:
-        try:
-            candidate = data_dir("models/ablations") / f"{ref}.toml"
-        except FileNotFoundError:
-            return path
-        if candidate.exists():
-            return candidate
-    return path
+    return resolve_model(ref)
 
 
 @lru_cache(maxsize=64)

@@ -260,7 +260,7 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
 
 def load_world(path: str | Path) -> WorldDistribution:
     """Load a world distribution (a path, or the name of a bundled one in scenarios/worlds)."""
-    from fg_tea.resources import _resolve
+    from fg_tea.resources import resolve_world
 
-    path = _resolve(path, "scenarios/worlds", ".json")
+    path = resolve_world(path)
     return parse_world(read_json(path), path)
