@@ -654,7 +654,7 @@ def _ray(jobs: Sequence[Job], workers: int | None, address: str | None) -> Itera
     try:
         import ray
     except ImportError:
-        raise InputError("<command line>", "--backend ray", "Ray is not installed; install it with "
+        raise InputError("<command line>", "--executor ray", "Ray is not installed; install it with "
                          "pip install -e \".[ray]\" (or pip install \"ray[default]>=2.9\")") from None
     import logging
 
@@ -717,13 +717,19 @@ _BACKENDS: dict[str, Callable[[Sequence[Job], int | None, str | None], Iterator[
 def add_execution_arguments(parser, csv_name: str) -> None:
     """Add the options every sweep shares to an argparse parser: where and how jobs run.
 
-    ``--backend``, ``--address``, ``--workers``, ``--env`` and ``--resume/--no-resume``, with
-    `csv_name` (e.g. ``episodes.csv``) named in the resume help.
+    ``--executor`` (``--backend``, its deprecated alias), ``--address``, ``--workers``, ``--env``
+    and ``--resume/--no-resume``, with `csv_name` (e.g. ``episodes.csv``) named in the resume help.
+    The executor lands in ``args.executor``.
     """
     import argparse
 
-    parser.add_argument("--backend", choices=BACKENDS, default="process",
-                        help="serial, a process pool over every core, or Ray (default: %(default)s)")
+    from fg_tea.cli import DeprecatedAlias
+
+    parser.add_argument("--executor", choices=BACKENDS, default="process",
+                        help="job runner: serial, a process pool over every core, or Ray "
+                        "(default: %(default)s)")
+    parser.add_argument("--backend", dest="executor", choices=BACKENDS, action=DeprecatedAlias,
+                        new="--executor")
     parser.add_argument("--address", default=None,
                         help="Ray cluster address (default: a local Ray instance)")
     parser.add_argument("--workers", type=int, default=0,
@@ -768,7 +774,7 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
         SweepError: a job failed; the rows finished before it are kept for a resume.
     """
     if backend not in _BACKENDS:
-        raise InputError("<command line>", "--backend", f"unknown backend {backend!r} "
+        raise InputError("<command line>", "--executor", f"unknown executor {backend!r} "
                          f"(known: {', '.join(BACKENDS)})")
     unique = list({job.key: job for job in jobs}.values())
     check_jobs(unique)

@@ -306,7 +306,7 @@ class PyBulletHouse(TruthBackedAdapter):
         return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:32]
 
     def _sync(self) -> None:
-        held = self._truth.held if self._truth is not None else None
+        held = self._truth.held if hasattr(self, "_truth") else None
         moving = {held, *self._truth.contents_of(held)} if held is not None else set()
         for name, body in self._bodies.items():
             yaw = self._pose.yaw_deg if name in moving else 0.0
