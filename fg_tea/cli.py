@@ -705,7 +705,7 @@ def cmd_house(args: argparse.Namespace) -> int:
 
     objects = [o.strip() for o in args.objects.split(",") if o.strip()]
     try:
-        objects = check_arguments(args.rooms, args.seed, objects)
+        objects = list(check_arguments(args.rooms, args.seed, objects))
     except ValueError as exc:
         field, _, fault = str(exc).partition(": ")
         raise InputError("<command line>", f"--{field}", fault) from None

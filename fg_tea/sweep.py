@@ -286,8 +286,9 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
     for name, values in (("worlds", worlds), ("models", models), ("planners", planners)):
         if not values:
             raise InputError(_CLI, name, "expected at least one")
-    return [Job(world=w, world_seed=s, model=m, planner=p, knobs=knobs or {},
-                model_overrides=model_overrides or {}, env_overrides=env_overrides or {},
+    return [Job(world=w, world_seed=s, model=m, planner=p, knobs=_pairs(knobs, "knobs"),
+                model_overrides=_pairs(model_overrides, "model_overrides"),
+                env_overrides=_pairs(env_overrides, "env_overrides"),
                 env=env, max_frames=max_frames, max_steps=max_steps)
             for w in worlds for s in range(first_seed, first_seed + n_worlds)
             for m in models for p in planners]
@@ -378,7 +379,8 @@ def run_job(job: Job) -> dict[str, Any]:
     scenario = world.sample(job.world_seed)
     config = env_config_for(model, **dict(job.env_overrides))
     env = _make_env(job.env, scenario, config)
-    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=job.seed, planner=job.planner,
+    seed = job.world_seed if job.seed is None else job.seed  # Job fills it in; for the type checker
+    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=job.planner,
                                                             max_frames=job.max_frames))
     stopped = None
     try:
@@ -536,7 +538,7 @@ class CsvSink:
         elif self.path.exists():
             self.path.unlink()
         self.resumed = len(self.rows)
-        self._fh = None
+        self._fh: io.TextIOWrapper | None = None
 
     def done(self, key: str) -> bool:
         return key in self.rows

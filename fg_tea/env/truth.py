@@ -613,6 +613,7 @@ class TruthBackedAdapter(EnvAdapter):
     def _travelled(self, frames: Sequence[Pose]) -> float:
         """Path length (m) of `frames`, starting from the pose the current call began at."""
         total, prev = 0.0, self._start
+        assert prev is not None, "set when the current call began"
         for pose in frames:
             total += math.hypot(pose.x - prev.x, pose.y - prev.y)
             prev = pose

@@ -103,7 +103,7 @@ def score(events: list[dict]) -> dict:
         "search_distance": round(search_distance(events), 6),
         "inspections": inspections(events),
         "inspections_until_resolved": inspections_until_resolved(events),
-        "entropy_reduction_per_inspection": None if not reductions else round(_mean(reductions), 9),
+        "entropy_reduction_per_inspection": None if not reductions else round(sum(reductions) / len(reductions), 9),
         "repeated_sites": repeated_sites(events),
         "skipped_actions": skipped_actions(events),
         "state_readings": sum(1 for _ in iter_events(events, "state_reading")),

@@ -102,7 +102,7 @@ def factorised_information_gain(q: np.ndarray, mu: float) -> np.ndarray:
 
 
 def joint_information_gain(joint: np.ndarray, unresolved: Sequence[int], mu: float, fp: float,
-                           sites: Sequence[int] | None = None) -> np.ndarray:
+                           sites: Sequence[int] | np.ndarray | None = None) -> np.ndarray:
     """Exact I(o, j) = H(L_o) + H(D_j) - H(L_o, D_j) over the joint outcome of one inspection.
 
     Args:
@@ -307,10 +307,10 @@ class EFEPlanner:
                       for i, o in enumerate(objects) for j in eligible]
         sub = total[:, eligible]
         i, jj = np.unravel_index(int(np.argmin(sub)), sub.shape)  # first minimum: object, then site
-        info = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
+        info: dict[str, float | str] = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
                 "w_e": w.information_weight, "w_a": w.repeat_penalty, "lambda": w.relevance_weight,
                 "distance": str(getattr(distances, "kind", w.distance))}
-        return Decision(objects[i], sites[eligible[jj]], float(sub[i, jj]), tuple(candidates),
+        return Decision(objects[int(i)], sites[eligible[int(jj)]], float(sub[i, jj]), tuple(candidates),
                         self.name, info)
 
 
@@ -347,7 +347,7 @@ class EFEPlanner:
             miss = np.ones((n, k))
             miss[:, list(v.sites)] = v.miss[obj_idx]
             find[:, c], factorised = view_factorised_information_gain(q, prob, miss, views.max_probability)
-            if mode == "joint":
+            if joint is not None:  # mode == "joint"
                 gain[:, c] = view_joint_information_gain(joint, obj_idx, v.sites,
                                                          v.probability[obj_idx], fp)
             else:
@@ -364,8 +364,8 @@ class EFEPlanner:
                                 int(counts[c]), float(r[i]), float(base[i, c]), float(total[i, c]),
                                 v.kind)
                       for i, o in enumerate(objects) for c, v in enumerate(eligible)]
-        i, c = np.unravel_index(int(np.argmin(total)), total.shape)
-        info = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
+        i, c = (int(x) for x in np.unravel_index(int(np.argmin(total)), total.shape))
+        info: dict[str, float | str] = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
                 "w_e": w.information_weight, "w_a": w.repeat_penalty, "lambda": w.relevance_weight,
                 "distance": str(getattr(distances, "kind", w.distance)), "viewpoints": m}
         return Decision(objects[i], eligible[c].name, float(total[i, c]), tuple(candidates),
