@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
                                        + [a for a in bundled if a not in ORIGINAL])
         out = Path(args.out)
         jobs = plan_sweep([args.world], args.worlds, [args.full, *ablations], [args.planner], env=args.env)
-        rows = run_sweep(jobs, out / "ablations.csv", args.backend, workers=args.workers or None,
+        rows = run_sweep(jobs, out / "ablations.csv", args.executor, workers=args.workers or None,
                          address=args.address, resume=args.resume, label="ablations")
         command = shlex.join(["python", "experiments/ablations.py", "--worlds", str(args.worlds),
                               "--world", args.world, "--planner", args.planner, "--ablations", *ablations,

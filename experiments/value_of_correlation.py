@@ -103,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
         plan = {(name, v): sweep_jobs(name, v, args.world, args.worlds, models, args.planner, args.env)
                 for name in args.sweeps for v in grid[name]}
         rows = run_sweep([j for jobs in plan.values() for j in jobs], out / "value_of_correlation.csv",
-                         args.backend, workers=args.workers or None, address=args.address,
+                         args.executor, workers=args.workers or None, address=args.address,
                          resume=args.resume, label="value of correlation")
     except InputError as exc:
         print(f"value_of_correlation: error: {exc}", file=sys.stderr)

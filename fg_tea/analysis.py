@@ -74,7 +74,7 @@ class Interval:
         return f"{self.mean:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"
 
 
-def t_interval(values: Iterable[float], confidence: float = 0.95) -> Interval:
+def t_interval(values: Iterable[float | None], confidence: float = 0.95) -> Interval:
     """Mean and two-sided Student-t confidence interval of a sample.
 
     Args:
@@ -255,8 +255,8 @@ def ratio_to_reference(rows: Sequence[Mapping[str, Any]], vary: str = "planner",
         ref = table[reference]
         for other in table:  # first-appearance order
             common = [pk for pk in ref if pk in table[other]]
-            pairs = [(_num(ref[pk].get(metric)), _num(table[other][pk].get(metric))) for pk in common]
-            pairs = [(x, y) for x, y in pairs if x is not None and y is not None]
+            raw = [(_num(ref[pk].get(metric)), _num(table[other][pk].get(metric))) for pk in common]
+            pairs = [(x, y) for x, y in raw if x is not None and y is not None]
             zero = sum(1 for x, _ in pairs if x == 0)
             entry: dict[str, Any] = dict(zip(by, key))
             entry.update({vary: other, "reference": reference, "pairs": len(pairs), "zero_reference": zero,

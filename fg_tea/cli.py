@@ -11,7 +11,7 @@ import math
 import os
 import sys
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Any, Callable, NoReturn, Sequence
 
 from fg_tea.errors import InputError
 from fg_tea.files import atomic_path, atomic_write_text
@@ -28,11 +28,48 @@ def _command(name: str):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports usage faults in one line with exit status 2."""
+    """argparse that reports usage faults in one line with exit status 2, and notes the use of
+    deprecated option names (one line each) only once the whole command line has parsed."""
 
-    def error(self, message: str) -> None:  # noqa: D401 - argparse API
+    def error(self, message: str) -> NoReturn:  # noqa: D401 - argparse API
         sys.stderr.write(f"fg-tea: error: {message}\n")
         raise SystemExit(2)
+
+    def parse_known_args(self, args=None, namespace=None):  # noqa: ANN001 - argparse API
+        parsed, extra = super().parse_known_args(args, namespace)
+        for note in getattr(parsed, DeprecatedAlias.NOTES, []):
+            sys.stderr.write(f"fg-tea: note: {note}\n")
+        if hasattr(parsed, DeprecatedAlias.NOTES):
+            delattr(parsed, DeprecatedAlias.NOTES)
+        return parsed, extra
+
+
+class DeprecatedAlias(argparse.Action):
+    """An old option name kept for one release: stores into the new option's destination and
+    leaves a one-line deprecation note (printed by the fg-tea parser after parsing succeeds, or at
+    once by any other parser).
+
+    Add it with ``default=argparse.SUPPRESS`` so that the new option's default stands.
+    """
+
+    NOTES = "_deprecation_notes"
+
+    def __init__(self, option_strings: Sequence[str], dest: str, new: str = "", **kwargs: Any) -> None:
+        self.new = new
+        kwargs.setdefault("help", f"deprecated alias of {new}")
+        kwargs.setdefault("default", argparse.SUPPRESS)
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:
+        setattr(namespace, self.dest, values)
+        note = f"{option_string} is deprecated; use {self.new}"
+        if isinstance(parser, _Parser):
+            notes = getattr(namespace, self.NOTES, [])
+            if note not in notes:
+                setattr(namespace, self.NOTES, notes + [note])
+        else:
+            sys.stderr.write(f"note: {note}\n")
 
 
 def _integer(lo: int, hi: int | None = None):
@@ -89,7 +126,7 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     model = load_model(args.model)
     try:
-        belief = BeliefEngine(scenario, model, backend=args.backend)
+        belief = BeliefEngine(scenario, model, backend=args.solver)
     except ValueError as exc:
         raise InputError(scenario.source or "<scenario>", "$.objects",
                          f"with model {model.name!r}: {exc}") from None
@@ -167,8 +204,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from fg_tea.model import load_model, parse_model
     from fg_tea.scenario import load_scenario, parse_scenario
 
-    for name in args.files:
-        path = Path(name)
+    for path in [p for name in args.files for p in _validate_targets(name)]:
         data = None if path.suffix == ".toml" else read_json(path)
         kind = file_kind(path, data)
         if kind == "model":
@@ -441,7 +477,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     _remove_outputs(out, RUN_OUTPUTS)
     config = RunConfig(seed=args.seed, planner=args.planner, task=args.task,
                        preparation_site=args.preparation_site, max_frames=args.max_frames,
-                       belief_backend=args.backend)
+                       belief_backend=args.solver)
     env = PyBulletHouse(scenario, env_config_for(model, failure_rates=rates,
                                                  min_visible_pixels=args.min_visible_pixels
                                                  if args.min_visible_pixels is not None
@@ -562,7 +598,7 @@ def _add_run_parsers(sub) -> None:
     p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)")
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                    help="scenario file or bundled name (default: %(default)s)")
-    p.add_argument("--model", default=DEFAULT_MODEL, help="model file or bundled name (default: %(default)s)")
+    p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
     p.add_argument("--seed", type=_integer(0, MAX_SEED), default=0, help="episode seed (default: %(default)s)")
     p.add_argument("--out", help="output folder (default: runs/SCENARIO-MODEL-seedN)")
     p.add_argument("--no-video", action="store_true", help="headless: write the log only")
@@ -572,8 +608,7 @@ def _add_run_parsers(sub) -> None:
                    help="search planner (default: %(default)s)")
     p.add_argument("--task", default="make_tea", help="task file or bundled name (default: %(default)s)")
     p.add_argument("--preparation-site", help="site where the tea is made (default: the scenario's)")
-    p.add_argument("--backend", choices=("numpy", "gtsam"), default="numpy",
-                   help="exact belief solver (default: %(default)s)")
+    _add_solver_argument(p)
     p.add_argument("--min-visible-pixels", type=_integer(1, 10_000_000), default=None,
                    help="detection threshold (default: the model's, 25)")
     p.add_argument("--failure-rate", action="append", default=[], metavar="VERB=P",
@@ -593,9 +628,11 @@ def _add_run_parsers(sub) -> None:
                        "where the agent stands to look at each site (its number), room vantages, "
                        "room names, the start pose and, in red, each object's true site (for "
                        "checking a house; the agent never sees it).")
-    p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO)
-    p.add_argument("--model", default=DEFAULT_MODEL)
-    p.add_argument("--seed", type=_integer(0, MAX_SEED), default=0)
+    p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
+                   help="scenario file or bundled name (default: %(default)s)")
+    p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
+    p.add_argument("--seed", type=_integer(0, MAX_SEED), default=0,
+                   help="seed of the start pose and world (default: %(default)s)")
     p.add_argument("--out", help="output PNG (default: SCENARIO-preview.png; the floor plan goes to "
                    "SCENARIO-preview_plan.png)")
     _add_video_options(p)
@@ -650,7 +687,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
             check_scenario(base, load_model(model_path(ref)))
     csv_path = out / "episodes.csv"
     try:
-        rows = run_sweep(jobs, csv_path, args.backend, workers=args.workers or None,
+        rows = run_sweep(jobs, csv_path, args.executor, workers=args.workers or None,
                          address=args.address, resume=args.resume, label="compare")
     except SweepError as exc:
         sys.stderr.write(f"fg-tea: error: {exc} (finished episodes are in {csv_path}; "
@@ -701,7 +738,7 @@ def cmd_house(args: argparse.Namespace) -> int:
 
     objects = [o.strip() for o in args.objects.split(",") if o.strip()]
     try:
-        objects = check_arguments(args.rooms, args.seed, objects)
+        objects = list(check_arguments(args.rooms, args.seed, objects))
     except ValueError as exc:
         field, _, fault = str(exc).partition(": ")
         raise InputError("<command line>", f"--{field}", fault) from None
@@ -734,26 +771,119 @@ def _add_house_parser(sub) -> None:
 # ------------------------------------------------------------------------------ end house generator
 
 
+# ------------------------------------------------------------------------------ bundled names
+MODEL_HELP = "model file, or bundled model or ablation name (default: %(default)s)"
+
+
+def _add_solver_argument(p: argparse.ArgumentParser) -> None:
+    """``--solver`` (the exact belief backend), with ``--backend`` as its deprecated alias."""
+    p.add_argument("--solver", choices=("numpy", "gtsam"), default="numpy",
+                   help="exact belief solver: closed forms and dense tables (numpy) or gtsam's "
+                   "discrete elimination (default: %(default)s)")
+    p.add_argument("--backend", dest="solver", choices=("numpy", "gtsam"), action=DeprecatedAlias,
+                   new="--solver")
+
+
+@_command("list")
+def cmd_list(args: argparse.Namespace) -> int:
+    """Print the bundled scenarios, models, ablations, tasks and world distributions."""
+    from fg_tea.resources import KINDS, bundled, describe
+
+    kinds = args.kind or list(KINDS)
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown:
+        raise InputError("<command line>", "list", f"unknown kind {unknown[0]!r}; expected one of "
+                         f"{', '.join(KINDS)}")
+    if args.paths:
+        for kind in kinds:
+            folder, suffix, _ = KINDS[kind]
+            for path in bundled(folder, suffix):
+                print(path)
+        return 0
+    for i, kind in enumerate(kinds):
+        folder, suffix, what = KINDS[kind]
+        files = bundled(folder, suffix)
+        width = max((len(p.name) - len(suffix) for p in files), default=0)
+        print(("\n" if i else "") + f"{kind} ({what}):")
+        for path in files:
+            description = describe(path)
+            if not description and path.suffix == ".toml":  # a model may inherit its description
+                from fg_tea.model import load_model
+
+                try:
+                    description = load_model(path).description
+                except InputError:
+                    description = ""
+            line = f"  {path.name[: -len(suffix)]:<{width}}  {_first_sentence(description)}".rstrip()
+            print(line)
+    return 0
+
+
+def _first_sentence(text: str, limit: int = 100) -> str:
+    """The first sentence of `text`, cut to `limit` characters with an ellipsis."""
+    import re
+
+    first = re.split(r"\.\s+(?=[A-Z])", text)[0]
+    return first if len(first) <= limit else first[: limit - 3].rstrip() + "..."
+
+
+def _add_list_parser(sub: Any) -> None:
+    from fg_tea.resources import KINDS  # noqa: F811 - for the help text
+
+    p = sub.add_parser("list", help="list the bundled scenarios, models, ablations, tasks and worlds",
+                       description="Print every bundled file by kind, with its one-line description. "
+                       "Every command accepts these names in place of a path.")
+    p.add_argument("kind", nargs="*", metavar="KIND",  # checked in cmd_list: argparse rejects
+                   help=f"kinds to list, among {', '.join(KINDS)} (default: all)")  # an empty list
+    p.add_argument("--paths", action="store_true",
+                   help="print the path of every bundled file instead, one per line (to copy or "
+                   "pass to validate)")
+
+
+def _validate_targets(name: str) -> list[Path]:
+    """The files `name` stands for in ``fg-tea validate``: itself when it exists or looks like a
+    path, else every bundled file of that name (a scenario and a world may share one)."""
+    from fg_tea.resources import KINDS, bundled
+
+    path = Path(name)
+    try:
+        exists = path.exists()
+    except (OSError, ValueError):
+        exists = False
+    if exists or path.suffix or len(path.parts) != 1:
+        return [path]
+    found = [p for folder, suffix, _ in KINDS.values() for p in bundled(folder, suffix)
+             if p.name == f"{name}{suffix}"]
+    return found or [path]
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="fg-tea", description="A tea-making drone that reasons with exact beliefs.")
     from fg_tea import __version__
 
     parser.add_argument("--version", action="version", version=f"fg-tea {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND",
+                                help="what to do (fg-tea COMMAND --help for its options)")
 
     p = sub.add_parser("beliefs", help="print the prior location and task-state beliefs of a scenario")
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                    help="scenario file or bundled name (default: %(default)s)")
-    p.add_argument("--model", default=DEFAULT_MODEL, help="model file or bundled name (default: %(default)s)")
-    p.add_argument("--backend", choices=("numpy", "gtsam"), default="numpy",
-                   help="exact solver: fast numpy path or gtsam elimination (default: %(default)s)")
+    p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
+    _add_solver_argument(p)
 
-    p = sub.add_parser("validate", help="check scenario, model and task files")
-    p.add_argument("files", nargs="+")
+    p = sub.add_parser("validate", help="check scenario, model, task and world files",
+                       description="Check each file with every check a run makes before its first "
+                       "step; print one line per file. The kind is recognised by content. A bundled "
+                       "name (see fg-tea list) checks every bundled file of that name.")
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="scenario (.json), model (.toml), task or world file, or a bundled name")
     p.add_argument("--scenario", default=None,
                    help="scenario to check task files against (default: the default apartment, or "
                    "the first bundled scenario holding every object the task names)")
-    p.add_argument("--model", default=DEFAULT_MODEL, help="model to check task files against")
+    p.add_argument("--model", default=DEFAULT_MODEL,
+                   help="model to check scenario, task and world files against (default: %(default)s)")
+
+    _add_list_parser(sub)
 
     _add_run_parsers(sub)
     _add_compare_parser(sub)  # docs/design.md §11

@@ -12,7 +12,7 @@ import json
 import math
 import stat
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any, Callable, Iterable, Iterator, Literal, overload
 
 
 class InputError(ValueError):
@@ -144,6 +144,12 @@ class Reader:
             return default
         return self._check_type(self.data[key], kind, key)
 
+    @overload
+    def child(self, key: str, required: Literal[True] = ...) -> "Reader": ...
+
+    @overload
+    def child(self, key: str, required: bool) -> "Reader | None": ...
+
     def child(self, key: str, required: bool = True) -> "Reader | None":
         self._mark(key)
         if not self.has(key):
@@ -177,6 +183,22 @@ class Reader:
         if sub is None:
             return {}
         return {name: sub._check_type(sub.data[name], kind, name) for name in sub.names()}
+
+    @overload
+    def vector(self, key: str, length: Literal[2], required: bool = ..., default: Any = ...,
+               limit: float = ...) -> tuple[float, float]: ...
+
+    @overload
+    def vector(self, key: str, length: Literal[3], required: bool = ..., default: Any = ...,
+               limit: float = ...) -> tuple[float, float, float]: ...
+
+    @overload
+    def vector(self, key: str, length: Literal[4], required: bool = ..., default: Any = ...,
+               limit: float = ...) -> tuple[float, float, float, float]: ...
+
+    @overload
+    def vector(self, key: str, length: int, required: bool = ..., default: Any = ...,
+               limit: float = ...) -> tuple[float, ...]: ...
 
     def vector(self, key: str, length: int, required: bool = True, default: Any = None,
                limit: float = MAX_COORDINATE) -> tuple[float, ...]:

@@ -41,7 +41,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -210,6 +212,7 @@ class Door:
 
     @property
     def point(self) -> tuple[float, float]:
+        assert self.at is not None, "only a wall with a doorway has its point"
         length = math.dist(self.start, self.end)
         t = self.at / length
         return (self.start[0] + t * (self.end[0] - self.start[0]), self.start[1] + t * (self.end[1] - self.start[1]))
@@ -536,6 +539,8 @@ def check_arguments(rooms: object, seed: object, objects: object) -> tuple[str, 
         raise ValueError(f"rooms: expected an integer from {MIN_ROOMS} to {MAX_ROOMS}, got {rooms!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    if not isinstance(objects, Iterable):
+        raise ValueError(f"objects: expected a list of names, got {objects!r}")
     names = list(objects)
     for name in names:
         if name not in CATEGORIES:
@@ -601,10 +606,10 @@ def generate_house(rooms: int, seed: int, objects=DEFAULT_OBJECTS, name: str | N
 def _document(house: list[Room], rects: list[Rect], doors: list[Door], names: tuple[str, ...], seed: int,
               rooms: int, name: str | None, start: tuple[float, float], yaw: float) -> dict:
     aff_rng = np.random.default_rng([seed, rooms, 2])
-    sites = []
+    sites: list[dict[str, Any]] = []
     for room in house:
         for p in room.pieces:
-            site = {"name": p.name, "room": room.name, "furniture": p.name, "position": list(p.site),
+            site: dict[str, Any] = {"name": p.name, "room": room.name, "furniture": p.name, "position": list(p.site),
                     "vantage_position": [p.vantage[0], p.vantage[1], 0.0],
                     "affordances": _affordances(room, p, aff_rng)}
             if p.capacity is not None:

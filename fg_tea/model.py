@@ -392,7 +392,7 @@ def load_model(path: str | Path) -> Model:
     path = Path(resolve_model(path))
     origins: dict[str, str] = {}
     try:
-        seen = (path.resolve(),)
+        seen: tuple[Path, ...] = (path.resolve(),)
     except (OSError, RuntimeError):  # a symlink loop
         seen = ()
     return parse_model(_load_document(path, seen, origins), path, origins)

@@ -1,31 +1,78 @@
-"""Where the bundled scenarios, models and tasks live, and how a name resolves to a file.
+"""Where do the bundled scenarios, models, tasks and world distributions live, and how does a
+name resolve to a file?
 
 A user may pass a path, or just the name of a bundled file (``default_apartment``,
-``factorised``, ``make_tea``). Bundled data sits at the repository root (``scenarios/``,
-``models/``) and is installed under ``<prefix>/share/fg_tea`` for non-editable installs.
+``factorised``, ``no_epistemic``, ``make_tea``, ``correlated``). Bundled data is package data of
+:mod:`fg_tea._bundle`, read through :mod:`importlib.resources`, so it is found the same way from
+a source checkout, an editable install, a wheel or an install with ``--prefix``, from any
+directory. In the repository the files stay in the top-level ``scenarios/`` and ``models/``
+folders; the build maps them into the package.
 """
 
 from __future__ import annotations
 
-import sys
+import atexit
+import contextlib
+import importlib.resources
+from importlib.resources.abc import Traversable
 from pathlib import Path
 
 DEFAULT_SCENARIO = "default_apartment"
 DEFAULT_MODEL = "factorised"
 DEFAULT_TASK = "make_tea"
 
+#: Every bundled kind: its folder (relative to the bundle), file suffix and a description.
+KINDS: dict[str, tuple[str, str, str]] = {
+    "scenarios": ("scenarios", ".json", "houses with sites, objects and hidden truth"),
+    "models": ("models", ".toml", "generative models the agent can assume"),
+    "ablations": ("models/ablations", ".toml", "models with one ingredient removed or changed"),
+    "tasks": ("scenarios/tasks", ".json", "task graphs, for --task"),
+    "worlds": ("scenarios/worlds", ".json", "world distributions, for compare --world"),
+}
 
-def _roots() -> list[Path]:
-    here = Path(__file__).resolve().parent.parent
-    return [here, Path(sys.prefix) / "share" / "fg_tea"]
+_extracted = contextlib.ExitStack()  # files of a zipped install, extracted once per process
+atexit.register(_extracted.close)
+
+
+def _package(kind: str) -> str:
+    parts = [p for p in kind.replace("\\", "/").split("/") if p]
+    if not parts or parts[0] not in ("scenarios", "models") or not all(p.isidentifier() for p in parts):
+        raise FileNotFoundError(f"no bundled folder {kind!r}")
+    return ".".join(["fg_tea._bundle", *parts])
+
+
+def data_files(kind: str) -> Traversable:
+    """The bundled folder of `kind` ('scenarios', 'models', 'scenarios/tasks', ...), as a
+    :class:`~importlib.resources.abc.Traversable`.
+
+    Raises:
+        FileNotFoundError: `kind` is not a bundled folder.
+    """
+    try:
+        folder = importlib.resources.files(_package(kind))
+    except ModuleNotFoundError:
+        raise FileNotFoundError(f"bundled folder {kind!r} not found") from None
+    if not folder.is_dir():
+        raise FileNotFoundError(f"bundled folder {kind!r} not found")
+    return folder
+
+
+def _as_path(item: Traversable) -> Path:
+    """A file system path for a bundled file (extracted to a temporary file for zipped installs)."""
+    if isinstance(item, Path):
+        return item
+    return _extracted.enter_context(importlib.resources.as_file(item))
 
 
 def data_dir(kind: str) -> Path:
-    """The bundled folder of `kind` ('scenarios', 'models', 'scenarios/tasks', ...)."""
-    for root in _roots():
-        if (root / kind).is_dir():
-            return root / kind
-    raise FileNotFoundError(f"bundled folder {kind!r} not found under {', '.join(map(str, _roots()))}")
+    """The bundled folder of `kind` as a path (installs on a file system only)."""
+    folder = data_files(kind)
+    for item in folder.iterdir():  # a namespace package's folder is the one its files are in
+        if isinstance(item, Path):
+            return item.parent
+    if isinstance(folder, Path):
+        return folder
+    raise FileNotFoundError(f"bundled folder {kind!r} is not on a file system")
 
 
 def _exists(path: Path) -> bool:
@@ -35,29 +82,74 @@ def _exists(path: Path) -> bool:
         return False
 
 
+def _bundled_file(kind: str, name: str, suffix: str) -> Path | None:
+    try:
+        folder = data_files(kind)
+    except FileNotFoundError:
+        return None
+    for item in folder.iterdir():
+        if item.name == f"{name}{suffix}" and item.is_file():
+            return _as_path(item)
+    return None
+
+
 def _resolve(name: str | Path, kind: str, suffix: str) -> Path:
+    """`name` itself when it is an existing path or looks like one, else the bundled file
+    ``<kind>/<name><suffix>`` when there is one, else `name` (so the caller reports it missing)."""
     path = Path(name)
     if _exists(path) or path.suffix or len(path.parts) != 1 or str(name) in ("", ".", ".."):
         return path
-    try:
-        candidate = data_dir(kind) / f"{name}{suffix}"
-    except FileNotFoundError:
-        return path
-    return candidate if _exists(candidate) else path
+    found = _bundled_file(kind, str(name), suffix)
+    return found if found is not None else path
 
 
 def resolve_scenario(name: str | Path) -> Path:
+    """A scenario path, or the bundled scenario of that name."""
     return _resolve(name, "scenarios", ".json")
 
 
 def resolve_model(name: str | Path) -> Path:
-    return _resolve(name, "models", ".toml")
+    """A model path, or the bundled model of that name, or else the bundled ablation of that name."""
+    path = _resolve(name, "models", ".toml")
+    if path == Path(name) and not _exists(path):
+        return _resolve(name, "models/ablations", ".toml")
+    return path
 
 
 def resolve_task(name: str | Path) -> Path:
+    """A task path, or the bundled task of that name."""
     return _resolve(name, "scenarios/tasks", ".json")
 
 
+def resolve_world(name: str | Path) -> Path:
+    """A world-distribution path, or the bundled world distribution of that name."""
+    return _resolve(name, "scenarios/worlds", ".json")
+
+
 def bundled(kind: str, suffix: str) -> list[Path]:
-    """All bundled files of a kind, sorted by name."""
-    return sorted(data_dir(kind).glob(f"*{suffix}"))
+    """All bundled files of a kind (a folder such as ``'models/ablations'``), sorted by name."""
+    items = [item for item in data_files(kind).iterdir()
+             if item.name.endswith(suffix) and item.is_file()]
+    return [_as_path(item) for item in sorted(items, key=lambda item: item.name)]
+
+
+def bundled_names(what: str) -> list[str]:
+    """Names of the bundled files of one of :data:`KINDS` (``'scenarios'``, ``'ablations'``, ...)."""
+    folder, suffix, _ = KINDS[what]
+    return [p.name[: -len(suffix)] for p in bundled(folder, suffix)]
+
+
+def describe(path: Path) -> str:
+    """A one-line description of a bundled file: its ``description`` field when it has one."""
+    import json
+    import tomllib
+
+    try:
+        if path.suffix == ".toml":
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        else:
+            data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return ""
+    text = data.get("description", "") if isinstance(data, dict) else ""
+    return " ".join(str(text).split()) if isinstance(text, str) else ""

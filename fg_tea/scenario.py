@@ -265,7 +265,8 @@ def _read_site(s: Reader, house: House) -> Site:
         if abs(position[0] - box.center[0]) > half[0] + 1e-6 or abs(position[1] - box.center[1]) > half[1] + 1e-6:
             raise s.fail(f"position lies off the top of furniture {furniture!r}", "position")
     raw = s.req("vantage_position", list)
-    vantage = s.vector("vantage_position", 3 if len(raw) == 3 else 2)[:2]
+    full = s.vector("vantage_position", 3 if len(raw) == 3 else 2)
+    vantage = (full[0], full[1])
     reach = ((vantage[0] - position[0]) ** 2 + (vantage[1] - position[1]) ** 2) ** 0.5
     if reach > MAX_VANTAGE_DISTANCE:
         raise s.fail(f"vantage is {reach:.2f} m from the site; at most {MAX_VANTAGE_DISTANCE:g} m, "
@@ -357,7 +358,8 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
             raise o.fail(f"every site's affordance weight for category {spec.category!r} is zero "
                          "or missing, so the location prior has no information", "category")
 
-    room_vantages, rooms = [], {site.room for site in sites}
+    room_vantages: list[RoomVantage] = []
+    rooms = {site.room for site in sites}
     for v in r.items("room_vantages", required=False):
         name = v.req("name", str)
         if name in names or any(name == x.name for x in room_vantages):

@@ -162,48 +162,37 @@ class Job:
 # ---------------------------------------------------------------------------------- resolving
 def ablation_names() -> tuple[str, ...]:
     """Names of the bundled ablation models (``models/ablations/*.toml``), sorted."""
-    from fg_tea.resources import bundled
+    from fg_tea.resources import bundled_names
 
-    return tuple(p.stem for p in bundled("models/ablations", ".toml"))
+    return tuple(bundled_names("ablations"))
 
 
 def model_names() -> tuple[str, ...]:
     """Names of the bundled models (``models/*.toml``), sorted."""
-    from fg_tea.resources import bundled
+    from fg_tea.resources import bundled_names
 
-    return tuple(p.stem for p in bundled("models", ".toml"))
+    return tuple(bundled_names("models"))
 
 
 def world_names() -> tuple[str, ...]:
     """Names of the bundled world distributions (``scenarios/worlds/*.json``), sorted."""
-    from fg_tea.resources import bundled
+    from fg_tea.resources import bundled_names
 
-    return tuple(p.stem for p in bundled("scenarios/worlds", ".json"))
+    return tuple(bundled_names("worlds"))
 
 
 def world_path(ref: str) -> Path:
     """The file of a world reference: a bundled world distribution or a path."""
-    from fg_tea.resources import _resolve
+    from fg_tea.resources import resolve_world
 
-    return _resolve(ref, "scenarios/worlds", ".json")
+    return resolve_world(ref)
 
 
 def model_path(ref: str) -> Path:
     """The file of a model reference: a bundled model, a bundled ablation, or a path."""
-    from fg_tea.resources import data_dir, resolve_model
+    from fg_tea.resources import resolve_model
 
-    path = resolve_model(ref)
-    if path.exists():
-        return path
-    path_ref = Path(ref)
-    if not path_ref.suffix and len(path_ref.parts) == 1:
-        try:
-            candidate = data_dir("models/ablations") / f"{ref}.toml"
-        except FileNotFoundError:
-            return path
-        if candidate.exists():
-            return candidate
-    return path
+    return resolve_model(ref)
 
 
 @lru_cache(maxsize=64)
@@ -303,8 +292,9 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
     for name, values in (("worlds", worlds), ("models", models), ("planners", planners)):
         if not values:
             raise InputError(_CLI, name, "expected at least one")
-    return [Job(world=w, world_seed=s, model=m, planner=p, knobs=knobs or {},
-                model_overrides=model_overrides or {}, env_overrides=env_overrides or {},
+    return [Job(world=w, world_seed=s, model=m, planner=p, knobs=_pairs(knobs, "knobs"),
+                model_overrides=_pairs(model_overrides, "model_overrides"),
+                env_overrides=_pairs(env_overrides, "env_overrides"),
                 env=env, max_frames=max_frames, max_steps=max_steps, task=task)
             for w in worlds for s in range(first_seed, first_seed + n_worlds)
             for m in models for p in planners]
@@ -396,10 +386,11 @@ def run_job(job: Job) -> dict[str, Any]:
     scenario = world.sample(job.world_seed)
     config = env_config_for(model, **dict(job.env_overrides))
     env = _make_env(job.env, scenario, config)
+    seed = job.world_seed if job.seed is None else job.seed  # Job fills it in; for the type checker
     runner = None
     stopped = None
     try:
-        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=job.seed, planner=job.planner,
+        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=job.planner,
                                                                 max_frames=job.max_frames,
                                                                 task=job.task))
         for _ in range(job.max_steps):
@@ -558,7 +549,7 @@ class CsvSink:
         elif self.path.exists():
             self.path.unlink()
         self.resumed = len(self.rows)
-        self._fh = None
+        self._fh: io.TextIOWrapper | None = None
 
     def done(self, key: str) -> bool:
         return key in self.rows
@@ -676,7 +667,7 @@ def _ray(jobs: Sequence[Job], workers: int | None, address: str | None) -> Itera
     try:
         import ray
     except ImportError:
-        raise InputError("<command line>", "--backend ray", "Ray is not installed; install it with "
+        raise InputError("<command line>", "--executor ray", "Ray is not installed; install it with "
                          "pip install -e \".[ray]\" (or pip install \"ray[default]>=2.9\")") from None
     import logging
 
@@ -739,13 +730,19 @@ _BACKENDS: dict[str, Callable[[Sequence[Job], int | None, str | None], Iterator[
 def add_execution_arguments(parser, csv_name: str) -> None:
     """Add the options every sweep shares to an argparse parser: where and how jobs run.
 
-    ``--backend``, ``--address``, ``--workers``, ``--env`` and ``--resume/--no-resume``, with
-    `csv_name` (e.g. ``episodes.csv``) named in the resume help.
+    ``--executor`` (``--backend``, its deprecated alias), ``--address``, ``--workers``, ``--env``
+    and ``--resume/--no-resume``, with `csv_name` (e.g. ``episodes.csv``) named in the resume help.
+    The executor lands in ``args.executor``.
     """
     import argparse
 
-    parser.add_argument("--backend", choices=BACKENDS, default="process",
-                        help="serial, a process pool over every core, or Ray (default: %(default)s)")
+    from fg_tea.cli import DeprecatedAlias
+
+    parser.add_argument("--executor", choices=BACKENDS, default="process",
+                        help="job runner: serial, a process pool over every core, or Ray "
+                        "(default: %(default)s)")
+    parser.add_argument("--backend", dest="executor", choices=BACKENDS, action=DeprecatedAlias,
+                        new="--executor")
     parser.add_argument("--address", default=None,
                         help="Ray cluster address (default: a local Ray instance)")
     parser.add_argument("--workers", type=int, default=0,
@@ -790,7 +787,7 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
         SweepError: a job failed; the rows finished before it are kept for a resume.
     """
     if backend not in _BACKENDS:
-        raise InputError("<command line>", "--backend", f"unknown backend {backend!r} "
+        raise InputError("<command line>", "--executor", f"unknown executor {backend!r} "
                          f"(known: {', '.join(BACKENDS)})")
     unique = list({job.key: job for job in jobs}.values())
     check_jobs(unique)

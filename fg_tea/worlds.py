@@ -109,6 +109,7 @@ class WorldDistribution:
     def house(self, seed: int) -> Scenario:
         """The house of world `seed`: the base scenario, or the generated house of that seed."""
         if self.generate is None:
+            assert self.base is not None, "a world has a base scenario or a generator"
             return self.base
         rooms, house_seed = self.generate.draw(seed)
         return _generated_house(rooms, house_seed, self.generate.objects, self.source or self.name)
@@ -221,7 +222,7 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
             raise InputError(file, f"$.placement.order[{i}]", f"object {name!r} is listed twice")
     missing = [o for o in object_names if o not in order]
     order = list(order) + missing
-    rules = []
+    rules: list[CoLocation] = []
     for c in placement.items("co_location", required=False):
         obj, anchor = c.req("object", str), c.req("anchor", str)
         for key, value in (("object", obj), ("anchor", anchor)):
@@ -260,7 +261,7 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
 
 def load_world(path: str | Path) -> WorldDistribution:
     """Load a world distribution (a path, or the name of a bundled one in scenarios/worlds)."""
-    from fg_tea.resources import _resolve
+    from fg_tea.resources import resolve_world
 
-    path = _resolve(path, "scenarios/worlds", ".json")
+    path = resolve_world(path)
     return parse_world(read_json(path), path)

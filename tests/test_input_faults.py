@@ -408,7 +408,7 @@ def test_input_error_survives_pickling():
 def test_ray_address_with_nothing_listening_fails_fast(tmp_path):
     pytest.importorskip("ray")
     start = time.perf_counter()
-    status, _, err = cli(["compare", "--backend", "ray", "--address", "127.0.0.1:1", "--quick",
+    status, _, err = cli(["compare", "--executor", "ray", "--address", "127.0.0.1:1", "--quick",
                           "--worlds", "1", "--out", tmp_path], seconds=60)
     assert_one_line_error(status, err, "--address")
     assert time.perf_counter() - start < 30

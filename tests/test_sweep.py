@@ -107,7 +107,7 @@ def test_ray_local_instance_writes_the_process_pool_csv(process_csv, tmp_path):
 
 
 def test_unknown_backend_is_an_input_error(tmp_path):
-    with pytest.raises(InputError, match="unknown backend 'dask'"):
+    with pytest.raises(InputError, match="unknown executor 'dask'"):
         run_sweep(tiny_jobs(), tmp_path / "x.csv", "dask")
 
 

@@ -118,6 +118,7 @@ class ViewModel:
         site_index = {s: i for i, s in enumerate(self.sites)}
         mu = model.miss_likelihood
         if model.detector == "visibility":
+            assert model.detection_curve is not None  # the visibility detector has its curve
             self.max_probability = float(model.detection_curve.max_probability)
         else:
             self.max_probability = 1.0 - mu
@@ -132,6 +133,7 @@ class ViewModel:
             n_view = len(vp.sites)
             pixels = np.full((len(self.objects), n_view), np.nan)
             if needs_pixels:
+                assert expected_pixels is not None  # checked above
                 table = expected_pixels.get(vp.name)
                 if table is None:
                     raise ValueError(f"no expected pixel counts for viewpoint {vp.name!r}")
@@ -144,6 +146,7 @@ class ViewModel:
                                              f"site {s!r} from viewpoint {vp.name!r}") from None
             if model.detector == "visibility":
                 curve = model.detection_curve
+                assert curve is not None
                 prob = np.array([[curve.probability(cat, pixels[o, c]) for c in range(n_view)]
                                  for o, cat in enumerate(categories)])
             elif vp.kind == "site":

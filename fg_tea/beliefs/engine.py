@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -144,7 +144,7 @@ class BeliefEngine:
         self._state_factors: list[Factor] = []
         for f in graph.state_priors:
             self._add_state(f.variables[0], f.table[1])
-        self._cache: dict[str, object] = {}
+        self._cache: dict[str, Any] = {}
 
     @staticmethod
     def _pair_matrices(graph: BeliefGraph) -> PairWeights:
@@ -367,10 +367,12 @@ class BeliefEngine:
                         if method == "independent":
                             block = np.outer(m[o], m[p])
                         elif method == "gtsam":
+                            assert factors is not None
                             block = GtsamSolver(self._keys).joint(
                                 factors, [location_var(self.objects[o]),
                                           location_var(self.objects[p])], self._cards)
                         else:
+                            assert joint is not None
                             block = joint.sum(axis=tuple(a for a in range(n) if a not in (o, p)))
                         cached[o, p], cached[p, o] = block, block.T
             self._cache["pairwise"] = cached
@@ -468,7 +470,7 @@ class BeliefEngine:
             o = self._obj_index[var[2:-1]]
             pos = next((i for i, g in enumerate(self._loc_factors)
                         if isinstance(g, Evidence) and g.variables == (var,)), None)
-            merged = merge_evidence(None if pos is None else self._loc_factors[pos], f)
+            merged = merge_evidence(None if pos is None else _as_evidence(self._loc_factors[pos]), f)
             log_row = self._log_prior(o) + merged.log_table
             top = float(np.max(log_row))
             if not np.isfinite(top):
@@ -639,7 +641,7 @@ class BeliefEngine:
     # ------------------------------------------------------------------ hypothetical evidence
     def hypothetical(self, site: str, detections: Mapping[str, bool]) -> dict[str, np.ndarray]:
         """Location marginals *if* `site` were inspected with this outcome; the belief is untouched."""
-        return self.copy().observe_site(site, detections).after
+        return dict(self.copy().observe_site(site, detections).after)
 
     def hypothetical_all(self) -> tuple[np.ndarray, np.ndarray]:
         """Every single-object hypothesis at every site, without touching the belief.
@@ -738,7 +740,7 @@ class BeliefEngine:
         if pos is None:
             factors.append(merge_evidence(None, f))
         else:
-            factors[pos] = merge_evidence(factors[pos], f)
+            factors[pos] = merge_evidence(_as_evidence(factors[pos]), f)
         return self._commit_states(factors, "observe", [state],
                                    {"state": state, "value": bool(value),
                                     "sensitivity": sensor.sensitivity,
@@ -845,3 +847,9 @@ class BeliefEngine:
             "states": {s: r(p) for s, p in sorted(self.states().items())},
             "entropy": {o: r(entropy(q)) for o, q in locations.items()},
         }
+
+
+def _as_evidence(factor: Factor) -> Evidence:
+    """`factor`, known to be the merged :class:`Evidence` of its variable, typed as such."""
+    assert isinstance(factor, Evidence)
+    return factor

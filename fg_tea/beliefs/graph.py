@@ -105,6 +105,7 @@ class BeliefGraph:
                 raise ValueError(f"the capacity factor over {len(self.objects)} objects x "
                                  f"{len(self.sites)} sites has {self.joint_size:,} entries, more "
                                  f"than the dense limit {DENSE_LIMIT:,}; use the structured solver")
+            assert self.capacity_penalty is not None  # capacity_active says so
             f = capacity_factor(list(self.objects), list(self.capacities), self.capacity_penalty)
             if f is not None:
                 out.append(f)

@@ -250,7 +250,7 @@ def _mesh_radius(path: str, scale: Sequence[float]) -> tuple[Vec3, Vec3]:
                 xyz = [float(v) * s for v, s in zip(line.split()[1:4], scale)]
                 lo = [min(a, b) for a, b in zip(lo, xyz)]
                 hi = [max(a, b) for a, b in zip(hi, xyz)]
-    return tuple(lo), tuple(hi)
+    return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
 
 
 def local_bounds(parts: Sequence[Part]) -> tuple[Vec3, Vec3]:
@@ -277,4 +277,4 @@ def local_bounds(parts: Sequence[Part]) -> tuple[Vec3, Vec3]:
             phi = [c + r for c in part.pos]
         lo = [min(a, b) for a, b in zip(lo, plo)]
         hi = [max(a, b) for a, b in zip(hi, phi)]
-    return tuple(lo), tuple(hi)
+    return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])

@@ -38,7 +38,8 @@ class FakeHouse(TruthBackedAdapter):
         """Nothing to build: the fake world is the truth plus object positions."""
 
     def _route(self, k: int) -> list[Pose] | None:
-        target = tuple(map(float, self._viewpoints[k].position))
+        x, y = self._viewpoints[k].position
+        target = (float(x), float(y))
         return follow_path(self._pose, [target], self.config)
 
     def _distance_from(self, k: int, xy: Sequence[float]) -> float:

@@ -136,7 +136,7 @@ class PyBulletHouse(TruthBackedAdapter):
             self._walls.append((body, wall.center, pybullet.getQuaternionFromEuler((0.0, 0.0, yaw))))
         for f in house.furniture:
             self._static.append(assets.box(c, (f.center[0], f.center[1], f.size[2] / 2),
-                                           (f.size[0] / 2, f.size[1] / 2, f.size[2] / 2), tuple(f.color)))
+                                           (f.size[0] / 2, f.size[1] / 2, f.size[2] / 2), f.color))
         self._bounds: dict[str, np.ndarray] = {}
         for spec in self.scenario.objects:
             parts = assets.object_parts(spec.asset, spec.category)
@@ -158,7 +158,8 @@ class PyBulletHouse(TruthBackedAdapter):
             The body id.
         """
         self._require_reset()
-        body = assets.box(self._client, tuple(center), tuple(s / 2 for s in size), tuple(rgba))
+        (x, y, z), (sx, sy, sz), (r, g, b, a) = center, size, rgba
+        body = assets.box(self._client, (x, y, z), (sx / 2, sy / 2, sz / 2), (r, g, b, a))
         self._obstacles.append(body)
         return body
 
@@ -314,7 +315,7 @@ class PyBulletHouse(TruthBackedAdapter):
         return hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:32]
 
     def _sync(self) -> None:
-        held = self._truth.held if self._truth is not None else None
+        held = self._truth.held if hasattr(self, "_truth") else None
         moving = {held, *self._truth.contents_of(held)} if held is not None else set()
         for name, body in self._bodies.items():
             yaw = self._pose.yaw_deg if name in moving else 0.0
@@ -420,6 +421,7 @@ class PyBulletHouse(TruthBackedAdapter):
         """
         self._require_reset()
         rgb, depth_buffer, seg = self._render(self._ego_camera(width, height), width, height, segmentation=True)
+        assert seg is not None  # asked for
         depth = (FAR_M * NEAR_M / (FAR_M - (FAR_M - NEAR_M) * depth_buffer)).astype(np.float32)
         semantic = np.zeros(seg.shape, dtype=np.int32)
         for body, sid in self._semantic.items():

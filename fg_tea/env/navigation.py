@@ -278,6 +278,7 @@ class Navigator:
         r, c = self.grid.cell(xy)
         if not (self.grid.inside(r, c) and self.reachable[r, c]):
             near = self.grid.nearest(xy, self.reachable)
+            assert near is not None, "the start cell, at least, is reachable"
             r, c = self.grid.cell(near)
         return int(self._node[r, c]), self.grid.center(r, c)
 

@@ -220,9 +220,10 @@ class TruthBackedAdapter(EnvAdapter):
         self.scenario = scenario
         self.config = config
         self._specs = {spec.name: spec for spec in scenario.objects}
-        self._rng: np.random.Generator | None = None
-        self._truth: TeaTruth | None = None
-        self._pose: Pose | None = None
+        # Set by reset(); before it, _require_reset raises.
+        self._rng: np.random.Generator
+        self._truth: TeaTruth
+        self._pose: Pose
         self._start: Pose | None = None  # agent pose when the current call began
         self._positions: dict[str, tuple[float, float, float]] = {}
         # Navigation targets: every viewpoint's floor point, sites' close vantages first (index k
@@ -345,10 +346,11 @@ class TruthBackedAdapter(EnvAdapter):
                 if here:
                     counts.update(self._pixel_counts(j, here))
         detections = self._detect(considered, counts, at_site)
-        found_at = {name: self.scenario.sites[at_site[name]].name for name in considered
-                    if detections[name] and at_site[name] is not None}
-        view_pixels = {name: {s: (int(counts[name]) if at_site[name] is not None
-                                  and self.scenario.sites[at_site[name]].name == s else 0)
+        site_name = {name: self.scenario.sites[at].name for name in considered
+                     if (at := at_site[name]) is not None}
+        found_at = {name: site_name[name] for name in considered
+                    if detections[name] and name in site_name}
+        view_pixels = {name: {s: (int(counts[name]) if site_name.get(name) == s else 0)
                               for s in view.sites} for name in considered}
         return InspectionResult(viewpoint, detections, {n: int(counts[n]) for n in considered},
                                 reachable=True, distance=self._travelled(frames), frames=len(frames),
@@ -465,7 +467,8 @@ class TruthBackedAdapter(EnvAdapter):
 
     def placements(self) -> Mapping[str, tuple[float, float, float]]:
         self._require_reset()
-        return {name: tuple(round(c, 4) for c in xyz) for name, xyz in sorted(self._positions.items())}
+        return {name: (round(x, 4), round(y, 4), round(z, 4))
+                for name, (x, y, z) in sorted(self._positions.items())}
 
     def move_object(self, name: str, site: str) -> None:
         """Environment-side setup: put object `name` (truth and body) on `site` at a free slot.
@@ -620,6 +623,7 @@ class TruthBackedAdapter(EnvAdapter):
     def _travelled(self, frames: Sequence[Pose]) -> float:
         """Path length (m) of `frames`, starting from the pose the current call began at."""
         total, prev = 0.0, self._start
+        assert prev is not None, "set when the current call began"
         for pose in frames:
             total += math.hypot(pose.x - prev.x, pose.y - prev.y)
             prev = pose
@@ -713,7 +717,7 @@ class TruthBackedAdapter(EnvAdapter):
             raise ValueError(f"no object named {name!r} in scenario {self.scenario.name!r}") from None
 
     def _require_reset(self) -> None:
-        if self._truth is None:
+        if not hasattr(self, "_truth"):
             raise RuntimeError("call reset(seed) before using the environment")
 
 
@@ -729,4 +733,5 @@ def held_position(pose: Pose, config: EnvConfig) -> tuple[float, float, float]:
 
 
 def _motion(frames: Sequence[Pose]) -> tuple[tuple[float, float, float], ...]:
-    return tuple(tuple(p.as_list()) for p in frames)
+    rows = [p.as_list() for p in frames]  # rounded as the log keeps them
+    return tuple((x, y, yaw) for x, y, yaw in rows)

@@ -15,7 +15,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
@@ -86,6 +86,7 @@ class EventLog:
 
     def _write_line(self, data: bytes) -> None:
         """Write one whole line unbuffered; on failure cut the file back to its last whole line."""
+        assert self._fd is not None, "the log is open"
         done = 0
         try:
             while done < len(data):
@@ -129,5 +130,5 @@ def read_log(path: str | Path) -> list[dict]:
     return events
 
 
-def iter_events(events: list[dict], kind: str) -> Iterator[dict]:
+def iter_events(events: Iterable[Mapping], kind: str) -> Iterator[Mapping]:
     return (e for e in events if e.get("event") == kind)

@@ -124,7 +124,7 @@ def score(events: list[dict]) -> dict:
         "spl": None if (value := search_spl(events)) is None else round(value, 9),
         "inspections": inspections(events),
         "inspections_until_resolved": inspections_until_resolved(events),
-        "entropy_reduction_per_inspection": None if not reductions else round(_mean(reductions), 9),
+        "entropy_reduction_per_inspection": None if not reductions else round(sum(reductions) / len(reductions), 9),
         "repeated_sites": repeated_sites(events),
         "skipped_actions": skipped_actions(events),
         "state_readings": sum(1 for _ in iter_events(events, "state_reading")),

@@ -34,6 +34,7 @@ from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.model import Model
 from fg_tea.planning import distances_for, make_planner
+from fg_tea.planning.base import Decision
 from fg_tea.scenario import Scenario
 from fg_tea.tasks.executor import MAX_REOPENINGS, NOT_FOUND, PreconditionError, TaskExecutor
 from fg_tea.tasks.load import load_task
@@ -129,7 +130,7 @@ class EpisodeRunner:
             check_size(len(scenario.sites), len(self.executor.pending_search_objects()))
         self.state = EpisodeState()
         self.views: ViewModel | None = None  # built at start, from the environment's geometry
-        self.last_decision = None
+        self.last_decision: Decision | None = None
         self._seen_executor_events = 0
         self._started = False
         # For the clairvoyant yardstick only (written in episode_end, never read by the agent):
@@ -271,6 +272,7 @@ class EpisodeRunner:
                                        dict(self.state.inspected), excluded, **extra)
         self.last_decision = decision
         viewpoint = decision.site
+        assert self.views is not None, "built when the episode starts"
         view = self.views.view(viewpoint)
         self._write({"event": "decision", "serving": action.id, "objects": objects,
                      "relevance": relevance, "inspected": dict(self.state.inspected),
@@ -306,7 +308,7 @@ class EpisodeRunner:
             "entropy_after": {o: entropy(update.after[o]) for o in objects},
             **moved})
         for obj in update.detected:
-            self.executor.confirm_search(obj, found[obj])
+            self.executor.confirm_search(obj, found[obj] or viewpoint)
         self._flush_executor()
 
     # ------------------------------------------------------------------ state inspections

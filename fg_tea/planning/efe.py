@@ -106,7 +106,7 @@ def factorised_information_gain(q: np.ndarray, mu: float) -> np.ndarray:
 
 
 def joint_information_gain(joint: np.ndarray, unresolved: Sequence[int], mu: float, fp: float,
-                           sites: Sequence[int] | None = None) -> np.ndarray:
+                           sites: Sequence[int] | np.ndarray | None = None) -> np.ndarray:
     """Exact I(o, j) = H(L_o) + H(D_j) - H(L_o, D_j) over the joint outcome of one inspection.
 
     Args:
@@ -344,10 +344,10 @@ class EFEPlanner:
                       for i, o in enumerate(objects) for j in eligible]
         sub = total[:, eligible]
         i, jj = np.unravel_index(int(np.argmin(sub)), sub.shape)  # first minimum: object, then site
-        info = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
+        info: dict[str, float | str] = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
                 "w_e": w.information_weight, "w_a": w.repeat_penalty, "lambda": w.relevance_weight,
                 "distance": str(getattr(distances, "kind", w.distance))}
-        return Decision(objects[i], sites[eligible[jj]], float(sub[i, jj]), tuple(candidates),
+        return Decision(objects[int(i)], sites[eligible[int(jj)]], float(sub[i, jj]), tuple(candidates),
                         self.name, info)
 
 
@@ -404,8 +404,8 @@ class EFEPlanner:
                                 int(counts[c]), float(r[i]), float(base[i, c]), float(total[i, c]),
                                 v.kind)
                       for i, o in enumerate(objects) for c, v in enumerate(eligible)]
-        i, c = np.unravel_index(int(np.argmin(total)), total.shape)
-        info = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
+        i, c = (int(x) for x in np.unravel_index(int(np.argmin(total)), total.shape))
+        info: dict[str, float | str] = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
                 "w_e": w.information_weight, "w_a": w.repeat_penalty, "lambda": w.relevance_weight,
                 "distance": str(getattr(distances, "kind", w.distance)), "viewpoints": m}
         if solver is not None:

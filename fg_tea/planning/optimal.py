@@ -165,7 +165,7 @@ def expected_travel_table(start: np.ndarray, between: np.ndarray, loc: np.ndarra
             u[inside] = np.where(done[None, :], 0.0, cost.min(axis=1))
             level[mask] = u
         upper = level
-    first = np.stack([upper[1 << j][j] for j in sites])  # (K', T)
+    first = np.stack([upper[1 << int(j)][j] for j in sites])  # (K', T)
     return start + first @ p
 
 
@@ -241,7 +241,7 @@ class OptimalPlanner:
                                         int(counts[j]), float(relevance[o]), float(values[e]),
                                         float(values[e])))
         best = candidates[int(np.argmin(values))]
-        info = {"expected_travel": best.total, "sites": k, "truths": int(len(p)),
+        info: dict[str, float | str] = {"expected_travel": best.total, "sites": k, "truths": int(len(p)),
                 "detection": "perfect"}
         return Decision(best.object, best.site, best.total, tuple(candidates), self.name, info)
 

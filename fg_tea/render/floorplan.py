@@ -155,6 +155,7 @@ class LabelPlacer:
                 if cost <= 0.5 * d:  # free: the first free spot on the nearest ring wins
                     self.taken.append(rect)
                     return rect, ring > 0
+        assert best is not None  # every ring offers spots
         self.taken.append(best)
         return best, best_far
 

@@ -242,8 +242,8 @@ def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, 
 
         # Candidate scores (left, below the bars), with units.
         if state.candidates:
-            rows = state.candidates[:4]
-            height = (len(rows) + 2) * line + 2 * pad
+            shown = state.candidates[:4]
+            height = (len(shown) + 2) * line + 2 * pad
             width = int(330 * s)
             _panel(frame, 0, top, width, top + height)
             panels.append((0, top, width, top + height))
@@ -251,7 +251,7 @@ def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, 
             cols = [pad, int(150 * s), int(205 * s), int(250 * s), int(290 * s)]
             for x, head in zip(cols, ("object@viewpoint", "G", "d (m)", "q", "I (nats)")):
                 _text(frame, head, x, top + 2 * line, fs * 0.72, (190, 190, 190))
-            for i, c in enumerate(rows):
+            for i, c in enumerate(shown):
                 yy = top + (i + 3) * line
                 where = c.get("viewpoint", c["site"])
                 if c.get("viewpoint_kind") == "room":

@@ -437,7 +437,8 @@ class TaskExecutor:
                     f"belief is {p:.4f}", state=c.state, belief=p, threshold=c.at_least))
         return out
 
-    def _needs(self, action: TaskAction, obj: str, affordance: str, role: str) -> list[Violation]:
+    def _needs(self, action: TaskAction, obj: str | None, affordance: str, role: str) -> list[Violation]:
+        assert obj is not None, f"{action.id}: {action.verb} names its {role} (checked on loading)"
         have = self._object(obj).affordances
         if affordance in have:
             return []
@@ -494,6 +495,7 @@ class TaskExecutor:
         """
         out = []
         for v in self.unmet_preconditions(action):
+            assert v.state is not None  # a belief violation names its state
             obj = self._object(v.state.partition(".")[0])
             located = obj.held or obj.current_site is not None
             key = (action.id, v.state)
@@ -529,6 +531,7 @@ class TaskExecutor:
         elif action.verb in ("NAVIGATE", "PLACE"):
             site = action.site
         elif action.verb in ("INSERT", "POUR"):
+            assert action.destination is not None  # INSERT and POUR name one (checked on loading)
             site = self.inspection_site(action.destination)
         elif action.verb in ("FILL", "USE"):
             site = action.site or self.inspection_site(action.object)
@@ -564,6 +567,7 @@ class TaskExecutor:
             state.held = False
             self._move(action.object, action.site)
         elif action.verb == "INSERT":
+            assert action.destination is not None  # INSERT names one (checked on loading)
             state.held, state.contained_in = False, action.destination
             self._move(action.object, self.objects[action.destination].current_site)
 
@@ -642,6 +646,7 @@ class TaskExecutor:
         """
         self._require_runnable(action, ("INSPECT",))
         graph_before = self.graph.to_json()
+        assert action.state is not None and action.sensor is not None  # INSPECT names both
         update = self.belief.observe_state(action.state, bool(value), action.sensor)
         self.graph.set_status(action.id, "complete")
         event = {"event": "inspect", "action": action.id, "state": action.state,
@@ -782,7 +787,8 @@ class TaskExecutor:
             found; empty when nothing upstream can restore the unmet preconditions.
         """
         queue = [(v.state, float(v.threshold), trigger.id)
-                 for v in self.unmet_preconditions(trigger)]
+                 for v in self.unmet_preconditions(trigger)
+                 if v.state is not None and v.threshold is not None]  # belief violations: always
         plan: dict[str, dict] = {}
         seen: set[str] = set()
         while queue:
@@ -865,6 +871,7 @@ class TaskExecutor:
         larger affordance weight, then scenario order.
         """
         category = self.scenario.object(action.object).category
+        assert action.site is not None  # only actions at a site meet a full one
         room = self.scenario.site(action.site).room
         best, best_key = None, None
         for k, site in enumerate(self.scenario.sites):
