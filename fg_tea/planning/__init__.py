@@ -11,6 +11,9 @@ from a model file, so every ablation of section 15.4 is a switch in the TOML, no
   :class:`~fg_tea.planning.base.DistanceModel`; :func:`distances_for` picks the right one).
 
 Registry names: ``efe``, ``factorised_efe``, ``nearest``, ``greedy``, ``random``, ``optimal``.
+Planners of your own plug in by name without editing the package: an entry point in the group
+``fg_tea.planners``, or ``module:attribute`` (:mod:`fg_tea.planning.plugins`); they satisfy the
+:class:`~fg_tea.planning.base.Planner` protocol.
 """
 
 from __future__ import annotations
@@ -50,20 +53,25 @@ def planner_names() -> tuple[str, ...]:
 
 
 def make_planner(name: str, model: Model, rng: np.random.Generator | None = None) -> Planner:
-    """Build a planner by registry name, configured from the model file.
+    """Build a planner by name, configured from the model file.
 
     Args:
-        name: one of :func:`planner_names`.
+        name: one of :func:`planner_names`, the name of an entry point in the group
+            ``fg_tea.planners``, or ``module:attribute`` (see :mod:`fg_tea.planning.plugins`).
         model: the agent's model; its ``planning`` weights configure the EFE planners.
-        rng: the Generator for ``random`` (required there, ignored elsewhere).
+        rng: the Generator for ``random`` (required there), handed to plug-in factories that
+            ask for ``rng``; ignored elsewhere.
 
     Raises:
-        ValueError: unknown name, or ``random`` without a Generator.
+        ValueError: ``random`` without a Generator.
+        fg_tea.planning.plugins.PlannerSpecError: (a ``ValueError``) an unknown name, or a
+            plug-in that cannot be imported or does not satisfy the :class:`Planner` protocol.
     """
-    try:
-        factory = _REGISTRY[name]
-    except KeyError:
-        raise ValueError(f"unknown planner {name!r} (known: {', '.join(_REGISTRY)})") from None
+    factory = _REGISTRY.get(name)
+    if factory is None:
+        from fg_tea.planning import plugins
+
+        return plugins.build(name, model, rng)
     return factory(model, rng)
 
 
