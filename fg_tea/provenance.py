@@ -47,7 +47,17 @@ def sha256_file(path: str | Path) -> str | None:
     return digest.hexdigest()
 
 
-def _bundle_dirs() -> list[tuple[str, Path]]:
+def _stat_key(path: str | Path) -> tuple | None:
+    """What identifies a file's version cheaply (for the caches below), or None if missing."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+
+
+@lru_cache(maxsize=1)
+def _bundle_dirs() -> tuple[tuple[str, Path], ...]:
     from fg_tea.resources import data_dir
 
     out = []
@@ -56,7 +66,7 @@ def _bundle_dirs() -> list[tuple[str, Path]]:
             out.append((kind, data_dir(kind).resolve()))
         except (FileNotFoundError, OSError):
             continue
-    return out
+    return tuple(out)
 
 
 def bundled_path(path: str | Path) -> str | None:
@@ -99,6 +109,12 @@ def describe_file(path: str | Path) -> dict[str, Any]:
         stem, e.g. ``factorised``), else the path as given; ``bundled`` is the path inside the
         bundle, or None for a user's file; ``sha256`` of the bytes (None if unreadable).
     """
+    # Sweeps start thousands of episodes from the same few files: hash each version once.
+    return dict(_describe(str(path), _stat_key(path)))
+
+
+@lru_cache(maxsize=256)
+def _describe(path: str, version: tuple | None) -> dict[str, Any]:
     inside = bundled_path(path)
     if inside is not None:
         return {"file": Path(inside).stem, "bundled": inside, "sha256": sha256_file(path)}
@@ -112,12 +128,25 @@ def portable_ref(path: str | Path | None) -> str | None:
     return describe_file(path)["file"]
 
 
+_CHAINS: dict[str, tuple[list[Path], list[tuple | None]]] = {}
+
+
 def model_chain(path: str | Path) -> list[Path]:
     """The model file and every file its ``extends`` chain reads, child first.
 
     The chain is walked as :func:`fg_tea.model.load_model` walks it; a model that loaded has a
     valid chain, so faults here only mean the files changed in between (the walk then stops).
+    A chain is walked again only when one of its files changed.
     """
+    cached = _CHAINS.get(str(path))
+    if cached is not None and [_stat_key(p) for p in cached[0]] == cached[1]:
+        return list(cached[0])
+    chain = _walk_chain(path)
+    _CHAINS[str(path)] = (chain, [_stat_key(p) for p in chain])
+    return list(chain)
+
+
+def _walk_chain(path: str | Path) -> list[Path]:
     from fg_tea.errors import read_toml
     from fg_tea.model import MAX_EXTENDS_DEPTH, _parent_path
 
@@ -149,7 +178,7 @@ def input_files(scenario_source: str | None, model_source: str | None, task_path
         world_path: the world distribution the scenario was sampled from, if any.
     """
     def one(path) -> dict[str, Any] | None:
-        if path is None:
+        if not path:  # None, or a scenario or model built in code ("" source)
             return None
         p = Path(path)
         if p.is_file():
@@ -158,8 +187,9 @@ def input_files(scenario_source: str | None, model_source: str | None, task_path
 
     return {
         "scenario": one(scenario_source),
-        "model": [describe_file(p) for p in model_chain(model_source)]
-        if model_source and Path(model_source).is_file() else [one(model_source)],
+        "model": ([describe_file(p) for p in model_chain(model_source)]
+                  if model_source and Path(model_source).is_file()
+                  else [entry] if (entry := one(model_source)) else []),
         "task": one(task_path),
         "world": one(world_path),
     }

@@ -155,8 +155,8 @@ def test_runner_can_be_stepped_and_inspected():
     first = runner.step()
     assert [e["event"] for e in first] == ["episode_start"]  # the prior, before any decision
     assert runner.last_decision is None
-    assert runner.belief.location_map("mug") == dict(zip(first[0]["belief"]["sites"],
-                                                         first[0]["belief"]["locations"]["mug"]))
+    assert runner.belief.location_map("mug") == pytest.approx(
+        dict(zip(first[0]["belief"]["sites"], first[0]["belief"]["locations"]["mug"])), abs=1e-9)
     second = runner.step()
     assert any(e["event"] == "decision" for e in second)
     assert second[-1]["event"] == "belief"

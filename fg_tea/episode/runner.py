@@ -221,7 +221,7 @@ class EpisodeRunner:
         return self._write({
             "event": "episode_start",
             "scenario": self.scenario.name,
-            "scenario_file": provenance["inputs"]["scenario"]["file"],
+            "scenario_file": (provenance["inputs"]["scenario"] or {}).get("file"),
             "model": model.name, "model_file": portable_ref(model.source) if model.source else None,
             "structure": model.structure,
             "task": self.graph.name, "planner": self.config.planner, "seed": self.config.seed,
