@@ -268,7 +268,7 @@ def render_parameters(options: Any) -> dict[str, Any] | None:
     else:
         from dataclasses import asdict, is_dataclass
 
-        if not is_dataclass(options):
+        if not is_dataclass(options) or isinstance(options, type):
             raise TypeError(f"rendering parameters must be a dataclass or a mapping, "
                             f"got {type(options).__name__}")
         values = asdict(options)

@@ -145,7 +145,7 @@ class EpisodeRunner:
                                     rng=np.random.default_rng([config.seed, 0x9E7]))
         self.state = EpisodeState()
         self.views: ViewModel | None = None  # built at start, from the environment's geometry
-        self.last_decision = None
+        self.last_decision: Decision | None = None
         self._seen_executor_events = 0
         self._started = False
 
@@ -322,6 +322,7 @@ class EpisodeRunner:
         if not isinstance(decision, Decision):
             raise TypeError(f"planner {self.config.planner!r} returned a "
                             f"{type(decision).__name__}, not a fg_tea.planning.Decision")
+        assert self.views is not None  # built by start()
         if decision.site not in self.views.names:
             raise ValueError(f"planner {self.config.planner!r} chose viewpoint {decision.site!r}, "
                              f"which this house does not have (known: {', '.join(self.views.names)})")
