@@ -487,7 +487,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     t1 = time.perf_counter()
     try:
         with EventLog(log_path) as log:
-            runner = EpisodeRunner(scenario, model, env, config, log)
+            runner = EpisodeRunner(scenario, model, env, config, log, render=options)
             runner.run(progress)
     finally:
         progress.close()
@@ -594,6 +594,17 @@ def _add_video_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--no-overlays", action="store_true", help="camera images only")
 
 
+def _planner_name(text: str) -> str:
+    """An argparse type: a built-in planner, an entry-point planner or ``module:attribute``."""
+    from fg_tea.planning.plugins import PlannerSpecError, check
+
+    try:
+        check(text)
+    except PlannerSpecError as exc:
+        raise argparse.ArgumentTypeError(exc.fault) from None
+    return text
+
+
 def _add_run_parsers(sub) -> None:
     p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)")
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
@@ -603,9 +614,12 @@ def _add_run_parsers(sub) -> None:
     p.add_argument("--out", help="output folder (default: runs/SCENARIO-MODEL-seedN)")
     p.add_argument("--no-video", action="store_true", help="headless: write the log only")
     p.add_argument("--max-frames", type=_integer(1, 10_000_000), default=50_000, help="frame limit (default: %(default)s)")
-    from fg_tea.planning import planner_names as _planner_names
-    p.add_argument("--planner", default="efe", choices=_planner_names(),
-                   help="search planner (default: %(default)s)")
+    p.add_argument("--planner", default="efe", type=_planner_name,
+                   help="search planner: efe, factorised_efe, mi_efe, nearest, greedy, random, optimal, "
+                   "lookahead (or lookahead:depth=2,width=3,...), pouct:N and pomcp:N (with the [peers] "
+                   "extra), 
+                   "a name registered in the fg_tea.planners entry-point group, or "
+                   "module:attribute for a planner of your own (default: %(default)s)")
     p.add_argument("--task", default="make_tea", help="task file or bundled name (default: %(default)s)")
     p.add_argument("--preparation-site", help="site where the tea is made (default: the scenario's)")
     _add_solver_argument(p)
@@ -705,7 +719,6 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def _add_compare_parser(sub) -> None:
-    from fg_tea.planning import planner_names
     from fg_tea.sweep import add_execution_arguments
 
     p = sub.add_parser("compare", help="compare models and planners over many sampled worlds (paired)",
@@ -720,8 +733,10 @@ def _add_compare_parser(sub) -> None:
     p.add_argument("--first-seed", type=_integer(0, MAX_SEED), default=0, help="first world seed (default: %(default)s)")
     p.add_argument("--models", nargs="+", default=["factorised", "joint"],
                    help="models: bundled names, bundled ablations or files (default: factorised joint)")
-    p.add_argument("--planners", nargs="+", choices=planner_names(), default=None,
-                   help=f"planners (default: {' '.join(COMPARE_PLANNERS)}; "
+    p.add_argument("--planners", nargs="+", type=_planner_name, default=None,
+                   help="planners: built-in names, names registered in the fg_tea.planners "
+                   "entry-point group, or module:attribute for planners of your own "
+                   f"(default: {' '.join(COMPARE_PLANNERS)}; "
                    f"with --quick: {' '.join(COMPARE_QUICK_PLANNERS)})")
     add_execution_arguments(p, "episodes.csv")
     p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")

@@ -92,7 +92,10 @@ class Job:
         world: a world distribution (bundled name such as ``"correlated"``, or a JSON path).
         world_seed: the seed of the sampled world (``WorldDistribution.sample``).
         model: a model (bundled name, bundled ablation name such as ``"no_epistemic"``, or a path).
-        planner: a planner registry name (:func:`fg_tea.planning.planner_names`).
+        planner: a planner name: built-in (:func:`fg_tea.planning.planner_names`), an entry point
+            of the group ``fg_tea.planners``, or ``module:attribute``
+            (:mod:`fg_tea.planning.plugins`). Only this string travels to worker processes;
+            each builds its own planner from it.
         seed: the episode seed (environment RNG, random planner); defaults to `world_seed`.
         knobs: world knobs (``prior_violation``, ``same_site``, ``same_room``), values in [0, 1].
         model_overrides: ``Model`` fields to replace, e.g. ``{"miss_likelihood": 0.2}``.
@@ -219,16 +222,15 @@ def check_jobs(jobs: Sequence[Job]) -> None:
     """
     from fg_tea.env.base import EnvConfig
     from fg_tea.model import Model
-    from fg_tea.planning import check_planner_name
+    from fg_tea.planning.plugins import check as check_planner
 
     env_fields = {f.name for f in dataclasses.fields(EnvConfig)}
     model_fields = {f.name for f in dataclasses.fields(Model)} - {"name", "source"}
     seen: set = set()
     for job in jobs:
-        try:
-            check_planner_name(job.planner)
-        except ValueError as exc:
-            raise InputError(_CLI, "planner", str(exc)) from None
+        if ("planner", job.planner) not in seen:  # built-in, entry point or module:attribute
+            seen.add(("planner", job.planner))
+            check_planner(job.planner)
         if job.env not in ENVIRONMENTS:
             raise InputError(_CLI, "env", f"unknown environment {job.env!r} (known: {', '.join(ENVIRONMENTS)})")
         for name, _ in job.env_overrides:
@@ -392,7 +394,9 @@ def run_job(job: Job) -> dict[str, Any]:
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=job.planner,
                                                                 max_frames=job.max_frames,
-                                                                task=job.task))
+                                                                task=job.task),
+                               world=job.world)
+        runner.start()  # the prior; max_steps counts the steps that carry out actions
         for _ in range(job.max_steps):
             runner.step()
             if runner.done:

@@ -153,8 +153,13 @@ def test_runner_can_be_stepped_and_inspected():
     s, m = load_scenario("default_apartment"), load_model("joint")
     runner = EpisodeRunner(s, m, FakeHouse(s, env_config_for(m)), RunConfig(seed=2))
     first = runner.step()
-    assert first[0]["event"] == "episode_start"
-    assert any(e["event"] == "decision" for e in first)
+    assert [e["event"] for e in first] == ["episode_start"]  # the prior, before any decision
+    assert runner.last_decision is None
+    assert runner.belief.location_map("mug") == pytest.approx(
+        dict(zip(first[0]["belief"]["sites"], first[0]["belief"]["locations"]["mug"])), abs=1e-9)
+    second = runner.step()
+    assert any(e["event"] == "decision" for e in second)
+    assert second[-1]["event"] == "belief"
     assert runner.last_decision is not None and runner.last_decision.site in s.site_names
     entropies = []
     while not runner.done:

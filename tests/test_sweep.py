@@ -256,7 +256,7 @@ def test_report_writes_every_file_atomically(process_csv, tmp_path):
     (["--models", "factorised", "nosuch"], "unknown model 'nosuch'"),
     (["--world", "nosuch"], "unknown world 'nosuch'"),
     (["--worlds", "0"], "expected at least 1 world"),
-    (["--planners", "bogus"], "invalid choice: 'bogus'"),
+    (["--planners", "bogus"], "unknown planner 'bogus'"),
 ])
 def test_compare_bad_input_is_one_line_and_exit_2(argv, needle, tmp_path):
     proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", "compare", "--out", str(tmp_path / "o"), *argv],

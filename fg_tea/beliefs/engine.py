@@ -52,6 +52,16 @@ def entropy(p: np.ndarray) -> float:
     return float(-(nz * np.log(nz)).sum())
 
 
+class UnknownVariableError(KeyError):
+    """A belief query named an object, state or variable the belief does not hold.
+
+    A ``KeyError`` (as before), whose message names the valid names in full.
+    """
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
 @dataclass(frozen=True)
 class SiteUpdate:
     """The effect of one inspection on the location beliefs.
@@ -297,9 +307,71 @@ class BeliefEngine:
         n = len(self.objects)
         return np.stack([joint.sum(axis=tuple(a for a in range(n) if a != i)) for i in range(n)])
 
+    # ------------------------------------------------------------------ names
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """The task states the belief holds (``kettle.contains_water``...), sorted."""
+        return tuple(sorted(self._slice))
+
+    @property
+    def variables(self) -> tuple[str, ...]:
+        """Every variable name: ``L[o]`` for each object (in :attr:`objects` order), then states."""
+        return tuple(location_var(o) for o in self.objects) + self.state_names
+
+    def _names_hint(self) -> str:
+        return (f"objects: {', '.join(self.objects)}; states: {', '.join(self.state_names) or 'none'}"
+                f"; or L[object]")
+
+    def variable(self, name: str) -> str:
+        """The variable a query name stands for: an object (``mug`` -> ``L[mug]``), ``L[mug]``,
+        or a task state (``kettle.contains_water``).
+
+        Raises:
+            UnknownVariableError: (a ``KeyError``) naming the valid objects and states.
+        """
+        if not isinstance(name, str):
+            raise UnknownVariableError(f"expected a variable name (a string), got "
+                                       f"{type(name).__name__}; {self._names_hint()}")
+        if name in self._obj_index:
+            return location_var(name)
+        if name in self._slice:
+            return name
+        if name.startswith("L[") and name.endswith("]") and name[2:-1] in self._obj_index:
+            return name
+        raise UnknownVariableError(f"no object, task state or variable {name!r} in the belief "
+                                   f"({self._names_hint()})")
+
+    def _object(self, obj: str) -> int:
+        try:
+            return self._obj_index[obj]
+        except (KeyError, TypeError):
+            if isinstance(obj, str) and obj.startswith("L[") and obj[2:-1] in self._obj_index:
+                return self._obj_index[obj[2:-1]]
+            raise UnknownVariableError(f"no object {obj!r} in the belief (objects: "
+                                       f"{', '.join(self.objects)})") from None
+
     def location(self, obj: str) -> np.ndarray:
-        """q(L_o = i) for every site i (a fresh array, sums to 1)."""
-        return self._location_marginals()[self._obj_index[obj]].copy()
+        """q(L_o = i) for every site i, in :attr:`sites` order (a fresh array, sums to 1).
+
+        Args:
+            obj: an object name (``mug``; ``L[mug]`` is accepted too).
+
+        Raises:
+            UnknownVariableError: (a ``KeyError``) not an object of the belief.
+        """
+        return self._location_marginals()[self._object(obj)].copy()
+
+    def location_map(self, obj: str) -> dict[str, float]:
+        """q(L_o = site) as a mapping site name -> probability, in :attr:`sites` order.
+
+        The labelled form of :meth:`location` (same numbers).
+        """
+        return {s: float(p) for s, p in zip(self.sites, self.location(obj))}
+
+    def location_maps(self) -> dict[str, dict[str, float]]:
+        """Every object's :meth:`location_map`, object -> (site -> probability)."""
+        m = self._location_marginals()
+        return {o: {s: float(p) for s, p in zip(self.sites, m[i])} for i, o in enumerate(self.objects)}
 
     def locations(self) -> dict[str, np.ndarray]:
         """Every object's location marginal, object -> (K,) array."""
@@ -397,9 +469,9 @@ class BeliefEngine:
         """q(z = true) for a task state such as ``kettle.contains_water``."""
         try:
             return self._state_marginals()[name]
-        except KeyError:
-            raise KeyError(f"no task state {name!r} in the belief (known: "
-                           f"{', '.join(sorted(self._slice))})") from None
+        except (KeyError, TypeError):
+            raise UnknownVariableError(f"no task state {name!r} in the belief (states: "
+                                       f"{', '.join(self.state_names) or 'none'})") from None
 
     def states(self) -> dict[str, float]:
         """q(z = true) of every task state, name -> probability."""
@@ -413,27 +485,44 @@ class BeliefEngine:
         """The joint of a few task states, shape (2,) * len(names), axis order as given."""
         for name in names:
             if name not in self._slice:
-                raise KeyError(f"no task state {name!r} in the belief")
+                raise UnknownVariableError(f"no task state {name!r} in the belief (states: "
+                                           f"{', '.join(self.state_names) or 'none'})")
         return self._solver().joint(self._state_factors, [self._slice[n] for n in names], self._cards)
 
     # ------------------------------------------------------------------ generic queries
     def marginal(self, var: str) -> np.ndarray:
-        """Marginal of a variable by name: ``L[mug]`` or ``kettle.contains_water``."""
+        """Marginal of a variable by name: an object (``mug`` or ``L[mug]``; shape (K,), sites
+        in :attr:`sites` order) or a task state (``kettle.contains_water``; [q(false), q(true)]).
+
+        Raises:
+            UnknownVariableError: (a ``KeyError``) naming the valid objects and states.
+        """
+        var = self.variable(var)
         if var.startswith("L[") and var.endswith("]"):
             return self.location(var[2:-1])
         p = self.state(var)
         return np.array([1.0 - p, p])
 
     def entropy(self, var: str) -> float:
-        """Entropy (nats) of one variable's marginal, eqs. 7 and 22."""
+        """Entropy (nats) of one variable's marginal, eqs. 7 and 22; names as in :meth:`marginal`."""
         return entropy(self.marginal(var))
 
     def joint(self, variables: Sequence[str]) -> np.ndarray:
         """The joint of a few variables of one block (all locations, or all states).
 
-        One or two location variables are answered from the single and pairwise marginals (so
-        they work for joint models too large to hold densely); more need :meth:`location_joint`.
+        Variables are named as in :meth:`marginal` (``["mug", "kettle"]`` or
+        ``["L[mug]", "L[kettle]"]``); axes follow the order given, each location axis in
+        :attr:`sites` order. One or two location variables are answered from the single and
+        pairwise marginals (so they work for joint models too large to hold densely); more need
+        :meth:`location_joint`.
+
+        Raises:
+            UnknownVariableError: (a ``KeyError``) an unknown name, naming the valid ones.
+            ValueError: a repeated variable, or locations mixed with task states.
         """
+        if isinstance(variables, str):
+            raise TypeError("joint() takes a list of variable names, e.g. ['mug', 'kettle']")
+        variables = [self.variable(v) for v in variables]
         if all(v.startswith("L[") for v in variables):
             names = [location_var(o) for o in self.objects]
             for v in variables:

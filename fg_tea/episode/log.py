@@ -1,8 +1,10 @@
 """The event-sourced episode log: one JSON line per meaningful transition, flushed as it happens.
 
-Event kinds (field ``event``): ``episode_start``, ``decision``, ``observation``, ``state_reading``,
-``skip``, ``action``, ``action_failed``, ``recovery``, ``belief``, ``episode_end``. Every event
-carries ``seq`` (its index) and ``frame`` (the frame count when it was written). Nothing in the log
+Event kinds (field ``event``; fields and when each is written: docs/design.md §9):
+``episode_start``, ``activate``, ``skip``, ``decision``, ``observation``, ``confirm_search``,
+``state_reading``, ``action``, ``action_failed``, ``fail``, ``reopen``, ``alternative_site``,
+``give_up``, ``stuck``, ``belief``, ``episode_end``, ``metrics``. Every event carries ``seq`` (its
+index) and ``frame`` (the frame count when it was written). Nothing in the log
 depends on wall-clock time, so the same scenario, model and seed give the same bytes; timings go to
 a separate sidecar file.
 
@@ -19,6 +21,13 @@ from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
+#: Every event kind a log holds (docs/design.md §9 documents each one's fields).
+EVENT_KINDS = ("episode_start", "activate", "skip", "decision", "observation", "confirm_search",
+               "state_reading", "action", "action_failed", "fail", "reopen", "alternative_site",
+               "give_up", "stuck", "belief", "episode_end", "metrics")
+#: The executor's own records, merged by the runner into ``action`` and ``state_reading``
+#: (``state_reading.executor_event`` names which); never events of their own.
+MERGED_KINDS = ("complete", "inspect", "observe_state")
 LOG_MAX_BYTES = 4 * 1024 ** 3  # a log is read whole; 50,000 frames write well under 100 MB
 _write = os.write  # the one call that puts log bytes on disk (tests replace it to fill the disk)
 DIGITS = 9  # floats are rounded so that logs are stable across platforms' last-bit noise

@@ -2,7 +2,12 @@
 
     truth s* -> observation o -> belief q(s) -> decision pi -> changed world s*'      (eq. 1)
 
-Each :meth:`EpisodeRunner.step` asks the task executor for the next action and carries it out:
+Stepping (docs/design.md §9, "Stepping"): the first :meth:`EpisodeRunner.step` (or
+:meth:`EpisodeRunner.start`, or :meth:`EpisodeRunner.reset`) only resets the environment and
+writes ``episode_start``, so the prior belief can be read before the first decision. Every later
+step asks the task executor for the next action and carries it out, writing that action's events
+and one ``belief`` snapshot; the step that finds nothing left to do writes ``episode_end`` and
+``metrics``. What one action's step covers:
 
 - SEARCH: the planner scores every (unresolved object, site) pair on the task frontier; the
   environment goes to the chosen site and looks; the belief engine absorbs every detection and
@@ -19,13 +24,12 @@ which (``terminated`` vs ``truncated``).
 
 from __future__ import annotations
 
-import platform
-from dataclasses import asdict, dataclass, field
-from typing import Callable, Mapping
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from fg_tea import __version__
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
 from fg_tea.env.base import EnvAdapter, EnvConfig
@@ -33,8 +37,8 @@ from fg_tea.interface import ActionRequest
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.model import Model
-from fg_tea.planning import distances_for, make_planner
-from fg_tea.planning.base import Decision
+from fg_tea.planning import Decision, distances_for, make_planner
+from fg_tea.provenance import episode_provenance, portable_ref
 from fg_tea.scenario import Scenario
 from fg_tea.tasks.executor import MAX_REOPENINGS, NOT_FOUND, PreconditionError, TaskExecutor
 from fg_tea.tasks.load import load_task
@@ -107,16 +111,30 @@ class EpisodeRunner:
         env: the environment adapter (PyBullet house, or a fake for tests).
         config: episode parameters.
         log: where events go (in memory when None).
+        world: the world distribution the scenario was sampled from (bundled name or path), if
+            any; recorded with its sha256 in ``episode_start.inputs``.
+        render: the rendering parameters of the video made from this log (a
+            ``fg_tea.render.video.VideoOptions`` or a mapping), recorded in
+            ``episode_start.parameters.render``; None when no video is made.
 
     Between steps, ``runner.belief``, ``runner.executor``, ``runner.graph`` and
-    ``runner.last_decision`` can be inspected freely.
+    ``runner.last_decision`` can be inspected freely. ``runner.belief.sites`` and
+    ``runner.belief.objects`` give the order of every marginal's entries.
     """
 
     def __init__(self, scenario: Scenario, model: Model, env: EnvAdapter,
-                 config: RunConfig = RunConfig(), log: EventLog | None = None) -> None:
+                 config: RunConfig = RunConfig(), log: EventLog | None = None, *,
+                 world: str | Path | None = None, render: Any = None) -> None:
         self.scenario = scenario
         self.model = model
         self.env = env
+        self.world = world
+        self.render = render
+        self._setup(config, log)
+
+    def _setup(self, config: RunConfig, log: EventLog | None) -> None:
+        """Fresh agent state for an episode with `config` (the environment is reset at start)."""
+        scenario, model = self.scenario, self.model
         self.config = config
         self.log = log if log is not None else EventLog()
         self.belief = BeliefEngine(scenario, model, backend=config.belief_backend)
@@ -169,8 +187,30 @@ class EpisodeRunner:
                 "motion": [list(p) for p in result.motion]}
 
     # ------------------------------------------------------------------ episode
+    def reset(self, seed: int | None = None, log: EventLog | None = None) -> dict:
+        """Start the episode afresh, optionally with a new seed; return its ``episode_start``.
+
+        Everything the agent holds is rebuilt (belief, task graph, executor, planner and its
+        random generator, counters), the environment is reset with the seed, and the prior is
+        logged; ``runner.belief`` is then the prior, before any decision. The same seed gives
+        the same events as a fresh runner.
+
+        Args:
+            seed: the episode seed (environment draws, random planner); None keeps the current one.
+            log: where the new episode's events go; None starts a new in-memory log (a file log
+                of the previous episode is never written again).
+        """
+        config = self.config if seed is None else replace(self.config, seed=int(seed))
+        self._setup(config, log)
+        return self.start()
+
     def start(self) -> dict:
-        """Reset the environment and write the episode_start event."""
+        """Reset the environment and write the episode_start event (the prior); return it.
+
+        Idempotent: once started, returns the episode_start already written.
+        """
+        if self._started:
+            return self.log.events[0]
         pose = self.env.reset(self.config.seed)
         self._started = True
         model = self.model
@@ -184,14 +224,22 @@ class EpisodeRunner:
                        "sites": list(v.sites), "room": v.room}
                       for v in self.scenario.viewpoints if v.name in self.views.names]
         self._viewpoints_logged = viewpoints
+        from fg_tea.resources import _resolve, resolve_task
+
+        world = None if self.world is None else _resolve(self.world, "scenarios/worlds", ".json")
+        provenance = episode_provenance(self.scenario.source, model.source,
+                                        resolve_task(self.config.task), world, self.render)
         return self._write({
             "event": "episode_start",
-            "scenario": self.scenario.name, "scenario_file": self.scenario.source,
-            "model": model.name, "model_file": model.source, "structure": model.structure,
+            "scenario": self.scenario.name,
+            "scenario_file": (provenance["inputs"]["scenario"] or {}).get("file"),
+            "model": model.name, "model_file": portable_ref(model.source) if model.source else None,
+            "structure": model.structure,
             "task": self.graph.name, "planner": self.config.planner, "seed": self.config.seed,
-            "versions": {"fg_tea": __version__, "python": platform.python_version(),
-                         "numpy": np.__version__},
+            "versions": provenance["versions"], "git": provenance["git"],
+            "inputs": provenance["inputs"],
             "parameters": {"run": asdict(self.config), "env": _env_params(self.env.config),
+                           "render": provenance["render"],
                            "planning": asdict(model.planning),
                            "detection": {"miss_likelihood": model.miss_likelihood,
                                          "false_positive_rate": model.false_positive_rate,
@@ -215,10 +263,20 @@ class EpisodeRunner:
         })
 
     def step(self) -> list[dict]:
-        """Carry out one event's worth of the loop; return the events it wrote."""
+        """Carry out one step of the loop; return the events it wrote.
+
+        The first step only starts the episode (``[episode_start]``, the prior). Each later step
+        carries out one task action: a SEARCH step is one look (``activate`` when the action
+        starts, ``decision``, ``observation``, a ``confirm_search`` for every object found), an
+        INSPECT step one ``state_reading``, a practical step its verification readings and its
+        ``action`` (or ``action_failed`` and the recovery's events); skips and reopenings the
+        executor decides on the way are written in order, and every action step ends with a
+        ``belief`` snapshot. The step that finds the task finished, stuck or out of frames writes
+        ``episode_end`` and ``metrics``; after that, steps return ``[]``.
+        """
         first = len(self.log.events)
         if not self._started:
-            self.start()
+            return [self.start()]
         if self.state.done:
             return []
         if self.state.frame >= self.config.max_frames:
@@ -270,6 +328,13 @@ class EpisodeRunner:
         extra = {"views": views} if views is not None else {}
         decision = self.planner.choose(self.belief, objects, relevance, distances,
                                        dict(self.state.inspected), excluded, **extra)
+        if not isinstance(decision, Decision):
+            raise TypeError(f"planner {self.config.planner!r} returned a "
+                            f"{type(decision).__name__}, not a fg_tea.planning.Decision")
+        assert self.views is not None  # built by start()
+        if decision.site not in self.views.names:
+            raise ValueError(f"planner {self.config.planner!r} chose viewpoint {decision.site!r}, "
+                             f"which this house does not have (known: {', '.join(self.views.names)})")
         self.last_decision = decision
         viewpoint = decision.site
         assert self.views is not None, "built when the episode starts"

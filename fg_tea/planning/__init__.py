@@ -17,6 +17,9 @@ ones), ``factorised_efe`` (eqs. 10-11 always), ``mi_efe`` (exact mutual informat
 ``pouct:100``, ``pouct:1000``, ``pomcp:1000``. Families take settings after a colon: ``lookahead:depth=2,width=4``
 (:class:`~fg_tea.planning.lookahead.LookaheadSettings`), ``pouct:N`` and ``pomcp:N`` (N
 simulations per decision); :func:`check_planner_name` accepts any well-formed one.
+Planners of your own plug in by name without editing the package: an entry point in the group
+``fg_tea.planners``, or ``module:attribute`` (:mod:`fg_tea.planning.plugins`); they satisfy the
+:class:`~fg_tea.planning.base.Planner` protocol.
 """
 
 from __future__ import annotations
@@ -93,6 +96,13 @@ def _check_family_spec(family: str, spec: str) -> None:
                          "per decision, a positive integer")
 
 
+def is_family_spec(name: str) -> bool:
+    """Whether `name` is ``family:settings`` of a built-in family (``lookahead``, ``pouct``, ...),
+    as opposed to a plug-in's ``module:attribute``."""
+    family, sep, _ = name.partition(":")
+    return bool(sep) and family in _FAMILIES
+
+
 def check_planner_name(name: str) -> None:
     """Raise ValueError unless `name` is a registered planner or a well-formed family spec."""
     if name in _REGISTRY:
@@ -111,21 +121,31 @@ def planner_names() -> tuple[str, ...]:
 
 
 def make_planner(name: str, model: Model, rng: np.random.Generator | None = None) -> Planner:
-    """Build a planner by registry name, configured from the model file.
+    """Build a planner by name, configured from the model file.
 
     Args:
-        name: one of :func:`planner_names`, or a family spec such as ``lookahead:depth=3``.
+        name: one of :func:`planner_names`, a family spec such as ``lookahead:depth=3`` or
+            ``pouct:500``, the name of an entry point in the group ``fg_tea.planners``, or
+            ``module:attribute`` (see :mod:`fg_tea.planning.plugins`).
         model: the agent's model; its ``planning`` weights configure the EFE planners.
-        rng: the Generator for ``random`` (required there, ignored elsewhere).
+        rng: the Generator for ``random`` (required there), handed to plug-in factories that
+            ask for ``rng``; ignored elsewhere.
 
     Raises:
-        ValueError: unknown name, or ``random`` without a Generator.
+        ValueError: ``random`` without a Generator.
+        fg_tea.planning.plugins.PlannerSpecError: (a ``ValueError``) an unknown name, or a
+            plug-in that cannot be imported or does not satisfy the :class:`Planner` protocol.
     """
-    if name in _REGISTRY:
-        return _REGISTRY[name](model, rng)
-    check_planner_name(name)
-    family, _, spec = name.partition(":")
-    return _FAMILIES[family](spec, model, rng)
+    factory = _REGISTRY.get(name)
+    if factory is not None:
+        return factory(model, rng)
+    if is_family_spec(name):
+        check_planner_name(name)
+        family, _, spec = name.partition(":")
+        return _FAMILIES[family](spec, model, rng)
+    from fg_tea.planning import plugins
+
+    return plugins.build(name, model, rng)
 
 
 def distances_for(model: Model, scenario: Scenario, agent_xy: Sequence[float],
@@ -153,4 +173,4 @@ __all__ = ["Candidate", "Decision", "DistanceModel", "DistanceTable", "Planner",
            "FactorisedEFEPlanner", "MutualInformationEFEPlanner",
            "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
            "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "euclidean_distances",
-           "distances_for", "make_planner", "planner_names", "check_planner_name"]
+           "distances_for", "make_planner", "planner_names", "check_planner_name", "is_family_spec"]

@@ -207,7 +207,36 @@ class Decision:
 
 @runtime_checkable
 class Planner(Protocol):
-    """Chooses the next inspection; a pure function of its inputs (no belief mutation)."""
+    """Chooses the next inspection; a pure function of its inputs (no belief mutation).
+
+    This is the whole contract a planner of your own must meet (plug it in by entry point or
+    ``module:attribute``, :mod:`fg_tea.planning.plugins`). The runner calls :meth:`choose` once
+    before every look of a SEARCH action (docs/design.md §6.1), always with the six positional
+    arguments; ``views`` is passed by keyword only when the model searches over viewpoints (room
+    glances and the visibility detector, docs/design.md §5), so ``choose`` must accept it.
+
+    What ``choose`` may read: the belief through its query methods (``location``,
+    ``location_map``, ``sites``, ``objects``, ``hypothetical``, ``hypothetical_all``, ``state``...);
+    distances through ``distances.from_agent(site)`` and ``distances.between(a, b)`` (metres);
+    ``views.names``, ``views.view(name)`` and ``views.probabilities(name)`` when given. It must
+    not call the belief's update methods (``observe_site``, ``observe_view``, ``observe_state``,
+    ``apply_effects``); only inference writes beliefs. Randomness must come from a Generator the
+    planner was built with (a plug-in factory that names ``rng`` receives one seeded from the
+    episode seed), so that the same seed gives the same log.
+
+    What it must return: a :class:`Decision` whose (``object``, ``site``) is one of its
+    ``candidates``; ``object`` is in `objects`, ``site`` is a site name of ``belief.sites`` (a
+    close look) or, when `views` is given, any of ``views.names``, and not in `excluded_sites`.
+    ``planner`` is the name written to the decision event; ``info`` holds extra scalars for the
+    log. Candidates need every field of :class:`Candidate` (put your own score in ``base`` and
+    ``total``; lower is better by convention, but the runner only reads the chosen pair). The
+    runner raises ``TypeError`` for anything that is not a :class:`Decision` and ``ValueError``
+    for a viewpoint it does not know.
+
+    Attributes:
+        name: the planner's name, as written to the log (built-in planners: their registry
+            name). Optional for plug-ins, which are logged under the spec that named them.
+    """
 
     name: str
 

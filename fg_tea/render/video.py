@@ -106,6 +106,8 @@ class FramePlan:
     overlays: list[OverlayState] = field(default_factory=list)
     site_positions: dict[str, tuple[float, float, float]] = field(default_factory=dict)
     viewpoints: dict[str, dict] = field(default_factory=dict)
+    #: ``episode_start.inputs.scenario`` (bundle path and sha256) in logs that record it.
+    scenario_input: dict | None = None
 
     @property
     def output_frames(self) -> int:
@@ -123,6 +125,7 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
         raise ValueError("the log has no episode_start event")
     plan = FramePlan(start["scenario_file"], start["scenario"], int(start["seed"]),
                      start["parameters"]["env"])
+    plan.scenario_input = (start.get("inputs") or {}).get("scenario")
     plan.site_positions = {s["name"]: tuple(s["position"]) for s in start["sites"] if "position" in s}
     vantages = {s["name"]: s.get("vantage") for s in start["sites"]}
     plan.viewpoints = {v["name"]: v for v in start.get("viewpoints", [])}
@@ -248,10 +251,30 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
 
 # ---------------------------------------------------------------------------------- rendering
 def _load_scenario(plan: FramePlan):
+    """The house of a logged episode.
+
+    Tried in order: the file the log names (a user's path, relative to the current folder, or
+    an absolute path in older logs); the bundled file at the bundle path the log records; a
+    bundled scenario of the logged name. When the log records a sha256 and the file found has
+    other bytes, a warning says so (the video then shows today's house).
+    """
+    import warnings
+
+    from fg_tea.provenance import bundled_file, sha256_file
     from fg_tea.scenario import load_scenario
 
-    path = Path(plan.scenario_file)
-    return load_scenario(path if path.exists() else plan.scenario_name.split("#")[0])
+    recorded = plan.scenario_input or {}
+    path = Path(plan.scenario_file) if plan.scenario_file else None
+    if path is None or not path.is_file():
+        inside = bundled_file(recorded["bundled"]) if recorded.get("bundled") else None
+        path = inside
+    if path is None:
+        return load_scenario(plan.scenario_name.split("#")[0])
+    expected = recorded.get("sha256")
+    if expected and sha256_file(path) != expected:
+        warnings.warn(f"{path}: not the scenario file the log was written with (sha256 differs); "
+                      "rendering the house as it is now", stacklevel=2)
+    return load_scenario(path)
 
 
 def _scaled(render, w: int, h: int, scale: float) -> np.ndarray:

@@ -1,0 +1,236 @@
+"""Planner plug-ins: how does a search planner written outside fg_tea get into an episode?
+
+A planner is named by a string, and only the string travels (in :class:`~fg_tea.episode.runner.
+RunConfig`, in a sweep's :class:`~fg_tea.sweep.Job`, to worker processes); each process builds
+its own planner from it. Three kinds of name are accepted, tried in this order:
+
+1. a built-in name (:func:`fg_tea.planning.planner_names`: ``efe``, ``factorised_efe``,
+   ``nearest``, ``greedy``, ``random``, ``optimal``);
+2. the name of an entry point in the group ``fg_tea.planners`` (:data:`ENTRY_POINT_GROUP`), so an
+   installed package registers planners by name. In its ``pyproject.toml``::
+
+       [project.entry-points."fg_tea.planners"]
+       spiral = "my_package.planners:SpiralPlanner"
+
+   A built-in name always wins over an entry point of the same name;
+3. ``module:attribute`` (``mymod:MyPlanner``, ``pkg.sub:make_planner``, ``mymod:Outer.Inner``):
+   the module is imported from ``sys.path`` or, failing that, from the current directory.
+
+What the name points at (the entry point's object, or the attribute) may be
+
+- a class or any other callable: it is called with those of the keyword arguments ``model``
+  (the agent's :class:`~fg_tea.model.Model`) and ``rng`` (a ``numpy.random.Generator`` seeded
+  from the episode seed; use it for every random draw so episodes stay reproducible) that its
+  signature names, and must return a planner;
+- an object that already has a ``choose`` method: it is used as it is (shared by every episode
+  of the process, so it should hold no per-episode state).
+
+The planner must satisfy :class:`~fg_tea.planning.base.Planner`: a ``choose`` method that accepts
+``(belief, objects, relevance, distances, inspected, excluded_sites, views=None)`` and returns a
+:class:`~fg_tea.planning.base.Decision` naming one of the candidate viewpoints. A ``name``
+attribute is optional for plug-ins (the spec string is logged as the episode's planner either
+way). A name that cannot be resolved, or an object that does not satisfy the protocol, raises
+:class:`PlannerSpecError` (an :class:`~fg_tea.errors.InputError`, so the CLI prints one line and
+exits with status 2).
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import os
+import sys
+from importlib import metadata
+from typing import Any, Callable
+
+from fg_tea.errors import InputError
+
+#: The entry-point group in which installed packages register planners by name.
+ENTRY_POINT_GROUP = "fg_tea.planners"
+#: Keyword arguments a plug-in factory may ask for.
+FACTORY_ARGUMENTS = ("model", "rng")
+_FIELD = "planner"
+
+
+class PlannerSpecError(InputError):
+    """A planner name that does not resolve, or resolves to something that is not a planner."""
+
+    def __init__(self, spec: str, fault: str, field: str = _FIELD) -> None:
+        self.spec = spec
+        super().__init__("<command line>", field, fault)
+
+    def __reduce__(self):
+        return (_rebuild, (self.spec, self.fault, self.path))
+
+
+def _rebuild(spec: str, fault: str, field: str) -> "PlannerSpecError":
+    return PlannerSpecError(spec, fault, field)
+
+
+def is_module_spec(name: str) -> bool:
+    """True for a ``module:attribute`` spec (as opposed to a built-in or entry-point name)."""
+    return ":" in name
+
+
+def entry_points() -> dict[str, metadata.EntryPoint]:
+    """Planners registered by installed packages: entry-point name -> entry point, sorted."""
+    found = metadata.entry_points(group=ENTRY_POINT_GROUP)
+    return {ep.name: ep for ep in sorted(found, key=lambda ep: ep.name)}
+
+
+def _import_module(spec: str, module: str):
+    parts = module.split(".")
+    if not all(p.isidentifier() for p in parts):
+        raise PlannerSpecError(spec, f"{spec!r}: {module!r} is not a module name "
+                               "(expected module:attribute, e.g. mymod:MyPlanner)")
+    cwd = os.getcwd()
+    if cwd not in sys.path and "" not in sys.path:  # the current directory, after everything else
+        sys.path.append(cwd)
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        if exc.name is not None and module.startswith(exc.name):
+            raise PlannerSpecError(spec, f"{spec!r}: no module named {exc.name!r} on sys.path or "
+                                   f"in the current directory ({cwd})") from None
+        raise PlannerSpecError(spec, f"{spec!r}: importing {module!r} failed: {exc}") from None
+    except Exception as exc:  # the user's module raised while importing: say so in one line
+        first = (str(exc).splitlines() or [""])[0]
+        raise PlannerSpecError(spec, f"{spec!r}: importing {module!r} raised "
+                               f"{type(exc).__name__}: {first}") from None
+
+
+def _attribute(spec: str, module_obj, attribute: str):
+    value = module_obj
+    for part in attribute.split("."):
+        if not part.isidentifier():
+            raise PlannerSpecError(spec, f"{spec!r}: {attribute!r} is not an attribute name")
+        try:
+            value = getattr(value, part)
+        except AttributeError:
+            raise PlannerSpecError(spec, f"{spec!r}: module {module_obj.__name__!r} has no "
+                                   f"attribute {attribute!r}") from None
+    return value
+
+
+def resolve(name: str) -> Any:
+    """The object a plug-in name points at (a class, factory or planner instance).
+
+    Built-in names are not handled here (:func:`fg_tea.planning.make_planner` builds them).
+
+    Raises:
+        PlannerSpecError: not an entry-point name nor an importable ``module:attribute``.
+    """
+    if not isinstance(name, str) or not name.strip():
+        raise PlannerSpecError(str(name), "expected a planner name or module:attribute")
+    if is_module_spec(name):
+        module, _, attribute = name.partition(":")
+        if not module or not attribute:
+            raise PlannerSpecError(name, f"{name!r}: expected module:attribute, e.g. mymod:MyPlanner")
+        return _attribute(name, _import_module(name, module), attribute)
+    points = entry_points()
+    if name in points:
+        try:
+            return points[name].load()
+        except Exception as exc:
+            first = (str(exc).splitlines() or [""])[0]
+            raise PlannerSpecError(name, f"entry point {name!r} ({points[name].value}) of group "
+                                   f"{ENTRY_POINT_GROUP!r} cannot be loaded: "
+                                   f"{type(exc).__name__}: {first}") from None
+    from fg_tea.planning import planner_names
+
+    known = list(planner_names()) + [n for n in points if n not in planner_names()]
+    raise PlannerSpecError(name, f"unknown planner {name!r} (known: {', '.join(known)}; or "
+                           "module:attribute for a planner of your own)")
+
+
+#: The arguments the runner passes to ``choose`` (positional, then ``views`` by keyword).
+_CHOOSE_ARGS = ("belief", "objects", "relevance", "distances", "inspected", "excluded_sites")
+
+
+def _check_choose(spec: str, choose: Any, bound: bool) -> None:
+    if not callable(choose):
+        raise PlannerSpecError(spec, f"{spec!r} does not satisfy the Planner protocol: it has no "
+                               "choose() method (see fg_tea.planning.base.Planner)")
+    try:
+        signature = inspect.signature(choose)
+    except (TypeError, ValueError):  # a builtin without a signature: accept, it fails loudly later
+        return
+    args = ([] if bound else [None]) + [None] * len(_CHOOSE_ARGS)
+    try:
+        signature.bind(*args, views=None)
+    except TypeError:
+        raise PlannerSpecError(spec, f"{spec!r} does not satisfy the Planner protocol: "
+                               f"choose{signature} cannot be called as choose(belief, objects, "
+                               "relevance, distances, inspected, excluded_sites, views=None)") from None
+
+
+def _factory_kwargs(factory: Callable, available: dict[str, Any]) -> dict[str, Any]:
+    try:
+        parameters = inspect.signature(factory).parameters
+    except (TypeError, ValueError):
+        return {}
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
+        return dict(available)
+    return {k: v for k, v in available.items() if k in parameters}
+
+
+def check(name: str) -> None:
+    """Check, without building it, that `name` names a planner (for the CLI and sweep checks).
+
+    Built-in names pass at once. Plug-ins are resolved (so the module is imported) and their
+    ``choose`` signature is checked; a factory function can only be checked when it is called.
+
+    Raises:
+        PlannerSpecError: unknown name, import failure, missing attribute, or no usable choose().
+    """
+    from fg_tea.planning import check_planner_name, is_family_spec, planner_names
+
+    if name in planner_names():
+        return
+    if is_family_spec(name):  # lookahead:depth=2, pouct:500: a built-in family, not module:attribute
+        try:
+            check_planner_name(name)
+        except ValueError as exc:
+            raise PlannerSpecError(name, str(exc)) from None
+        return
+    target = resolve(name)
+    if inspect.isclass(target):
+        _check_choose(name, getattr(target, "choose", None), bound=False)
+    elif callable(getattr(target, "choose", None)):
+        _check_choose(name, target.choose, bound=True)
+    elif not callable(target):
+        raise PlannerSpecError(name, f"{name!r} is a {type(target).__name__}, not a planner class, "
+                               "factory or instance (see fg_tea.planning.base.Planner)")
+
+
+def build(name: str, model, rng) -> Any:
+    """Build the planner a plug-in name points at, and check it against the protocol.
+
+    Args:
+        name: an entry-point name or ``module:attribute``.
+        model: the agent's model (passed to a factory that names ``model``).
+        rng: the episode's planner Generator (passed to a factory that names ``rng``).
+
+    Raises:
+        PlannerSpecError: see :func:`resolve`; or the factory raised, or built no planner.
+    """
+    target = resolve(name)
+    if callable(getattr(target, "choose", None)) and not inspect.isclass(target):
+        planner = target
+    elif callable(target):
+        kwargs = _factory_kwargs(target, {"model": model, "rng": rng})
+        try:
+            planner = target(**kwargs)
+        except Exception as exc:
+            first = (str(exc).splitlines() or [""])[0]
+            raise PlannerSpecError(name, f"building planner {name!r} raised "
+                                   f"{type(exc).__name__}: {first}") from None
+    else:
+        raise PlannerSpecError(name, f"{name!r} is a {type(target).__name__}, not a planner class, "
+                               "factory or instance (see fg_tea.planning.base.Planner)")
+    _check_choose(name, getattr(planner, "choose", None), bound=True)
+    return planner
+
+
+__all__ = ["ENTRY_POINT_GROUP", "FACTORY_ARGUMENTS", "PlannerSpecError", "is_module_spec",
+           "entry_points", "resolve", "check", "build"]
