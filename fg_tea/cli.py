@@ -617,7 +617,7 @@ def _add_run_parsers(sub) -> None:
     p.add_argument("--planner", default="efe", type=_planner_name,
                    help="search planner: efe, factorised_efe, mi_efe, nearest, greedy, random, optimal, "
                    "lookahead (or lookahead:depth=2,width=3,...), pouct:N and pomcp:N (with the [peers] "
-                   "extra), 
+                   "extra), "
                    "a name registered in the fg_tea.planners entry-point group, or "
                    "module:attribute for a planner of your own (default: %(default)s)")
     p.add_argument("--task", default="make_tea", help="task file or bundled name (default: %(default)s)")
