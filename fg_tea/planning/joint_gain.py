@@ -70,17 +70,26 @@ def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarra
             and E any further axes.
         tables: s arrays of shape B + (m + 1, m + 1), class -> outcome.
 
-    Each step is one contraction over the last axis, after which the new outcome axis is
-    rotated to the front of the class block; after s steps the order is the original one.
+    Each step contracts the first class axis by one batched matrix product (BLAS) and appends
+    the outcome axis at the end; after s steps the order is the original one, and no step
+    copies its input.
     """
     s = len(tables)
-    first = x.ndim - s
-    for b in reversed(range(s)):
-        shape = x.shape
-        flat = x.reshape(shape[:nb] + (-1, shape[-1]))
-        y = np.einsum("...rc,...cy->...ry", flat, tables[b]).reshape(shape)
-        x = np.moveaxis(y, -1, first)
-    return x
+    if s == 0:
+        return x
+    shape = x.shape
+    bshape = shape[:nb]
+    nbatch = int(np.prod(bshape, dtype=np.int64))
+    tail = shape[nb:]
+    e = int(np.prod(tail[:len(tail) - s], dtype=np.int64))
+    cls = tail[len(tail) - s:]
+    x = x.reshape((nbatch, e, -1))
+    for b in range(s):
+        c = cls[b]
+        tab = np.asarray(tables[b]).reshape(nbatch, 1, c, -1)
+        x = np.matmul(x.reshape(nbatch, e, c, -1).transpose(0, 1, 3, 2), tab)
+        x = x.reshape(nbatch, e, -1)
+    return x.reshape(shape[:len(shape) - s] + tuple(np.asarray(t).shape[-1] for t in tables))
 
 
 def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
