@@ -168,6 +168,23 @@ class SubsetAlgebra:
         ix = self.ix
         return np.add.reduceat(c[..., ix.xb] * w[..., ix.xunion], ix.xstarts, axis=-1)
 
+    def conv_matrix(self, g: np.ndarray) -> np.ndarray:
+        """M with f @ M = conv(f, g) for any rows f: M[A, U] = g(U minus A) if A ⊆ U else 0,
+        shape (2^N, 2^N). One matrix product (BLAS) then replaces a batch of convolutions with
+        one shared g."""
+        ix = self.ix
+        out = np.zeros((ix.full + 1, ix.full + 1))
+        out[ix.a, ix.union] = g[ix.b]
+        return out
+
+    def completion_matrix(self, w: np.ndarray) -> np.ndarray:
+        """M with c @ M = completions(c, w) for any rows c: M[B, X] = w(X ⊔ B) if B ∩ X = ∅,
+        shape (2^N, 2^N)."""
+        ix = self.ix
+        out = np.zeros((ix.full + 1, ix.full + 1))
+        out[ix.xb, ix.xa] = w[ix.xunion]
+        return out
+
     def pair_sums(self, f: np.ndarray, g: np.ndarray, e: np.ndarray) -> np.ndarray:
         """M[r, s] = sum_{A ⊔ B disjoint} f[r, A] g[s, B] e(A ⊔ B); f (R, 2^N), g (S, 2^N)."""
         ix = self.ix
