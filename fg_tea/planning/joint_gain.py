@@ -402,12 +402,16 @@ class JointViewGain:
                 out[np.asarray(order)[:, None], np.array(members)[None, :]] = g.T
                 continue
             pos = {u: p for p, u in enumerate(self.observed)}
-            for p, o in enumerate(self.observed):
-                tracked = self._tracked_for(o, m)
+            by_set: dict[tuple[int, ...], list[int]] = {}     # objects sharing a tracked set
+            for o in self.observed:
+                by_set.setdefault(tuple(self._tracked_for(o, m)), []).append(o)
+            for tracked_set, objs in by_set.items():
+                tracked = list(tracked_set)
                 g = self._batch(sites, probs[:, [pos[u] for u in tracked]], tracked,
-                                [tracked.index(o)], w_v, w_oa)
-                out[p, members] = g[:, 0]
-                self.restricted += len(members)
+                                [tracked.index(o) for o in objs], w_v, w_oa)
+                for i, o in enumerate(objs):
+                    out[pos[o], members] = g[:, i]
+                self.restricted += len(members) * len(objs)
         return out
 
 
