@@ -40,6 +40,13 @@ Usage::
 
 from __future__ import annotations
 
+import os
+
+# Single-threaded BLAS, set before numpy loads: on a shared 2-core machine a multi-threaded BLAS
+# mostly waits for busy cores (measured up to ~40x slower for the small products used here).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 import argparse
 import json
 import statistics
@@ -66,6 +73,7 @@ ROOM_NAMES = ("kitchen", "pantry", "dining", "living", "study", "hall", "bedroom
               "office", "den", "porch", "attic")
 SITES_PER_ROOM = 5
 PIXEL_AREA = {"kettle": 1200.0}   # px m^2; every other category 300
+CPU_MS: dict = {}                 # (planner, scenario id, model id) -> CPU times (ms)
 EXACT_CHECK_LIMIT = 1 << 26       # table entries (~0.5 GB) above which the exact gain is not run
 
 
@@ -143,6 +151,7 @@ def time_decisions(planner_name: str, model, scenario, repeats: int, seed: int,
     """
     rng = np.random.default_rng(seed)
     base = BeliefEngine(scenario, model)
+    base.location_matrix()     # the belief before the look is solved already, as in an episode
     objects = list(scenario.object_names)
     update = planner_name == "belief_update"
     planner = None if update else make_planner(planner_name, model, np.random.default_rng(seed))
@@ -152,7 +161,7 @@ def time_decisions(planner_name: str, model, scenario, repeats: int, seed: int,
     times, cpu = [], []
     for _ in range(repeats):
         belief = base.copy()
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), time.process_time()
         if glances:
             belief.observe_view(glances[int(rng.integers(len(glances)))], {o: None for o in objects})
         else:
@@ -161,9 +170,10 @@ def time_decisions(planner_name: str, model, scenario, repeats: int, seed: int,
         belief.location_matrix()
         if update:
             times.append((time.perf_counter() - start) * 1e3)
+            cpu.append((time.process_time() - cpu_start) * 1e3)
             continue
         distances = euclidean_distances(scenario, rng.uniform([0, 0], hi))
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), time.process_time()
         try:
             planner.choose(belief, objects, relevance, distances, {}, views=views)
         except ValueError as exc:
@@ -171,6 +181,8 @@ def time_decisions(planner_name: str, model, scenario, repeats: int, seed: int,
                 return "refused", []
             raise
         times.append((time.perf_counter() - start) * 1e3)
+        cpu.append((time.process_time() - cpu_start) * 1e3)
+    CPU_MS[(planner_name, id(scenario), id(model))] = cpu
     return "ok", times
 
 
@@ -237,6 +249,7 @@ def main(argv: list[str] | None = None) -> int:
     cells = [(m, 3, k, False) for m in ("factorised", "joint") for k in args.sites]
     cells += [(m, n, k, True) for m in ("factorised", "joint") for n, k in args.sizes]
     results: dict[tuple, str | float] = {}
+    cpu_results: dict[tuple, float | None] = {}
     approx: dict[tuple, float | None] = {}
     columns = {cell: list(names) + (["belief_update"] if cell[3] else []) for cell in cells}
     total, done = sum(len(c) for c in columns.values()), 0
@@ -254,7 +267,11 @@ def main(argv: list[str] | None = None) -> int:
             done += 1
             value = statistics.median(times) if times else status
             results[(cell, name)] = value
+            cpu = CPU_MS.get((name, id(scenario), id(model)))
+            cpu_results[(cell, name)] = statistics.median(cpu) if cpu else None
             shown = f"{value:8.3f} ms" if isinstance(value, float) else value
+            if cpu:
+                shown += f" (CPU {statistics.median(cpu):8.3f} ms)"
             size = f"{n}x{k}" + ("g" if glances else "")
             print(f"[{done:2d}/{total}] {m:10s} {size:7s} {name:15s} {shown}", flush=True)
         if glances and m == "joint":
@@ -288,6 +305,14 @@ def main(argv: list[str] | None = None) -> int:
                 f"restricted gains, largest relative error against the exact gain {err:.2e}")
         print(f"joint gain at {n}x{k} with glances: {text}")
 
+    for n, k in args.sizes:
+        j, f = (("joint", n, k, True), "efe"), (("factorised", n, k, True), "efe")
+        if all(isinstance(results.get(x), float) for x in (j, f)):
+            cj, cf = cpu_results.get(j), cpu_results.get(f)
+            print(f"joint / factorised EFE at {n}x{k} with glances: wall {results[j]:.1f} / "
+                  f"{results[f]:.1f} ms = {results[j] / results[f]:.1f}x; CPU {cj:.1f} / {cf:.1f} ms"
+                  f" = {cj / cf:.1f}x")
+
     if args.json:
         records = []
         for cell in cells:
@@ -296,6 +321,7 @@ def main(argv: list[str] | None = None) -> int:
                 v = results[(cell, name)]
                 rec = {"model": m, "planner": name, "objects": n, "sites": k,
                        "median_ms": v if isinstance(v, float) else None,
+                       "cpu_median_ms": cpu_results.get((cell, name)),
                        "status": "ok" if isinstance(v, float) else v, "room_glances": glances,
                        "repeats": args.repeats}
                 if name == "efe" and cell in approx:

@@ -180,3 +180,37 @@ def test_guard_falls_back_to_dense_or_refuses(monkeypatch):
     np.testing.assert_allclose(auto.location_matrix(), reference, atol=1e-15)  # dense fallback
     with pytest.raises(NumericalGuardError):
         BeliefEngine(big, model).location_matrix()
+
+
+def test_reusing_unchanged_rooms_of_the_previous_model_is_exact():
+    """A model built from the previous one (rooms whose unaries are rescaled copies reused)
+    equals a fresh one: marginals, pairwise, partition function up to its scale."""
+    from fg_tea.beliefs.structured import PairWeights, StructuredLocationModel
+
+    rng = np.random.default_rng(3)
+    n, k = 5, 12
+    rooms = [f"r{j % 4}" for j in range(k)]
+    caps = [1 if j % 5 == 0 else None for j in range(k)]
+    same_site = np.full((n, n), 0.3)
+    same_room = np.full((n, n), 1.7)
+    pairs = PairWeights(same_site, same_room)
+    unary = rng.uniform(0.05, 1.0, (n, k))
+    unary /= unary.sum(axis=1, keepdims=True)
+    old = StructuredLocationModel(unary, rooms, caps, 0.1, pairs)
+    old.singles()
+    new_unary = unary.copy()
+    in_r1 = [j for j in range(k) if rooms[j] == "r1"]
+    new_unary[:, in_r1] *= rng.uniform(0.05, 0.5, len(in_r1))   # a missed glance at room r1
+    new_unary[2, 4] = 0.0                                # a zero appears in room r0
+    new_unary /= new_unary.sum(axis=1, keepdims=True)    # every row rescaled
+    reused = StructuredLocationModel(new_unary, rooms, caps, 0.1, pairs, previous=old)
+    assert reused._same_rooms[2] is not None and reused._same_rooms[3] is not None
+    assert reused._same_rooms[0] is None and reused._same_rooms[1] is None
+    fresh = StructuredLocationModel(new_unary, rooms, caps, 0.1, pairs)
+    np.testing.assert_allclose(reused.singles(), fresh.singles(), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(reused.pairwise(), fresh.pairwise(), rtol=0, atol=1e-12)
+    assert reused.z == pytest.approx(fresh.z, rel=1e-12)
+    # different pair weights: nothing is reused
+    other = StructuredLocationModel(new_unary, rooms, caps, 0.1, PairWeights(same_site, same_room * 2),
+                                    previous=old)
+    assert all(x is None for x in other._same_rooms)

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from fg_tea.beliefs.detection import View
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.beliefs.graph import DENSE_LIMIT
-from fg_tea.beliefs.structured import StructuredLocationModel
+from fg_tea.beliefs.structured import PairWeights, StructuredLocationModel
 from fg_tea.planning import DistanceTable, EFEPlanner
 from fg_tea.planning.efe import (DENSE_GAIN_LIMIT, coupling_strength, joint_information_gain,
                                  structured_gain, view_joint_information_gain)
@@ -150,3 +150,24 @@ def test_joint_planner_runs_beyond_the_dense_limit():
     for o in range(6):
         own = JointViewGain(sm, [o], 1e-4, outcome_limit=None).gain([0, 1, 2, 3], prob[o:o + 1])
         assert full[o] >= own[0] - 1e-12
+
+
+def test_matrix_and_gathered_subset_convolutions_agree(monkeypatch):
+    """The dense-matrix route (up to MATRIX_OBJECTS objects) and the gathered subset
+    convolutions (beyond) give the same gains."""
+    import fg_tea.planning.joint_gain as jg
+
+    rng = np.random.default_rng(5)
+    n, k = 4, 9
+    rooms = [f"r{j % 3}" for j in range(k)]
+    pairs = PairWeights(np.full((n, n), 0.4), np.full((n, n), 1.5))
+    unary = rng.uniform(0.05, 1.0, (n, k))
+    sm = StructuredLocationModel(unary, rooms, [1] * k, 0.2, pairs)
+    looks = [([j], rng.uniform(0.3, 0.9, (n, 1))) for j in range(k)]
+    looks += [([j for j in range(k) if rooms[j] == r], rng.uniform(0.1, 0.9, (n, 3)))
+              for r in ("r0", "r1", "r2")]
+    with_matrix = JointViewGain(sm, range(n), 0.01, outcome_limit=None).gains(looks)
+    monkeypatch.setattr(jg, "MATRIX_OBJECTS", 0)
+    gathered = JointViewGain(sm, range(n), 0.01, outcome_limit=None).gains(looks)
+    np.testing.assert_allclose(with_matrix, gathered, rtol=0, atol=TOL)
+    assert np.all(with_matrix > 0)

@@ -245,7 +245,8 @@ class BeliefEngine:
             g = self.graph
             cached = StructuredLocationModel(self._unary, g.rooms, g.capacities,
                                              g.capacity_penalty if g.capacity_active else None,
-                                             self._pair_weights)
+                                             self._pair_weights,
+                                             previous=self._cache.get("structured_previous"))
             self._cache["structured"] = cached
         return cached
 
@@ -264,7 +265,8 @@ class BeliefEngine:
         cached = self._cache.get("structured")
         if cached is None:
             cached = StructuredLocationModel(self._unary, self.graph.rooms, self.graph.capacities,
-                                             None, None)
+                                             None, None,
+                                             previous=self._cache.get("structured_previous"))
             self._cache["structured"] = cached
         return cached
 
@@ -570,7 +572,10 @@ class BeliefEngine:
                 self._loc_factors.append(merged)
             else:
                 self._loc_factors[pos] = merged
-            for key in ("locations", "joint", "pairwise", "structured"):
+            previous = self._cache.pop("structured", None)
+            if previous is not None:     # rooms the evidence left unchanged are reused from it
+                self._cache["structured_previous"] = previous
+            for key in ("locations", "joint", "pairwise"):
                 self._cache.pop(key, None)
 
     def _log_prior(self, o: int) -> np.ndarray:

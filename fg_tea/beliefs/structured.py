@@ -49,6 +49,7 @@ from fg_tea.errors import ContradictionError
 
 MAX_OBJECTS = 11  # 3^11 = 177,147 disjoint pairs; memory grows as rows x 3^N
 GUARD_TOLERANCE = 1e-9
+REUSE_TOLERANCE = 1e-13  # relative: a room's unaries count as rescaled copies of the previous ones
 
 
 class NumericalGuardError(ArithmeticError):
@@ -167,6 +168,23 @@ class SubsetAlgebra:
         ix = self.ix
         return np.add.reduceat(c[..., ix.xb] * w[..., ix.xunion], ix.xstarts, axis=-1)
 
+    def conv_matrix(self, g: np.ndarray) -> np.ndarray:
+        """M with f @ M = conv(f, g) for any rows f: M[A, U] = g(U minus A) if A ⊆ U else 0,
+        shape (2^N, 2^N). One matrix product (BLAS) then replaces a batch of convolutions with
+        one shared g."""
+        ix = self.ix
+        out = np.zeros((ix.full + 1, ix.full + 1))
+        out[ix.a, ix.union] = g[ix.b]
+        return out
+
+    def completion_matrix(self, w: np.ndarray) -> np.ndarray:
+        """M with c @ M = completions(c, w) for any rows c: M[B, X] = w(X ⊔ B) if B ∩ X = ∅,
+        shape (2^N, 2^N)."""
+        ix = self.ix
+        out = np.zeros((ix.full + 1, ix.full + 1))
+        out[ix.xb, ix.xa] = w[ix.xunion]
+        return out
+
     def pair_sums(self, f: np.ndarray, g: np.ndarray, e: np.ndarray) -> np.ndarray:
         """M[r, s] = sum_{A ⊔ B disjoint} f[r, A] g[s, B] e(A ⊔ B); f (R, 2^N), g (S, 2^N)."""
         ix = self.ix
@@ -204,13 +222,21 @@ class StructuredLocationModel:
         capacities: capacity of each site, None for unlimited (length K).
         penalty: capacity penalty per object beyond capacity, in [0, 1]; None = no capacity factor.
         pairs: pairwise same-site / same-room weights; None = no pair factors.
+        previous: an earlier model of the same house, objects and pair weights (typically the
+            belief before the last look). A room whose unaries equal the previous ones up to one
+            factor c_o per object (a renormalised row; relative tolerance
+            :data:`REUSE_TOLERANCE`) reuses its per-room products (prefix, suffix, exclusion),
+            rescaled by prod_{o in S} c_o — exact, since every one is a sum over arrangements
+            of the room's objects S. A look that changes one room's evidence thus recomputes
+            that room only.
 
     Raises:
         ValueError: more objects than :data:`MAX_OBJECTS` or a non-positive same-room weight.
     """
 
     def __init__(self, unary: np.ndarray, rooms: Sequence[str], capacities: Sequence[int | None],
-                 penalty: float | None, pairs: PairWeights | None) -> None:
+                 penalty: float | None, pairs: PairWeights | None,
+                 previous: "StructuredLocationModel | None" = None) -> None:
         unary = np.asarray(unary, dtype=float)
         n, k = unary.shape
         self.n, self.k = n, k
@@ -229,12 +255,43 @@ class StructuredLocationModel:
                     excess = np.maximum(ix.size - c, 0)
                     cap[:, j] = np.where(excess > 0, float(penalty) ** excess, 1.0)
         # g_j(S) for every site: capacity, unaries, and same-site pair corrections.
-        self.g = (subset_products(unary) * cap * site_pairs[:, None]).T   # (K, 2^N)
+        self.unary = unary.copy()                      # the caller may change its array later
+        self._cap_pairs = cap * site_pairs[:, None]
+        self.g = (subset_products(unary) * self._cap_pairs).T             # (K, 2^N)
         room_names = list(dict.fromkeys(rooms))
         self.room_sites = [np.array([j for j in range(k) if rooms[j] == r]) for r in room_names]
         self.room_of = np.array([room_names.index(r) for r in rooms])
         self._done_singles = False
+        self._same_rooms = self._unchanged_rooms(previous)
+        self._previous = previous if any(x is not None for x in self._same_rooms) else None
         self._forward()
+        self._previous_excl = None
+        if self._previous is not None and self._previous._done_singles:
+            self._previous_excl = self._previous._excl
+        self._previous = None                              # keep no chain of earlier models
+
+    def _unchanged_rooms(self, previous: "StructuredLocationModel | None") -> list[np.ndarray | None]:
+        """For each room: prod_{o in S} c_o over subsets S (shape (2^N,)) when `previous` holds
+        the same room with unaries u_o = c_o u'_o, else None."""
+        rooms = len(self.room_sites)
+        if (previous is None or previous.n != self.n or previous.k != self.k
+                or len(previous.room_sites) != rooms
+                or not np.array_equal(previous.room_of, self.room_of)
+                or not np.array_equal(previous.rho, self.rho)
+                or not np.array_equal(previous._cap_pairs, self._cap_pairs)):
+            return [None] * rooms
+        out: list[np.ndarray | None] = []
+        for sites in self.room_sites:
+            new, old = self.unary[:, sites], previous.unary[:, sites]
+            if not np.array_equal(new > 0, old > 0):
+                out.append(None)
+                continue
+            first = np.argmax(old > 0, axis=1)
+            rows = np.arange(self.n)
+            scale = np.where(old[rows, first] > 0, new[rows, first] / np.where(old[rows, first] > 0, old[rows, first], 1.0), 1.0)
+            same = np.all(np.abs(new - scale[:, None] * old) <= REUSE_TOLERANCE * new)
+            out.append(subset_products(scale) if same else None)
+        return out
 
     # ------------------------------------------------------------------ partition function
     def _forward(self) -> None:
@@ -242,7 +299,14 @@ class StructuredLocationModel:
         self.pre: list[list[np.ndarray]] = []   # per room: prefix products over its sites
         self.suf: list[list[np.ndarray]] = []
         h = []
-        for sites in self.room_sites:
+        for r, sites in enumerate(self.room_sites):
+            scale = self._same_rooms[r]
+            if scale is not None:
+                prev = self._previous
+                self.pre.append([x * scale for x in prev.pre[r]])
+                self.suf.append([x * scale for x in prev.suf[r]])
+                h.append(prev.h[r] * scale)
+                continue
             pre = [alg.delta()]
             for j in sites:
                 pre.append(alg.conv(pre[-1], self.g[j]))
@@ -290,7 +354,10 @@ class StructuredLocationModel:
         self._w, self._excl, self._m = [], [], {}
         for r, sites in enumerate(self.room_sites):
             w = self._outside(r)
-            excl = self._room_exclusions(r)
+            if self._same_rooms[r] is not None and self._previous_excl is not None:
+                excl = [x * self._same_rooms[r] for x in self._previous_excl[r]]
+            else:
+                excl = self._room_exclusions(r)
             self._w.append(w)
             self._excl.append(excl)
             for t, j in enumerate(sites):
@@ -298,6 +365,7 @@ class StructuredLocationModel:
                 self._m[int(j)] = m
                 q[:, j] = m @ ix.members
                 same[j] = (ix.members * m[:, None]).T @ ix.members
+        self._previous_excl = None
         total = q.sum(axis=1)
         if not np.all(np.abs(total - 1.0) <= GUARD_TOLERANCE):
             raise NumericalGuardError(f"structured marginals sum to {total} instead of 1")

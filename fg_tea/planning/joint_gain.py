@@ -52,6 +52,9 @@ from fg_tea.beliefs.structured import StructuredLocationModel, SubsetAlgebra, su
 
 OUTCOME_LIMIT = 1 << 17  # entries of one object's P(L_o = a, Y_{-o}) table before restricting
 MI_TOLERANCE = 1e-12     # gains are clipped at 0 from below within this tolerance
+MATRIX_OBJECTS = 9       # up to this many objects, batches of subset convolutions with one
+                         # shared operand run as one dense 2^N x 2^N matrix product (BLAS): 4^N
+                         # multiplications instead of 3^N gathered ones, faster up to about N = 9
 
 
 def _neg_xlogx_sum(p: np.ndarray, axis=None) -> np.ndarray:
@@ -70,17 +73,26 @@ def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarra
             and E any further axes.
         tables: s arrays of shape B + (m + 1, m + 1), class -> outcome.
 
-    Each step is one contraction over the last axis, after which the new outcome axis is
-    rotated to the front of the class block; after s steps the order is the original one.
+    Each step contracts the first class axis by one batched matrix product (BLAS) and appends
+    the outcome axis at the end; after s steps the order is the original one, and no step
+    copies its input.
     """
     s = len(tables)
-    first = x.ndim - s
-    for b in reversed(range(s)):
-        shape = x.shape
-        flat = x.reshape(shape[:nb] + (-1, shape[-1]))
-        y = np.einsum("...rc,...cy->...ry", flat, tables[b]).reshape(shape)
-        x = np.moveaxis(y, -1, first)
-    return x
+    if s == 0:
+        return x
+    shape = x.shape
+    bshape = shape[:nb]
+    nbatch = int(np.prod(bshape, dtype=np.int64))
+    tail = shape[nb:]
+    e = int(np.prod(tail[:len(tail) - s], dtype=np.int64))
+    cls = tail[len(tail) - s:]
+    x = x.reshape((nbatch, e, -1))
+    for b in range(s):
+        c = cls[b]
+        tab = np.asarray(tables[b]).reshape(nbatch, 1, c, -1)
+        x = np.matmul(x.reshape(nbatch, e, c, -1).transpose(0, 1, 3, 2), tab)
+        x = x.reshape(nbatch, e, -1)
+    return x.reshape(shape[:len(shape) - s] + tuple(np.asarray(t).shape[-1] for t in tables))
 
 
 def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
@@ -168,7 +180,11 @@ class JointViewGain:
             oa = np.zeros((self.k, self.n, self.full + 1))
             for i, r in enumerate(others):
                 excl = alg.conv(pre[i], suf[i + 1])              # every room but r0 and r
-                oa[sm.room_sites[r]] = alg.conv(self._room_split(r), excl)
+                split = self._room_split(r)
+                if self.n <= MATRIX_OBJECTS:                     # one matrix product (BLAS)
+                    oa[sm.room_sites[r]] = split @ alg.conv_matrix(excl)
+                else:
+                    oa[sm.room_sites[r]] = alg.conv(split, excl)
             cached = sm.rho * oa[:, :, self.comp]
             self._out[r0] = cached
         return cached
@@ -188,6 +204,7 @@ class JointViewGain:
         w_oa = np.zeros((len(room), self.k, self.n, self.full + 1))
         if len(outside):
             w_oa[:, outside] = self._completions_without_o(excl, out[outside])
+        fill = None
         for t, j in enumerate(room):
             rest = [a for a in room if a != j]
             if not rest:
@@ -201,7 +218,12 @@ class JointViewGain:
             suf = suf[::-1]
             c_rest = alg.conv(np.stack(pre[:-1]), np.stack(suf[1:]))          # C_{R∖{j,a}}
             c_oa = alg.conv(self.mem[None] * sm.g[rest][:, None, :], c_rest[:, None, :])
-            w_oa[t, rest] = alg.completions(c_oa, w_room)
+            if self.n <= MATRIX_OBJECTS:
+                if fill is None:
+                    fill = alg.completion_matrix(w_room)
+                w_oa[t, rest] = c_oa @ fill
+            else:
+                w_oa[t, rest] = alg.completions(c_oa, w_room)
         cached = {j: (w_v[t], w_oa[t]) for t, j in enumerate(room)}
         self._close[r0] = cached
         return cached
@@ -220,9 +242,7 @@ class JointViewGain:
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
             mat = np.zeros((c.shape[0], len(low), len(low)))
             mat[:, ix.xunion, ix.xa] = c[:, expand[ix.xb]]
-            # einsum, not matmul: small products, and a multi-threaded BLAS only waits on a
-            # busy machine.
-            out[:, :, o, expand] = np.einsum("ak,lkb->lab", w[:, o, expand], mat)
+            out[:, :, o, expand] = np.matmul(w[:, o, expand][None], mat)
         return out
 
     def _view_weights(self, sites: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
@@ -382,12 +402,16 @@ class JointViewGain:
                 out[np.asarray(order)[:, None], np.array(members)[None, :]] = g.T
                 continue
             pos = {u: p for p, u in enumerate(self.observed)}
-            for p, o in enumerate(self.observed):
-                tracked = self._tracked_for(o, m)
+            by_set: dict[tuple[int, ...], list[int]] = {}     # objects sharing a tracked set
+            for o in self.observed:
+                by_set.setdefault(tuple(self._tracked_for(o, m)), []).append(o)
+            for tracked_set, objs in by_set.items():
+                tracked = list(tracked_set)
                 g = self._batch(sites, probs[:, [pos[u] for u in tracked]], tracked,
-                                [tracked.index(o)], w_v, w_oa)
-                out[p, members] = g[:, 0]
-                self.restricted += len(members)
+                                [tracked.index(o) for o in objs], w_v, w_oa)
+                for i, o in enumerate(objs):
+                    out[pos[o], members] = g[:, i]
+                self.restricted += len(members) * len(objs)
         return out
 
 
