@@ -416,6 +416,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     check_scenario(scenario, model)
     load_task(args.task, model, scenario, args.preparation_site)
+    if args.planner == "optimal":
+        from fg_tea.planning.optimal import MAX_SITES
+        if len(scenario.sites) > MAX_SITES:
+            raise InputError("<command line>", "--planner",
+                             f"optimal: {scenario.name} has {len(scenario.sites)} sites, above the "
+                             f"exact planner's limit of {MAX_SITES} (its DP visits 2^K site "
+                             "subsets); use another planner")
     out = Path(args.out) if args.out else \
         Path("runs") / safe_name(f"{scenario.name}-{model.name}-seed{args.seed}")
     _check_out_dir(out)
