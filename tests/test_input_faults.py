@@ -201,6 +201,10 @@ FILE_FAULTS = [
      ("$.sites[1].vantage_position", "not on free floor")),
     ("vantage off the floor", _json(_scenario(_set(["sites", 1, "vantage_position"], [-3.0, 2.8, 0.0]))),
      ("$.sites[1].vantage_position",)),
+    ("vantage unreachable", _json(_scenario(lambda d: d["house"]["walls"][6].pop("doorways"))),
+     ("$.sites[7].vantage_position", "not reachable from the start")),
+    ("lone surrogate in a site name", _json(_scenario(lambda d: d["sites"][0].__setitem__("name", "k\ud800"))),
+     ("$.sites[0].name", "surrogate")),
     ("vantage far from site", _json(_scenario(_set(["sites", 0, "vantage_position"], [2.0, 4.8, 0.0]))),
      ("$.sites[0].vantage_position", "at most 4 m")),
     ("surface below floor", _json(_scenario(_set(["sites", 0, "position"], [2.0, 0.35, -1.0]))),
@@ -365,6 +369,20 @@ def test_rerun_replaces_every_output_of_the_run(tmp_path):
     assert status in (0, 1), err
     assert not (out / "episode.mp4").exists()
     assert json.loads((out / "timings.json").read_text())["episode_s"] >= 0
+
+
+def test_compare_rerun_leaves_no_report_of_the_earlier_sweep(tmp_path):
+    out = tmp_path / "c"
+    base = ["compare", "--env", "fake", "--backend", "serial", "--worlds", "2", "--models",
+            "factorised", "--out", out]
+    status, _, err = cli([*base, "--planners", "nearest", "optimal"], seconds=120)
+    assert status == 0, err
+    assert (out / "ratio_to_optimal.png").exists() and "optimal" in (out / "summary.md").read_text()
+    status, _, err = cli([*base, "--planners", "nearest", "--no-resume"], seconds=120)
+    assert status == 0, err
+    assert not (out / "ratio_to_optimal.png").exists()
+    assert "optimal" not in (out / "summary.md").read_text()
+    assert "optimal" not in (out / "episodes.csv").read_text()
 
 
 # ------------------------------------------------------------------------------ faults of the machine
