@@ -21,7 +21,10 @@ environment and reports back observations and outcomes. It owns
 - **recovery** (section 16.3): a failed action is marked failed, beliefs learn from the failure
   where it carries evidence (``object_not_at_site`` is a miss at that site, eqs. 5-6, and reopens
   the object's search), and the action's declared policy decides: retry (bounded), re-inspect
-  states first, or exclude an unreachable site from the search candidates. With no retries left
+  states first, or exclude an unreachable site from the search candidates. A transient failure
+  (``TRANSIENT_REASONS``: nothing happened, no cause) is retried on the same evidence up to the
+  model's failure-model budget k instead (:meth:`TaskExecutor.transient_tries`, docs/design.md
+  eq. 44). With no retries left
   the executor is stuck with a logged reason, so an episode ends instead of looping.
 
 How the episode runner drives it::
