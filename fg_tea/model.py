@@ -109,9 +109,9 @@ class RetryModel:
     A *transient* failure (``fg_tea.tasks.actions.TRANSIENT_REASONS``) is the environment saying
     that an action did not happen and nothing changed, without a cause the agent could act on
     (no object missing, no site unreachable). The model assumes (eq. 44) each try of a doable
-    action fails independently with probability at most ``failure_rate``. A task whose practical actions
-    are run at most M times in an episode (every non-search action, once plus once per allowed
-    task-level reopening) gives each action up to
+    action fails independently with probability at most ``failure_rate``. A task whose practical
+    actions are run at most M times in an episode (every non-search action, once plus once per
+    allowed task-level reopening) gives each action up to
 
         k = ceil(log(tolerance / M) / log(failure_rate))
 
