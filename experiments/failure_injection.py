@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import re
 import sys
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
@@ -54,6 +55,12 @@ def run_one(args: tuple[str, int, str, float, str]) -> dict:
             "frames": m["frames"]}
 
 
+def reason_group(reason: str) -> str:
+    """An end reason without its episode-specific numbers, for the end-reason table."""
+    reason = reason.split(" (", 1)[0]
+    return re.sub(r"failed \d+ times", "failed n times", reason)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--worlds", type=int, default=100)
@@ -69,19 +76,31 @@ def main(argv: list[str] | None = None) -> int:
         rows = list(pool.map(run_one, jobs))
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    with (out / f"episodes-{a.env}-{a.rate}.csv").open("w", newline="") as fh:
+    with (out / f"episodes-{a.world}-{a.env}-{a.rate}.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
+    lines = [f"# Failure injection: rate {a.rate} on every verb, {a.worlds} `{a.world}` worlds, "
+             f"EFE, {a.env}", "",
+             "| model | n | success | success true in the world | recovered by reopening |",
+             "|---|---|---|---|---|"]
+    reasons: Counter = Counter()
     for model in a.models:
         mine = [r for r in rows if r["model"] == model]
         ok = sum(r["success"] for r in mine)
         true = sum(bool(r["success"] and r["goals_true"]) for r in mine)
-        others = Counter(" ".join(r["reason"].split()[:4]) for r in mine if not r["success"])
-        print(f"{model}: n={len(mine)} success={ok / len(mine):.3f} "
-              f"success_true_in_world={true / len(mine):.3f} "
-              f"recovered_by_reopening={sum(r['reopenings'] > 0 for r in mine)} "
-              f"other_reasons={dict(others)}")
+        lines.append(f"| {model} | {len(mine)} | {ok / len(mine):.3f} | {true / len(mine):.3f} | "
+                     f"{sum(r['reopenings'] > 0 for r in mine)} |")
+        for r in mine:
+            reasons[(reason_group(r["reason"]), model)] += 1
+    lines += ["", "End reasons (episodes):", "",
+              "| end reason | " + " | ".join(a.models) + " |",
+              "|---|" + "---|" * len(a.models)]
+    for group in sorted({g for g, _ in reasons}, key=lambda g: (g != "complete", g)):
+        lines.append(f"| {group} | " + " | ".join(str(reasons[(group, m)]) for m in a.models) + " |")
+    text = "\n".join(lines) + "\n"
+    (out / f"summary-{a.world}-{a.env}-{a.rate}.md").write_text(text)
+    print(text)
     return 0
 
 

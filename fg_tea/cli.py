@@ -442,6 +442,9 @@ def planner_size_fault(planner: str, scenario, graph) -> str | None:
 
 #: Every file `fg-tea run` writes into its output folder (stale ones are removed first).
 RUN_OUTPUTS = ("episode.jsonl", "episode.mp4", "timings.json")
+#: Files `compare` writes besides episodes.csv (fg_tea.analysis.comparison_report).
+COMPARE_REPORT_OUTPUTS = ("summary.md", "summary.csv", "paired.csv", "ratio_to_optimal.png",
+                          "travel_inspections.png", "entropy.png")
 
 
 @_command("run")
@@ -700,6 +703,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
         for ref in args.models:
             check_scenario(base, load_model(model_path(ref)))
     csv_path = out / "episodes.csv"
+    # The report is rebuilt from this sweep's rows: no summary or plot of an earlier sweep with
+    # other planners or models stays beside it (episodes.csv is the resumable record).
+    _remove_outputs(out, COMPARE_REPORT_OUTPUTS)
     try:
         rows = run_sweep(jobs, csv_path, args.executor, workers=args.workers or None,
                          address=args.address, resume=args.resume, label="compare")

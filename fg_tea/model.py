@@ -9,6 +9,7 @@ a few lines each). Parsed once into frozen dataclasses; faults are
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -101,6 +102,46 @@ class PlanningWeights:
 
 
 @dataclass(frozen=True)
+class RetryModel:
+    """What the agent assumes about actions that fail for no cause it can act on, and how often
+    it tries them (``docs/design.md`` §7.6, "Transient failures").
+
+    A *transient* failure (``fg_tea.tasks.actions.TRANSIENT_REASONS``) is the environment saying
+    that an action did not happen and nothing changed, without a cause the agent could act on
+    (no object missing, no site unreachable). The model assumes (eq. 49) each try of a doable
+    action fails independently with probability at most ``failure_rate``. A task whose practical
+    actions are run at most M times in an episode (every non-search action, once plus once per
+    allowed task-level reopening) gives each action up to
+
+        k = ceil(log(tolerance / M) / log(failure_rate))
+
+    tries in a row, so that by the union bound P(some doable action of the episode fails k times
+    running) <= M x failure_rate^k <= ``tolerance``, at the declared rate or any lower one, in any
+    house: the bound counts the task's actions, never the house's sites. A run of k failures is
+    then strong evidence that the action cannot be done now, and the episode ends stuck with it.
+
+    Defaults: ``failure_rate`` 0.5, i.e. a verb that fails more often than it succeeds is treated
+    as broken rather than unlucky; ``tolerance`` 1e-3, the same one-in-a-thousand false give-up
+    rate as the search give-up (``PlanningWeights.give_up_probability``). For make-tea (14
+    practical actions, 2 reopenings, M = 42) this is k = 16 tries.
+    """
+
+    failure_rate: float = 0.5
+    tolerance: float = 1e-3
+
+    def tries(self, runs: int) -> int:
+        """k, the tries of one action before a transient failure run ends the episode.
+
+        Args:
+            runs: M, how many action runs the episode may make (at least 1).
+        """
+        f, eps = self.failure_rate, self.tolerance
+        if f <= 0.0:
+            return 1
+        return max(1, math.ceil(math.log(eps / max(1, runs)) / math.log(f)))
+
+
+@dataclass(frozen=True)
 class Sensor:
     """A noisy binary sensor: sensitivity P(o=1|z=1), specificity P(o=0|z=0)."""
 
@@ -127,6 +168,7 @@ class Model:
     relations: tuple[Relation, ...] = ()
     planning: PlanningWeights = field(default_factory=PlanningWeights)
     source: str = ""
+    retries: RetryModel = field(default_factory=RetryModel)
     detector: str = "threshold"
     camera_curve: VisibilityCurve | None = None
     detection_curve: VisibilityCurve | None = None
@@ -264,6 +306,16 @@ def parse_model(data: dict, file: str | Path = "<model>",
     if planning.max_inspections_per_object < 0:
         raise planning_r.fail("must be 0 (automatic) or more, got "
                               f"{planning.max_inspections_per_object}", "max_inspections_per_object")
+    retries_r = r.child("recovery", required=False) or Reader({}, file, "$.recovery")
+    dr = RetryModel()
+    retries = RetryModel(failure_rate=retries_r.probability("failure_rate", dr.failure_rate),
+                         tolerance=retries_r.probability("tolerance", dr.tolerance))
+    if not retries.failure_rate < 1.0:
+        raise retries_r.fail("a failure rate of 1 means no action ever succeeds; retries could "
+                             "not be bounded", "failure_rate")
+    if not 0.0 < retries.tolerance < 1.0:
+        raise retries_r.fail(f"must lie strictly between 0 and 1, got {retries.tolerance}",
+                             "tolerance")
     structure = beliefs.choice("structure", STRUCTURES)
     relations = tuple(_read_relation(x) for x in r.items("relations", required=False))
     if structure == "factorised" and relations:
@@ -304,6 +356,7 @@ def parse_model(data: dict, file: str | Path = "<model>",
         camera_curve=camera_curve,
         detection_curve=detection_curve,
         room_glances=viewpoints.opt("room_glances", bool, False),
+        retries=retries,
     )
     r.finish()
     return model

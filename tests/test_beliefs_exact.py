@@ -169,17 +169,26 @@ class Reference:
         for o in self.p.objects:                          # misses first, eq. 5
             if det.get(o) is False:
                 self.loc_factors.append(Factor((self.var(o),), np.array([mu if i == j else 1.0 for i in range(k)])))
-        for o in self.p.objects:                          # then detections, in object order
-            if det.get(o) is True:
-                if self.model.positive_update == "blueprint":
-                    # Jeffrey's rule to eq. 4's target t: factor t(i) / q(L_o = i)
-                    q = self.locations()[self.p.objects.index(o)]
-                    eps = self.model.prior_floor
-                    t = np.array([1.0 if i == j else eps for i in range(k)])
-                    table = (t / t.sum()) / q
-                else:
-                    table = np.array([1 - mu if i == j else self.model.false_positive_rate for i in range(k)])
+        seen = [o for o in self.p.objects if det.get(o) is True]
+        if not seen:
+            return
+        if self.model.positive_update != "blueprint":
+            for o in seen:
+                table = np.array([1 - mu if i == j else self.model.false_positive_rate for i in range(k)])
                 self.loc_factors.append(Factor((self.var(o),), table))
+            return
+        # Eq. 4 for every seen object at once (eq. 32a): Jeffrey's rule t(i) / q(L_o = i) in
+        # sweeps until every seen marginal is its target (iterative proportional fitting).
+        eps = self.model.prior_floor
+        t = np.array([1.0 if i == j else eps for i in range(k)])
+        t = t / t.sum()
+        for _ in range(500):
+            for o in seen:
+                q = self.locations()[self.p.objects.index(o)]
+                self.loc_factors.append(Factor((self.var(o),), t / q))
+            locs = self.locations()
+            if max(np.abs(locs[self.p.objects.index(o)] - t).max() for o in seen) <= 1e-13:
+                break
 
     def read(self, state: str, value: bool, sensor: Sensor) -> None:
         a, b = sensor.sensitivity, sensor.specificity

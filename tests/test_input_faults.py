@@ -201,6 +201,10 @@ FILE_FAULTS = [
      ("$.sites[1].vantage_position", "not on free floor")),
     ("vantage off the floor", _json(_scenario(_set(["sites", 1, "vantage_position"], [-3.0, 2.8, 0.0]))),
      ("$.sites[1].vantage_position",)),
+    ("vantage unreachable", _json(_scenario(lambda d: d["house"]["walls"][6].pop("doorways"))),
+     ("$.sites[7].vantage_position", "not reachable from the start")),
+    ("lone surrogate in a site name", _json(_scenario(lambda d: d["sites"][0].__setitem__("name", "k\ud800"))),
+     ("$.sites[0].name", "surrogate")),
     ("vantage far from site", _json(_scenario(_set(["sites", 0, "vantage_position"], [2.0, 4.8, 0.0]))),
      ("$.sites[0].vantage_position", "at most 4 m")),
     ("surface below floor", _json(_scenario(_set(["sites", 0, "position"], [2.0, 0.35, -1.0]))),
@@ -299,6 +303,7 @@ BAD_FLAGS = [
     ["run", "--failure-rate", "SEARCH=1.0"], ["run", "--failure-rate", "INSPECT=1.0"],
     ["run", "--failure-rate", "FILL=2"], ["run", "--failure-rate", "FLY=0.5"],
     ["run", "--width", "100000"],
+    ["run", "generated_medium", "--planner", "optimal"],  # 27 sites: the exact planner refuses
 ]
 
 
@@ -366,6 +371,20 @@ def test_rerun_replaces_every_output_of_the_run(tmp_path):
     assert json.loads((out / "timings.json").read_text())["episode_s"] >= 0
 
 
+def test_compare_rerun_leaves_no_report_of_the_earlier_sweep(tmp_path):
+    out = tmp_path / "c"
+    base = ["compare", "--env", "fake", "--backend", "serial", "--worlds", "2", "--models",
+            "factorised", "--out", out]
+    status, _, err = cli([*base, "--planners", "nearest", "optimal"], seconds=120)
+    assert status == 0, err
+    assert (out / "ratio_to_optimal.png").exists() and "optimal" in (out / "summary.md").read_text()
+    status, _, err = cli([*base, "--planners", "nearest", "--no-resume"], seconds=120)
+    assert status == 0, err
+    assert not (out / "ratio_to_optimal.png").exists()
+    assert "optimal" not in (out / "summary.md").read_text()
+    assert "optimal" not in (out / "episodes.csv").read_text()
+
+
 # ------------------------------------------------------------------------------ faults of the machine
 def test_disk_full_while_logging_is_one_line_and_leaves_whole_lines(tmp_path, monkeypatch):
     import fg_tea.episode.log as log
@@ -386,6 +405,17 @@ def test_disk_full_while_logging_is_one_line_and_leaves_whole_lines(tmp_path, mo
     text = (tmp_path / "out" / "episode.jsonl").read_text()
     assert text.endswith("\n") and len(text.splitlines()) == 3
     assert all(json.loads(line) for line in text.splitlines())
+
+
+def test_disk_full_while_writing_timings_is_one_line(tmp_path, monkeypatch):
+    import fg_tea.cli as cli_module
+
+    def full(path, text):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    monkeypatch.setattr(cli_module, "atomic_write_text", full)
+    status, _, err = cli(["run", "--no-video", "--max-frames", "50", "--out", tmp_path / "out"])
+    assert_one_line_error(status, err, "timings.json", "No space left on device")
 
 
 def test_broken_pipe_ends_quietly(monkeypatch):
@@ -447,6 +477,44 @@ def test_pool_workers_die_with_a_killed_parent(tmp_path):
         time.sleep(0.05)
     os.kill(worker, signal.SIGKILL)
     pytest.fail("the pool worker outlived its killed parent")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux only")
+def test_killed_compare_leaves_no_pool_workers(tmp_path):
+    """kill -9 of `fg-tea compare` once its pool runs: its workers and resource tracker go too."""
+    parent = subprocess.Popen([sys.executable, "-m", "fg_tea.cli", "compare", "--env", "fake",
+                               "--worlds", "400", "--models", "factorised", "--planners", "efe",
+                               "--workers", "2", "--out", str(tmp_path / "c")], cwd=ROOT,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    children: set[int] = set()
+    deadline = time.monotonic() + 60
+    try:
+        while time.monotonic() < deadline:  # until the pool is up and an episode is written
+            children = {int(p) for p in subprocess.run(
+                ["ps", "-o", "pid=", "--ppid", str(parent.pid)], capture_output=True,
+                text=True).stdout.split()}
+            csv = tmp_path / "c" / "episodes.csv"
+            if len(children) >= 3 and csv.exists() and len(csv.read_text().splitlines()) > 2:
+                break
+            time.sleep(0.2)
+        else:
+            pytest.fail(f"compare did not start its pool in time (children {children})")
+    finally:
+        parent.kill()
+        parent.wait()
+    left = set(children)
+    for _ in range(100):
+        for pid in list(left):
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                left.discard(pid)
+        if not left:
+            return
+        time.sleep(0.05)
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    pytest.fail(f"processes {sorted(left)} outlived the killed compare")
 
 
 # ------------------------------------------------------------------------------ fuzz
@@ -575,3 +643,41 @@ def test_fuzzed_run_flags_end_in_ok_or_one_line(tmp_path):
             assert_one_line_error(status, err)
         else:
             assert "Traceback" not in err
+
+
+VALID = {"--width": ["640"] * 3, "--height": ["360"] * 3, "--fps": ["24"] * 3,
+         "--inset-scale": ["0.25"] * 3, "--third-person-hfov": ["70"] * 3,
+         "--wall-cutaway": ["0.5"] * 3, "--scene-scale": ["0.5"] * 3, "--view": ["first"] * 3,
+         "--world": ["correlated"] * 3, "--models": ["joint"] * 3, "--planners": ["greedy"] * 3,
+         "--backend": ["serial"] * 3, "--worlds": ["2"] * 3, "--first-seed": ["5"] * 3,
+         "--workers": ["1"] * 3}
+
+
+def test_fuzzed_compare_and_preview_flags_end_in_ok_or_one_line(tmp_path):
+    rng = random.Random(11)
+    values = ["-1", "0", "1", "2", "nan", "inf", "1e308", "abc", "", "99999999999999999999",
+              "correlated", "factorised", "efe", "serial"]
+    compare_flags = ["--worlds", "--first-seed", "--workers", "--world", "--models", "--planners",
+                     "--backend"]
+    seen = []
+    preview_flags = ["--width", "--height", "--fps", "--inset-scale", "--third-person-hfov",
+                     "--wall-cutaway", "--scene-scale", "--view"]
+    for n in range(14):
+        if n % 2 == 0:
+            argv = ["compare", "--env", "fake", "--backend", "serial", "--worlds", "1",
+                    "--models", "factorised", "--planners", "nearest", "--out", tmp_path / f"c{n}"]
+            flags = compare_flags
+        else:
+            argv, flags = ["preview", "--out", tmp_path / f"p{n}.png"], preview_flags
+        flag = rng.choice(flags)
+        argv += [flag, rng.choice(values + VALID.get(flag, []))]
+        if argv[0] == "compare" and argv[-2] == "--worlds" and argv[-1].isdigit():
+            argv[-1] = str(min(int(argv[-1]), 2))  # keep the run short
+        status, _, err = cli(argv, seconds=60)
+        assert status in (0, 1, 2), (argv, err)
+        seen.append(status)
+        if status == 2:
+            assert_one_line_error(status, err)
+        else:
+            assert "Traceback" not in err, (argv, err)
+    assert 2 in seen and (0 in seen or 1 in seen), seen  # faults and clean runs both occur

@@ -291,3 +291,24 @@ def test_full_site_without_alternative_ends_stuck_with_the_reason():
             break
         action = ex.next_action()
     assert ex.stuck_reason == "place_mug failed 3 times: site_full (no other free site affords mug)"
+
+
+# ------------------------------------------------------------------ injected action failures
+def test_failure_injection_script_completes_every_episode_under_transient_failures(tmp_path):
+    """At 0.4 per try on every verb, the task's max_retries (2) would give up on 1 action in 16;
+    retries derived from the failure model (k = 16 tries) make every episode complete."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, str(ROOT / "experiments" / "failure_injection.py"),
+                           "--worlds", "6", "--rate", "0.4", "--env", "fake", "--workers", "1",
+                           "--out", str(tmp_path)], capture_output=True, text=True, timeout=300,
+                          env=env, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    text = (tmp_path / "summary-correlated-fake-0.4.md").read_text()
+    assert "| factorised | 6 | 1.000 | 1.000 |" in text and "| joint | 6 | 1.000 | 1.000 |" in text
+    import csv
+    rows = list(csv.DictReader((tmp_path / "episodes-correlated-fake-0.4.csv").open()))
+    assert sum(int(r["failures"]) for r in rows) > 3 * len(rows)  # failures were injected

@@ -303,13 +303,13 @@ def test_picking_a_non_graspable_object_raises_and_changes_nothing(tmp_path):
 
 
 # ------------------------------------------------------------------ recovery (docs/design.md §7.6)
-def test_injected_fill_failure_reinspects_and_retries_then_completes():
+def test_failed_fill_reinspects_and_retries_then_completes():
     ex, scenario = make("default_apartment")
-    run(ex, ScriptedWorld(scenario, fail_plan={"fill_kettle": ["injected_failure"]}))
+    run(ex, ScriptedWorld(scenario, fail_plan={"fill_kettle": ["object_out_of_reach"]}))
     fails = events(ex, "fail")
     assert len(fails) == 1
     assert (fails[0]["action"], fails[0]["reason"], fails[0]["retry"]) == \
-        ("fill_kettle", "injected_failure", True)
+        ("fill_kettle", "object_out_of_reach", True)
     assert fails[0]["inspections"] == ["kettle.contains_water"]
     kinds = [(e["event"], e.get("action") or e.get("state")) for e in ex.events]
     i = kinds.index(("fail", "fill_kettle"))
@@ -322,14 +322,58 @@ def test_injected_fill_failure_reinspects_and_retries_then_completes():
 
 def test_exhausted_retry_budget_ends_with_the_reason():
     ex, scenario = make("default_apartment")
-    run(ex, ScriptedWorld(scenario, fail_plan={"fill_kettle": ["injected_failure"] * 5}))
+    run(ex, ScriptedWorld(scenario, fail_plan={"fill_kettle": ["object_out_of_reach"] * 5}))
     assert not ex.done
-    assert ex.stuck_reason == "fill_kettle failed 3 times: injected_failure"  # 1 + max_retries 2
+    assert ex.stuck_reason == "fill_kettle failed 3 times: object_out_of_reach"  # 1 + max_retries 2
     assert ex.graph.status("fill_kettle") == "failed"
     assert ex.next_action() is None
     assert events(ex, "stuck")[-1]["reason"] == ex.stuck_reason
     assert ex.graph.status("serve_tea") == "pending"
     assert ex.graph_state()["stuck_reason"] == ex.stuck_reason
+
+
+def test_transient_failures_retry_on_the_same_evidence_up_to_the_models_budget():
+    # injected_failure says nothing happened: no re-inspection, and retries beyond the task's
+    # max_retries (2) up to k = ceil(log(tolerance / M) / log(failure_rate)) tries.
+    ex, scenario = make("default_apartment")
+    k = ex.transient_tries()
+    m = ex.practical_runs()
+    assert m == 14 * 3  # 14 practical make-tea actions, each run at most 1 + 2 reopenings times
+    f, eps = ex.model.retries.failure_rate, ex.model.retries.tolerance
+    assert m * f ** k <= eps < m * f ** (k - 1)
+    run(ex, ScriptedWorld(scenario, fail_plan={"fill_kettle": ["injected_failure"] * (k - 1)}),
+        max_steps=400)
+    fails = events(ex, "fail")
+    assert len(fails) == k - 1 > 3
+    assert all(e["retry"] and e["inspections"] == [] for e in fails)
+    assert not any(e["event"] == "observe_state" for e in ex.events)
+    assert_tea_made(ex)
+
+
+def test_transient_failure_budget_spent_ends_with_the_bound():
+    ex, scenario = make("default_apartment")
+    k = ex.transient_tries()
+    run(ex, ScriptedWorld(scenario, fail_plan={"fill_kettle": ["injected_failure"] * (k + 3)}),
+        max_steps=400)
+    assert not ex.done
+    assert ex.stuck_reason.startswith(f"fill_kettle failed {k} times: injected_failure (a doable "
+                                      f"action fails {k} tries with probability <= 0.5^{k}")
+    assert len(events(ex, "fail")) == k
+
+
+def test_transient_budget_follows_the_declared_failure_model(tmp_path):
+    from fg_tea.model import RetryModel
+    assert RetryModel(0.2, 1e-3).tries(42) == 7      # 42 x 0.2^7 = 5.4e-4 <= 1e-3 < 42 x 0.2^6
+    assert RetryModel(0.5, 1e-3).tries(42) == 16
+    assert RetryModel(0.0, 1e-3).tries(42) == 1
+    path = tmp_path / "m.toml"
+    path.write_text('extends = "factorised"\nname = "m"\n[recovery]\nfailure_rate = 0.2\n')
+    from fg_tea.model import load_model
+    assert load_model(path).retries == RetryModel(0.2, 1e-3)
+    path.write_text('extends = "factorised"\nname = "m"\n[recovery]\nfailure_rate = 1.0\n')
+    from fg_tea.errors import InputError
+    with pytest.raises(InputError, match="failure_rate"):
+        load_model(path)
 
 
 def test_unreachable_site_is_excluded_from_search():

@@ -60,18 +60,26 @@ def reference_look(ref: Reference, view: View, found: dict) -> None:
             for c, j in enumerate(view.sites):
                 table[j] = 1.0 - view.probability[o, c]
             ref.loc_factors.append(Factor((ref.var(obj),), table))
-    for o, obj in enumerate(p.objects):                   # then detections, in object order
-        if found.get(obj) is not None:
-            j = p.sites.index(found[obj])
-            if model.positive_update == "blueprint":      # eq. 4 by Jeffrey's rule
-                q = ref.locations()[o]
-                eps = model.prior_floor
-                t = np.array([1.0 if i == j else eps for i in range(k)])
-                table = (t / t.sum()) / q
-            else:
-                pj = view.probability[o, view.sites.index(j)]
-                table = np.array([pj if i == j else model.false_positive_rate for i in range(k)])
+    seen = [(o, obj, p.sites.index(found[obj])) for o, obj in enumerate(p.objects)
+            if found.get(obj) is not None]
+    if model.positive_update != "blueprint":
+        for o, obj, j in seen:
+            pj = view.probability[o, view.sites.index(j)]
+            table = np.array([pj if i == j else model.false_positive_rate for i in range(k)])
             ref.loc_factors.append(Factor((ref.var(obj),), table))
+        return
+    # then eq. 4 for every seen object at once (eq. 32a): Jeffrey's rule in sweeps until every
+    # seen marginal is its target (iterative proportional fitting)
+    eps = model.prior_floor
+    targets = {o: np.array([1.0 if i == j else eps for i in range(k)]) for o, _, j in seen}
+    targets = {o: t / t.sum() for o, t in targets.items()}
+    for _ in range(500):
+        for o, obj, _ in seen:
+            q = ref.locations()[o]
+            ref.loc_factors.append(Factor((ref.var(obj),), targets[o] / q))
+        locs = ref.locations()
+        if not seen or max(np.abs(locs[o] - targets[o]).max() for o, _, _ in seen) <= 1e-13:
+            break
 
 
 @pytest.mark.parametrize("backend, solver", [("numpy", "auto"), ("numpy", "structured"),

@@ -43,6 +43,14 @@ from fg_tea.scenario import Scenario
 MAX_STATES = 20             # Bernoulli states held jointly in the state block
 GTSAM_MAP_LIMIT = 1 << 16   # joint states above which MAP uses the structured max-product chain
 DENSE_PREFERRED = 50_000    # joint states up to which "auto" prefers the dense joint table
+#: Several objects seen in one look (eq. 4 for each, docs/design.md §3.2): the collapses are
+#: repeated in sweeps (iterative proportional fitting) until every seen object's marginal is its
+#: eq. 4 target to this tolerance. The fixed point is the joint closest in KL to the belief with
+#: all those marginals, so it does not depend on the order of the objects.
+JOINT_COLLAPSE_TOLERANCE = 1e-13
+#: Sweeps allowed before the fit stops; IPF converges geometrically, and the bundled houses need
+#: fewer than 20 (one sweep when the objects are independent).
+JOINT_COLLAPSE_SWEEPS = 500
 
 
 def entropy(p: np.ndarray) -> float:
@@ -657,11 +665,41 @@ class BeliefEngine:
                                 self.model.miss_likelihood if miss is None else miss,
                                 self.model.false_positive_rate)
 
+    def _apply_detections(self, seen: Sequence[tuple[str, int, float | None]]) -> int:
+        """Absorb the detections of one look: (object, site index, miss likelihood or None).
+
+        With the likelihood update (eq. 31) the factors are multiplied in, which commutes. With
+        eq. 4's collapse, one object's collapse moves the others it is correlated with (joint
+        models), so the collapses are repeated in sweeps until every seen object's marginal is
+        its eq. 4 target (:data:`JOINT_COLLAPSE_TOLERANCE`): iterative proportional fitting,
+        whose fixed point, the joint closest in KL to the belief before the look among those with
+        every target marginal, is independent of the order of the objects (docs/design.md §3.2).
+
+        Returns:
+            The number of sweeps (1 when nothing is correlated).
+        """
+        if not seen:
+            return 0
+        if self.model.positive_update != "blueprint" or len(seen) == 1:
+            for o, j, miss in seen:
+                self._commit_location([self._detection_factor(o, j, miss)])
+            return 1
+        for sweep in range(1, JOINT_COLLAPSE_SWEEPS + 1):
+            reached = {}
+            for o, j, miss in seen:
+                self._commit_location([self._detection_factor(o, j, miss)])
+                reached[o] = self.location(o)
+            gap = max(float(np.max(np.abs(self.location(o) - q))) for o, q in reached.items())
+            if gap <= JOINT_COLLAPSE_TOLERANCE:
+                break
+        return sweep
+
     def observe_site(self, site: str, detections: Mapping[str, bool]) -> SiteUpdate:
         """Absorb one inspection of `site`: True = seen there, False = looked and not seen.
 
         An object absent from `detections` is "no observation" and its evidence is unchanged.
-        Misses [5, 6] are applied first (they commute); then detections [4], in object order.
+        Misses [5, 6] are applied first (they commute); then detections [4], together
+        (:meth:`_apply_detections`: each seen object ends at eq. 4's value, in any object order).
 
         Raises:
             ContradictionError: the evidence has probability zero; the belief is left unchanged.
@@ -678,9 +716,8 @@ class BeliefEngine:
             misses = [miss_factor(o, j, k, self.model.miss_likelihood)
                       for o in self.objects if detections.get(o) is False]
             self._commit_location(misses)
-            for o in self.objects:
-                if detections.get(o) is True:
-                    self._commit_location([self._detection_factor(o, j)])
+            self._apply_detections([(o, j, None) for o in self.objects
+                                    if detections.get(o) is True])
             after = self.locations()
         except BaseException:
             self._unary, self._loc_factors, self._cache = saved
@@ -699,7 +736,8 @@ class BeliefEngine:
 
         Misses multiply L_o by l(a) = 1 - p_{o,a} on the sites in view (they commute); then
         detections apply eq. 4 at the site seen (or, with ``positive_update = "likelihood"``,
-        l(a) = p_{o,j} at that site and the false-positive rate elsewhere), in object order.
+        l(a) = p_{o,j} at that site and the false-positive rate elsewhere), together and in any
+        object order (:meth:`_apply_detections`).
 
         Raises:
             ContradictionError: the evidence has probability zero; the belief is left unchanged.
@@ -718,12 +756,13 @@ class BeliefEngine:
             misses = [view_miss_factor(o, view.sites, view.miss[self._obj_index[o]], k, label)
                       for o in self.objects if o in found and found[o] is None]
             self._commit_location(misses)
+            seen = []
             for o in self.objects:
                 site = found.get(o)
                 if site is not None:
                     j = self._site_index[site]
-                    miss = float(view.miss[self._obj_index[o], view.sites.index(j)])
-                    self._commit_location([self._detection_factor(o, j, miss)])
+                    seen.append((o, j, float(view.miss[self._obj_index[o], view.sites.index(j)])))
+            self._apply_detections(seen)
             after = self.locations()
         except BaseException:
             self._unary, self._loc_factors, self._cache = saved

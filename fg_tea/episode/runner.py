@@ -249,7 +249,10 @@ class EpisodeRunner:
                                          "visibility": (model.detection_curve.to_json()
                                                         if model.detection_curve else None),
                                          "room_glances": model.room_glances},
-                           "transition_form": model.transition_form},
+                           "transition_form": model.transition_form,
+                           "recovery": {**asdict(model.retries),
+                                        "tries": self.executor.transient_tries(),
+                                        "action_runs": self.executor.practical_runs()}},
             "sites": [{"name": s.name, "room": s.room, "vantage": list(s.vantage),
                        "position": list(s.position)} for s in self.scenario.sites],
             "viewpoints": viewpoints,

@@ -21,7 +21,10 @@ environment and reports back observations and outcomes. It owns
 - **recovery** (docs/design.md §7.6): a failed action is marked failed, beliefs learn from the failure
   where it carries evidence (``object_not_at_site`` is a miss at that site, eqs. 5-6, and reopens
   the object's search), and the action's declared policy decides: retry (bounded), re-inspect
-  states first, or exclude an unreachable site from the search candidates. With no retries left
+  states first, or exclude an unreachable site from the search candidates. A transient failure
+  (``TRANSIENT_REASONS``: nothing happened, no cause) is retried on the same evidence up to the
+  model's failure-model budget k instead (:meth:`TaskExecutor.transient_tries`, docs/design.md
+  eq. 49). With no retries left
   the executor is stuck with a logged reason, so an episode ends instead of looping.
 
 How the episode runner drives it::
@@ -74,7 +77,7 @@ from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.interface import ActionRequest, ActionResult
 from fg_tea.model import Condition, Model, Sensor
 from fg_tea.scenario import Scenario
-from fg_tea.tasks.actions import UNREACHABLE_REASONS, TaskAction
+from fg_tea.tasks.actions import TRANSIENT_REASONS, UNREACHABLE_REASONS, TaskAction
 from fg_tea.tasks.graph import TaskGraph
 
 #: Failure reasons that are evidence about where an object is not (a miss at the site).
@@ -237,6 +240,8 @@ class TaskExecutor:
         self.events: list[dict] = []
         self.excluded_sites: list[str] = []
         self.attempts: Counter[str] = Counter()
+        #: transient failures (``TRANSIENT_REASONS``) per action since it last succeeded or reopened
+        self.transient_failures: Counter[str] = Counter()
         self._verifications: Counter[tuple[str, str]] = Counter()
         self._stuck_reason: str | None = None
 
@@ -738,7 +743,21 @@ class TaskExecutor:
                                     "graph": self.graph.to_json()})
                 return decision
 
-        if attempt <= policy.max_retries:
+        if reason in TRANSIENT_REASONS:
+            # The action did not happen and nothing changed: retry it on the same evidence (no
+            # re-inspection), up to k tries in a row from the model's failure model.
+            self.transient_failures[action.id] += 1
+            run, tries = self.transient_failures[action.id], self.transient_tries()
+            if run < tries:
+                self.graph.set_status(action.id, "pending")
+                decision = RecoveryDecision(action.id, reason, attempt, True, (), excluded, reopened)
+            else:
+                rate = self.model.retries.failure_rate
+                stuck = (f"{action.id} failed {run} times: {reason} (a doable action fails "
+                         f"{tries} tries with probability <= {rate:g}^{tries} = {rate ** tries:.2g})")
+                decision = RecoveryDecision(action.id, reason, attempt, False, (), excluded,
+                                            reopened, stuck)
+        elif attempt - self.transient_failures[action.id] <= policy.max_retries:
             self.graph.set_status(action.id, "pending")
             decision = RecoveryDecision(action.id, reason, attempt, True, policy.reinspect,
                                         excluded, reopened)
@@ -750,6 +769,20 @@ class TaskExecutor:
         if decision.stuck_reason is not None:
             self._stuck(decision.stuck_reason)
         return decision
+
+    # ------------------------------------------------------------------ transient failures
+    def practical_runs(self) -> int:
+        """M: action runs an episode may make (each non-search action once per reopening round)."""
+        practical = sum(1 for n in self.graph if self.graph.action(n).verb not in ("SEARCH", "INSPECT"))
+        return practical * (1 + self.max_reopenings)
+
+    def transient_tries(self) -> int:
+        """k, the tries of one action before a run of transient failures ends the episode.
+
+        From the model's failure model (:class:`fg_tea.model.RetryModel`): the smallest k with
+        M x failure_rate^k <= tolerance for M = :meth:`practical_runs`.
+        """
+        return self.model.retries.tries(self.practical_runs())
 
     # ------------------------------------------------------------------ task-level recovery
     def _threshold(self, state: str) -> float | None:
@@ -832,6 +865,7 @@ class TaskExecutor:
                 continue
             self.graph.set_status(node, "pending")
             self.attempts.pop(node, None)
+            self.transient_failures.pop(node, None)
             for key in [k for k in self._verifications if k[0] == node]:
                 del self._verifications[key]
             self._reopened.add(node)
