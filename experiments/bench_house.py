@@ -51,6 +51,16 @@ def _spread(house: PyBulletHouse, scenario: Scenario, objects: list[str], sites:
         house.move_object(obj, sites[i % len(sites)])
 
 
+def _roi_mismatch(house: PyBulletHouse, viewpoint: str, objects: list[str]) -> int:
+    """1 if a look's pixel counts differ between the ROI window and the full image, else 0."""
+    counts = {}
+    for roi in (True, False):
+        house.roi = roi
+        counts[roi] = house.inspect_viewpoint(viewpoint, objects).pixel_counts
+    house.roi = True
+    return int(counts[True] != counts[False])
+
+
 def _room_sites(scenario: Scenario, room: str) -> list[str]:
     return [s.name for s in scenario.sites if s.room == room]
 
@@ -166,6 +176,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # Close looks and room glances in realistic states: the objects spread over the room's sites.
     looks: dict[str, float] = {}
+    mismatches = 0  # looks whose pixel counts differ between the ROI window and the full image
     progress("close look at every site, objects spread over its room")
     per_site = []
     for site in scenario.sites:
@@ -173,6 +184,7 @@ def main(argv: list[str] | None = None) -> int:
         _spread(house, scenario, objects, [site.name] + [s for s in room if s != site.name])
         house.inspect_viewpoint(site.name, [])  # move and face first: movement excluded below
         per_site.append(_time(lambda: house.inspect_viewpoint(site.name, objects), args.repeats))
+        mismatches += _roi_mismatch(house, site.name, objects)
     looks["close"] = statistics.median(per_site)
     rows.append((f"close look, objects spread over the room, {config.ego_width}x{config.ego_height}",
                  looks["close"]))
@@ -184,6 +196,7 @@ def main(argv: list[str] | None = None) -> int:
             _spread(house, scenario, objects, list(vp.sites))
             house.inspect_viewpoint(vp.name, [])
             per_view.append(_time(lambda: house.inspect_viewpoint(vp.name, objects), args.repeats))
+            mismatches += _roi_mismatch(house, vp.name, objects)
         looks["glance"] = statistics.median(per_view)
         rows.append((f"room glance, objects spread over the room, {config.ego_width}x{config.ego_height}",
                      looks["glance"]))
@@ -215,6 +228,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"target: {label} with objects spread over the room < {LOOK_TARGET_MS:.0f} ms: "
                   f"{'met' if looks[kind] < LOOK_TARGET_MS else 'NOT met'} ({looks[kind]:.2f} ms, "
                   f"median over {'sites' if kind == 'close' else 'room vantages'})")
+    print(f"pixel counts of those looks, ROI window against the full image: "
+          f"{'identical' if mismatches == 0 else f'{mismatches} looks DIFFER'}")
     print(f"\nexpected pixel counts, scenario {cal['scenario']} ({cal['sites']} sites, "
           f"{cal['pairs']} viewpoint-site pairs, {cal['categories']} categories):")
     print(f"  cold (fresh FG_TEA_CACHE_DIR) {cal['cold']:9.2f} s")
