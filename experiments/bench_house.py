@@ -52,9 +52,15 @@ def _spread(house: PyBulletHouse, scenario: Scenario, objects: list[str], sites:
 
 
 def _roi_mismatch(house: PyBulletHouse, viewpoint: str, objects: list[str]) -> int:
-    """1 if a look's pixel counts differ between the ROI window and the full image, else 0."""
+    """1 if a look's pixel counts differ between the ROI window and the full image, else 0.
+
+    Both looks start from the same pose: a glance turns to its sites in an order and to headings
+    (within the facing tolerance) that depend on the heading it starts from.
+    """
     counts = {}
+    start = house._pose
     for roi in (True, False):
+        house._pose = start
         house.roi = roi
         counts[roi] = house.inspect_viewpoint(viewpoint, objects).pixel_counts
     house.roi = True
