@@ -163,6 +163,47 @@ def test_roi_counts_equal_full_image_counts(house):
         house.roi = True
 
 
+def _ahead_of_camera(house, forward_m, up_m):
+    """A point `forward_m` along the egocentric camera's heading and `up_m` above the lens (m)."""
+    from fg_tea.env import assets
+
+    yaw = math.radians(house._pose.yaw_deg)
+    forward = assets.CAMERA_FORWARD_M + forward_m
+    return (house._pose.x + forward * math.cos(yaw), house._pose.y + forward * math.sin(yaw),
+            house.config.sensor_height + up_m)
+
+
+@pytest.mark.parametrize("case", ["behind", "straddling"])
+def test_roi_counts_equal_full_image_counts_with_objects_behind_the_camera(house, case):
+    """Bodies wholly behind the camera are left out of the window; one across it is still counted."""
+    site = SCENARIO.sites[0].name
+    house.reset(0)
+    try:
+        house.move_object("mug", site)
+        house.inspect_site(site, [])  # stand at the close vantage, facing the site
+        if case == "behind":  # wholly behind the lens: no pixels, and no reason to render it all
+            house._positions["kettle"] = _ahead_of_camera(house, -0.6, -0.1)
+            house._positions["teabag"] = _ahead_of_camera(house, -1.5, -0.3)
+        else:  # its box reaches from behind the camera to in front of the near plane
+            house._positions["kettle"] = _ahead_of_camera(house, 0.0, -0.05)
+        house.roi = True
+        roi = house._pixel_counts(0, OBJECTS)
+        w, h = house.config.ego_width, house.config.ego_height
+        view, proj = house._ego_camera(w, h)
+        window = house._window(view, proj, w, h, [(house._bodies[o], house._bounds[o]) for o in OBJECTS])
+        house.roi = False
+        assert house._pixel_counts(0, OBJECTS) == roi
+        assert roi["mug"] > 0
+        if case == "behind":
+            assert roi["kettle"] == roi["teabag"] == 0
+            assert window != (0, 0, w, h)  # the window is the mug's, not the whole image
+        else:
+            assert roi["kettle"] > 0 and window == (0, 0, w, h)
+    finally:
+        house.roi = True
+        house.reset(0)
+
+
 def test_drone_and_held_object_stay_out_of_the_egocentric_view(house):
     house.reset(0)
     assert house.execute(ActionRequest("PICK", "mug", "sideboard")).ok

@@ -91,6 +91,55 @@ def test_prior_violation_moves_belief_away_from_inspected_sites():
     assert observations[found_at]["found_at"]["mug"] == "study_shelf"
 
 
+def test_observations_and_decisions_carry_their_viewpoint(default_runs):
+    """Every look names its viewpoint, kind and sites in view; per object and in-view site the log
+    holds the model's detection probability (recomputed here from the house alone) and the pixels
+    the camera saw; every decision candidate names its viewpoint and kind."""
+    from fg_tea.beliefs.detection import ViewModel
+
+    scenario, model = load_scenario("default_apartment"), load_model("factorised")
+    env = PyBulletHouse(scenario, env_config_for(model))
+    try:
+        env.reset(0)
+        expected = env.expected_pixel_counts(sorted({o.category for o in scenario.objects}))
+    finally:
+        env.close()
+    views = ViewModel(scenario, model, scenario.object_names, expected)
+    events = default_runs["factorised"].events
+    observations = [e for e in events if e["event"] == "observation"]
+    assert {e["viewpoint_kind"] for e in observations} == {"site", "room"}  # glances and close looks
+    for e in observations:
+        vp = scenario.viewpoint(e["viewpoint"])
+        assert e["viewpoint_kind"] == vp.kind and e["sites_in_view"] == list(vp.sites)
+        probs = views.probabilities(vp.name)
+        for obj in e["objects"]:
+            assert set(e["detection_probability"][obj]) == set(vp.sites)
+            assert set(e["site_pixel_counts"][obj]) == set(vp.sites)
+            for site in vp.sites:
+                assert e["detection_probability"][obj][site] == pytest.approx(probs[obj][site], abs=1e-9)
+                n = e["site_pixel_counts"][obj][site]
+                assert isinstance(n, int) and n >= 0
+            if e["detections"][obj]:
+                assert e["found_at"][obj] in vp.sites and e["site_pixel_counts"][obj][e["found_at"][obj]] > 0
+    decisions = [e for e in events if e["event"] == "decision"]
+    assert decisions
+    for d in decisions:
+        assert d["viewpoint_kind"] == scenario.viewpoint(d["viewpoint"]).kind
+        for c in d["candidates"]:
+            assert c["viewpoint_kind"] == scenario.viewpoint(c["viewpoint"]).kind
+        assert {c["viewpoint_kind"] for c in d["candidates"]} == {"site", "room"}
+
+
+def test_different_seeds_give_different_episodes():
+    """With the visibility detector every detection is a seeded draw, so the seed matters."""
+    looks = set()
+    for seed in range(4):
+        runner = run_episode("default_apartment", "factorised", seed=seed)
+        looks.add(json.dumps([(e["viewpoint"], e["detections"]) for e in runner.events
+                              if e["event"] == "observation"], sort_keys=True))
+    assert len(looks) >= 2
+
+
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_same_seed_gives_byte_identical_logs(tmp_path, scenario):
     a, b = tmp_path / "a.jsonl", tmp_path / "b.jsonl"

@@ -69,6 +69,20 @@ def test_generated_houses_build_and_finish_an_episode(rooms, seed):
     assert metrics["success"], metrics["reason"]
 
 
+def test_house_validate_run_commands(tmp_path, capsys):
+    """fg-tea house --rooms 6 --seed 3 --out h.json && fg-tea validate h.json && fg-tea run h.json
+    --model joint --no-video, in the PyBullet house."""
+    house = tmp_path / "h.json"
+    assert main(["house", "--rooms", "6", "--seed", "3", "--out", str(house)]) == 0
+    assert main(["validate", str(house)]) == 0
+    out = tmp_path / "run"
+    assert main(["run", str(house), "--model", "joint", "--no-video", "--out", str(out)]) == 0
+    events = [json.loads(line) for line in (out / "episode.jsonl").read_text().splitlines()]
+    metrics = next(e for e in events if e["event"] == "metrics")
+    assert metrics["success"] and metrics["reason"] == "complete", metrics
+    assert any(e["event"] == "observation" and e["viewpoint_kind"] == "room" for e in events)
+
+
 def test_more_seeds_validate():
     for rooms in range(3, 11):
         for seed in (100, 101):

@@ -103,6 +103,34 @@ def test_glances_match_brute_force(data, backend, solver):
         assert_agrees(engine, ref)
 
 
+@pytest.mark.parametrize("backend", ["numpy", "gtsam"])
+@SETTINGS
+@given(data=st.data())
+def test_factorised_glances_match_brute_force(data, backend):
+    """The same chains of glances on factorised beliefs (independent locations, no relations)."""
+    import dataclasses
+    from pathlib import Path
+
+    from fg_tea.model import load_model
+
+    p = dataclasses.replace(data.draw(problems(max_objects=3, max_sites=5)), relations=())
+    factorised = load_model(Path(__file__).resolve().parents[1] / "models" / "factorised.toml")
+    model = factorised.with_overrides(positive_update=p.positive_update, false_positive_rate=p.fp)
+    assert model.structure == "factorised"
+    engine = engine_for(p, model, backend)
+    assert not engine.correlated
+    ref = Reference(p, model)
+    for view, found in data.draw(looks(p)):
+        before = engine.location_matrix()
+        try:
+            engine.observe_view(view, found)
+        except ContradictionError:
+            np.testing.assert_array_equal(engine.location_matrix(), before)
+            continue
+        reference_look(ref, view, found)
+        assert_agrees(engine, ref)
+
+
 def brute_force_view_gain(joint, unresolved, sites, prob, fp):
     """I(L_o; D) by listing every joint outcome d of the look (object by object)."""
     k, n, m = joint.shape[0], len(unresolved), len(sites)

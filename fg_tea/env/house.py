@@ -46,6 +46,9 @@ from fg_tea.scenario import Scenario
 EGO_PITCH_DEG = -20.0
 #: Near and far clipping planes (m) of both cameras.
 NEAR_M, FAR_M = 0.03, 30.0
+#: A body counts as behind the camera when every corner of its bounding box lies at least this far
+#: (m) behind the camera plane; the margin absorbs float rounding of the renderer's own test.
+BEHIND_MARGIN_M = 1e-4
 #: The chase camera is pulled in front of any wall between it and the agent, keeping this gap (m).
 CHASE_WALL_GAP_M = 0.15
 #: Half width (m) of the corridor behind the agent that must be free of walls for the chase camera
@@ -220,7 +223,12 @@ class PyBulletHouse(TruthBackedAdapter):
                 bodies: Sequence[tuple[int, np.ndarray]]) -> tuple[int, int, int, int] | None:
         """Pixel window (col0, row0, col1, row1) covering every body's projected bounds.
 
-        None if no body can be in view; the whole image if a bound reaches behind the camera.
+        A body whose bounding box lies entirely behind the camera (every corner has clip
+        w = -z_eye < 0) contributes no pixels and is left out: TinyRenderer discards every triangle
+        whose three vertices all have w < 0, and each of the body's vertices lies inside its box.
+        A body whose box reaches from in front of the near plane to behind it (or lies within
+        the near plane's slab, 0 <= w <= near) may still cover pixels anywhere, so it makes the
+        window the whole image. None if no body can be in view.
         """
         clip_from_world = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T
         boxes = []
@@ -230,10 +238,14 @@ class PyBulletHouse(TruthBackedAdapter):
             world = np.eye(4)
             world[:3, :3], world[:3, 3] = rot, pos
             clip = clip_from_world @ world @ bounds
+            if (clip[3] < -BEHIND_MARGIN_M).all():
+                continue  # entirely behind the camera: no triangle of it is drawn
             if (clip[3] <= NEAR_M).any():
                 return (0, 0, width, height)
             ndc = clip[:2] / clip[3]
             boxes.append((ndc[0].min(), ndc[1].min(), ndc[0].max(), ndc[1].max()))
+        if not boxes:
+            return None
         b = np.array(boxes)
         x0, y0, x1, y1 = b[:, 0].min(), b[:, 1].min(), b[:, 2].max(), b[:, 3].max()
         c0 = max(0, int(math.floor((x0 + 1) / 2 * width)) - 2)
