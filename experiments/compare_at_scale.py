@@ -20,18 +20,18 @@ already in its CSV):
   (``make_tea``, and ``make_tea_milk_sugar`` in the ``generated_*_milk_sugar`` worlds).
 - ``--table detectability``: the detector's half-probability pixel count n_50 for the small
   objects (``--small-categories``, default the teabag; camera and agent curve changed together,
-  written as model files under OUT/models/) × correlation strength c (the probability that the
+  written as model files under OUT/TABLE/models/) × correlation strength c (the probability that the
   teabag is placed by the kettle: 2c/3 on its site, c/3 elsewhere in its room, so c = 0.75 is the
   bundled worlds' 0.5 / 0.25) × house size.
 
-Each writes under ``runs/compare_at_scale/<table>/`` by default: ``episodes.csv`` (one row per
+Each writes under ``runs/experiments/compare_at_scale/<table>/`` by default: ``episodes.csv`` (one row per
 episode, the sweep CSV of :mod:`fg_tea.sweep`), ``<table>.md`` (markdown tables of every cell),
 ``<table>_paired.csv``, a heat map ``<table>_heatmap.png`` of the paired joint − factorised
 difference in search travel, and ``decision_times.csv``: the median wall time per decision of each
 model and planner, measured in-process on the first ``--timing-worlds`` worlds of each house size
 (kept out of the episode CSV, which holds no wall-clock time).
 
-Long sweeps: ``--backend ray --address auto`` (or ``ray://head:10001``) runs the episodes as Ray
+Long sweeps: ``--executor ray --address auto`` (or ``ray://head:10001``) runs the episodes as Ray
 tasks on a cluster with fg_tea installed on every node; the CSV is the same bytes as on the
 process pool.
 
@@ -75,6 +75,8 @@ DEFAULT_HALF_PIXELS = (25.0, 50.0, 100.0)
 DEFAULT_STRENGTHS = (0.0, 0.75, 1.0)
 
 
+DEFAULT_OUT = "runs/experiments/compare_at_scale"
+
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -102,7 +104,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--timing-worlds", type=int, default=2,
                    help="worlds per house size whose decisions are timed in-process (0: none)")
     add_execution_arguments(p, "episodes.csv")
-    p.add_argument("--out", default=None, help="output folder (default: runs/compare_at_scale/TABLE)")
+    p.add_argument("--out", default=DEFAULT_OUT,
+                   help="output folder; each table writes into OUT/TABLE (default: %(default)s)")
     args = p.parse_args(argv)
     if args.worlds < 1:
         p.error("--worlds must be at least 1")
@@ -353,7 +356,7 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    out = Path(args.out) if args.out else ROOT / "runs" / "compare_at_scale" / args.table
+    out = Path(args.out) / args.table
     out.mkdir(parents=True, exist_ok=True)
     jobs, cells = plan(args, out)
     csv_path = out / "episodes.csv"
@@ -362,7 +365,7 @@ def main(argv=None) -> int:
         with csv_path.open(newline="", encoding="utf-8") as fh:
             before = max(sum(1 for _ in csv.reader(fh)) - 1, 0)
     t0 = time.perf_counter()
-    rows = run_sweep(jobs, csv_path, args.backend, workers=args.workers or None,
+    rows = run_sweep(jobs, csv_path, args.executor, workers=args.workers or None,
                      address=args.address, resume=args.resume, label=f"compare_at_scale {args.table}")
     seconds = time.perf_counter() - t0
     ran = max(len(rows) - before, 0)

@@ -154,7 +154,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--env", choices=("fake", "pybullet"), default="fake")
     p.add_argument("--miss-rate", type=float, default=None,
                    help="injected detector miss rate (default: the model's mu)")
-    p.add_argument("--out", default="runs/planner_frontier")
+    p.add_argument("--out", default="runs/experiments/planner_frontier",
+                   help="output folder (default: %(default)s)")
     args = p.parse_args(argv)
     planners = args.planners or list(DEFAULT_PLANNERS)
     try:

@@ -29,46 +29,48 @@ def _check_spl(rows):
 
 
 def test_compare_at_scale_tiny_fake_run_writes_every_table_and_resumes(tmp_path):
+    table = tmp_path / "houses"  # each table writes into OUT/TABLE
     args = ("experiments/compare_at_scale.py", "--table", "houses", "--worlds", "2", "--sizes", "small",
             "--tasks", "make_tea", "--planners", "factorised_efe", "mi_efe", "nearest", "--env", "fake",
-            "--backend", "serial", "--timing-worlds", "1", "--out", str(tmp_path))
+            "--executor", "serial", "--timing-worlds", "1", "--out", str(tmp_path))
     _run(*args)
-    rows = read_rows(tmp_path / "episodes.csv")
+    rows = read_rows(table / "episodes.csv")
     assert len(rows) == 2 * 2 * 3  # worlds x {factorised, joint} x planners
     assert {r["structure"] for r in rows} == {"factorised", "joint"}
     _check_spl(rows)
-    text = (tmp_path / "houses.md").read_text()
+    text = (table / "houses.md").read_text()
     assert "joint − factorised" in text and "exact MI" in text and "eqs. 10-11" in text
-    assert "median ms" in text and (tmp_path / "houses_heatmap.png").stat().st_size > 0
-    with (tmp_path / "houses_paired.csv").open(newline="") as fh:
+    assert "median ms" in text and (table / "houses_heatmap.png").stat().st_size > 0
+    with (table / "houses_paired.csv").open(newline="") as fh:
         paired = list(csv.DictReader(fh))
     assert {r["planner"] for r in paired} == {"factorised_efe", "mi_efe", "nearest"}
     assert all(r["pairs"] == "2" for r in paired)
-    before = (tmp_path / "episodes.csv").read_bytes()
+    before = (table / "episodes.csv").read_bytes()
     _run(*args[:-4], "--timing-worlds", "0", "--out", str(tmp_path))
-    assert "for 0 new episodes" in (tmp_path / "houses.md").read_text()  # nothing ran again
-    assert (tmp_path / "episodes.csv").read_bytes() == before
+    assert "for 0 new episodes" in (table / "houses.md").read_text()  # nothing ran again
+    assert (table / "episodes.csv").read_bytes() == before
 
 
 def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
+    table = tmp_path / "detectability"
     _run("experiments/compare_at_scale.py", "--table", "detectability", "--worlds", "2", "--sizes",
          "small", "--half-pixels", "25", "100", "--strengths", "0", "1", "--planners", "nearest",
-         "--env", "fake", "--backend", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
+         "--env", "fake", "--executor", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
     from fg_tea.model import load_model
 
-    model = load_model(tmp_path / "models" / "joint_n50_25.toml")
+    model = load_model(table / "models" / "joint_n50_25.toml")
     assert model.structure == "joint" and model.camera_curve.params("teabag").half_pixels == 25.0
     assert model.detection_curve.params("teabag").half_pixels == 25.0
-    rows = read_rows(tmp_path / "episodes.csv")
+    rows = read_rows(table / "episodes.csv")
     assert len(rows) == 2 * 2 * 2 * 2  # worlds x models x n_50 x strengths
     assert sorted({round(r["same_site_teabag_kettle"], 9) for r in rows}) == [0.0, round(2 / 3, 9)]
     _check_spl(rows)
-    assert "| small | 25.0 | 0.0 |" in (tmp_path / "detectability.md").read_text()
+    assert "| small | 25.0 | 0.0 |" in (table / "detectability.md").read_text()
 
 
 def test_generated_medium_quick_compare_fake_has_spl_and_no_optimal(tmp_path):
     proc = _run("-m", "fg_tea.cli", "compare", "--world", "generated_medium", "--quick", "--worlds", "2",
-                "--env", "fake", "--backend", "serial", "--out", str(tmp_path))
+                "--env", "fake", "--executor", "serial", "--out", str(tmp_path))
     assert "planner optimal left out" in proc.stderr
     rows = read_rows(tmp_path / "episodes.csv")
     assert "optimal" not in {r["planner"] for r in rows}
