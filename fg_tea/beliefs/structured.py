@@ -298,11 +298,12 @@ class StructuredLocationModel:
         alg = self.alg
         self.pre: list[list[np.ndarray]] = []   # per room: prefix products over its sites
         self.suf: list[list[np.ndarray]] = []
-        h = []
+        h: list[np.ndarray] = []
         for r, sites in enumerate(self.room_sites):
             scale = self._same_rooms[r]
             if scale is not None:
                 prev = self._previous
+                assert prev is not None            # set whenever some room is unchanged
                 self.pre.append([x * scale for x in prev.pre[r]])
                 self.suf.append([x * scale for x in prev.suf[r]])
                 h.append(prev.h[r] * scale)
@@ -316,7 +317,7 @@ class StructuredLocationModel:
             self.pre.append(pre)
             self.suf.append(suf[::-1])
             h.append(self.rho * pre[-1])
-        self.h = h
+        self.h: list[np.ndarray] = h
         rpre = [alg.delta()]
         for hr in h:
             rpre.append(alg.conv(rpre[-1], hr))

@@ -220,9 +220,11 @@ class EpisodeRunner:
             expected = self.env.expected_pixel_counts(categories)
         self.views = ViewModel(self.scenario, model, self.belief.objects, expected)
         self._yardstick_start = ((pose.x, pose.y), dict(self.env.truth_report().get("sites") or {}))
-        viewpoints = [{"name": v.name, "kind": v.kind, "position": list(v.position),
-                       "sites": list(v.sites), "room": v.room}
-                      for v in self.scenario.viewpoints if v.name in self.views.names]
+        # JSON records of the log (mixed value types); the yardstick reads them back.
+        viewpoints: list[dict[str, Any]] = [
+            {"name": v.name, "kind": v.kind, "position": list(v.position),
+             "sites": list(v.sites), "room": v.room}
+            for v in self.scenario.viewpoints if v.name in self.views.names]
         self._viewpoints_logged = viewpoints
         from fg_tea.resources import _resolve, resolve_task
 

@@ -90,8 +90,12 @@ def clairvoyant_route(objects: Sequence[str], sees: Mapping[str, Sequence[str]],
         return 0.0, ()
     names = list(sees)
     masks = [sum(1 << index[o] for o in sees[v] if o in index) for v in names]
+    xy: list[tuple[float, ...]] = []
+    start_pt: tuple[float, ...] = ()
     lazy = positions is not None and start_xy is not None
-    xy = [tuple(map(float, positions[v][:2])) for v in names] if lazy else []
+    if positions is not None and start_xy is not None:
+        xy = [tuple(map(float, positions[v][:2])) for v in names]
+        start_pt = tuple(map(float, start_xy[:2]))
     START = -1
     walked: dict[tuple[int, int], float] = {}
 
@@ -103,7 +107,7 @@ def clairvoyant_route(objects: Sequence[str], sees: Mapping[str, Sequence[str]],
     def bound(a: int, b: int) -> float:
         if not lazy:
             return leg(a, b)
-        p = tuple(map(float, start_xy[:2])) if a == START else xy[a]
+        p = start_pt if a == START else xy[a]
         return math.hypot(xy[b][0] - p[0], xy[b][1] - p[1])
 
     best: dict[tuple[int, int], float] = {}

@@ -304,7 +304,7 @@ class JointViewGain:
         for t in range(m):
             a_mask = (codes == t + 1) @ bits
             kern = sm.g[sites[:, t]][:, a_mask[:, None] | emb[None, :]]     # (G, n_c, 2^f)
-            psi = fa.conv(psi, kern) if f else psi * kern
+            psi = fa.conv(psi, kern) if fa is not None else psi * kern
         masks = ((codes > 0) @ bits)[:, None] | emb[None, :]                # (n_c, 2^f)
         cls = (g_n,) + (m + 1,) * s
         p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
@@ -387,9 +387,9 @@ class JointViewGain:
         out = np.zeros((n_obs, len(views)))
         groups: dict[int, list[int]] = {}
         weights = []
-        for c, (sites, _) in enumerate(views):
-            weights.append(self._view_weights([int(j) for j in sites]))
-            groups.setdefault(len(sites), []).append(c)
+        for c, (view_sites, _) in enumerate(views):
+            weights.append(self._view_weights([int(j) for j in view_sites]))
+            groups.setdefault(len(view_sites), []).append(c)
         order = np.argsort(self.observed)
         tracked_all = sorted(self.observed)
         for m, members in groups.items():

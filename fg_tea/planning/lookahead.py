@@ -215,13 +215,17 @@ def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
                 continue
             pr = np.zeros((len(idx), k))
             pr[:, j] = 1.0 - mu
-            names.append(s), kinds.append("site"), probs.append(pr), looks.append(look)
+            names.append(s)
+            kinds.append("site")
+            probs.append(pr)
+            looks.append(look)
         p_max = 1.0 - mu
     else:
         for v in views.views:
             if v.name in excluded:
                 continue
-            names.append(v.name), kinds.append(v.kind)
+            names.append(v.name)
+            kinds.append(v.kind)
             probs.append(v.probability_over_sites(k)[idx])
             looks.append(look * len(v.sites))
         p_max = float(views.max_probability)
@@ -329,7 +333,8 @@ class _Node:
     depth: int             # looks still to expand
     looked: np.ndarray     # (A,) looks from each viewpoint so far (history + path; rollout sweeps)
     value: float = 0.0
-    children: list | None = None     # per action: (action, cost, [(prob, node)])
+    # per action: (action, cost, [(prob, node)]); None until expanded
+    children: list[tuple[int, float, list[tuple[float, "_Node"]]]] | None = None
     leaf: bool = False
     base: int = -1                   # the rollout policy's first look from here (-1: none)
     rollout: float = math.inf        # the rollout's value from here (fortification)
@@ -381,8 +386,8 @@ class LookaheadPlanner:
         subsets = list(itertools.chain.from_iterable(
             itertools.combinations(range(len(us)), size) for size in range(len(us) + 1)))
         bits = np.zeros((len(us), len(subsets)), dtype=bool)
-        for c, subset in enumerate(subsets):
-            bits[list(subset), c] = True
+        for col, members in enumerate(subsets):
+            bits[list(members), col] = True
         lik = np.prod(np.where(bits[None, :, :], s[:, :, None], 1.0 - s[:, :, None]), axis=1)
         weights = node.w[:, None] * lik                            # (T, subsets)
         masses = weights.sum(axis=0)
@@ -525,6 +530,7 @@ class LookaheadPlanner:
                 n.value = float(v)
             for n, v in zip(fortify, values[len(leaves):]):
                 n.rollout = float(v)
+        assert root.children is not None   # depth and nodes >= 1: the root is always expanded
         q_values = np.array([self._q(root, a, cost, kids) for a, cost, kids in root.children])
         best = int(np.argmin(q_values))  # first minimum: EFE rank
         candidates = []
@@ -533,11 +539,12 @@ class LookaheadPlanner:
                                         c.information_gain, c.repeat, c.relevance, c.total,
                                         float(q), c.kind))
         sorted_q = np.sort(q_values)
-        info = {"lookahead": st.spec(), "nodes": int(st.nodes - budget[0]),
-                "leaves": len(leaves), "rollout_looks": int(steps), "truths": int(len(problem.p)),
-                "viewpoints": len(problem.names), "best_value": float(sorted_q[0]),
-                "second_value": float(sorted_q[1]) if len(sorted_q) > 1 else float(sorted_q[0]),
-                "look_cost": st.look}
+        info: dict[str, float | str] = {
+            "lookahead": st.spec(), "nodes": int(st.nodes - budget[0]),
+            "leaves": len(leaves), "rollout_looks": int(steps), "truths": int(len(problem.p)),
+            "viewpoints": len(problem.names), "best_value": float(sorted_q[0]),
+            "second_value": float(sorted_q[1]) if len(sorted_q) > 1 else float(sorted_q[0]),
+            "look_cost": st.look}
         chosen = candidates[best]
         return Decision(chosen.object, chosen.site, chosen.total, tuple(candidates), self.name, info)
 
