@@ -28,20 +28,13 @@ def _command(name: str):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports usage faults in one line with exit status 2, and notes the use of
-    deprecated option names (one line each) only once the whole command line has parsed."""
+    """argparse that reports usage faults in one line with exit status 2, and keeps the notes on
+    deprecated option names for :func:`main` to write after the command (one line each)."""
 
     def error(self, message: str) -> NoReturn:  # noqa: D401 - argparse API
         sys.stderr.write(f"fg-tea: error: {message}\n")
         raise SystemExit(2)
 
-    def parse_known_args(self, args=None, namespace=None):  # noqa: ANN001 - argparse API
-        parsed, extra = super().parse_known_args(args, namespace)
-        for note in getattr(parsed, DeprecatedAlias.NOTES, []):
-            sys.stderr.write(f"fg-tea: note: {note}\n")
-        if hasattr(parsed, DeprecatedAlias.NOTES):
-            delattr(parsed, DeprecatedAlias.NOTES)
-        return parsed, extra
 
 
 class DeprecatedAlias(argparse.Action):
@@ -915,12 +908,17 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    notes = list(getattr(args, DeprecatedAlias.NOTES, []))  # written after the command, or
+    if hasattr(args, DeprecatedAlias.NOTES):                 # folded into its one error line
+        delattr(args, DeprecatedAlias.NOTES)
     try:
         status = COMMANDS[args.command](args)
         sys.stdout.flush()
+        for note in notes:
+            _error(note, prefix="fg-tea: note: ")
         return status
     except InputError as exc:
-        _error(str(exc))
+        _error(str(exc) + "".join(f" (note: {n})" for n in notes))
         return 2
     except BrokenPipeError:
         # The reader of our output went away (``fg-tea ... | head``): end quietly.
