@@ -240,17 +240,28 @@ class Calibrator:
         away = [s.name for s in sc.sites if s.name not in in_view]
         house.reset(int(rng.integers(2**31)))
         # Stage every object out of view first, so slots are free; its final site follows.
+        # Site capacities are respected in view, as real episodes do (PLACE refuses a full site):
+        # a companion drawn for a full in-view site stands out of view instead.
         final = {target: site}
+        count = {site: 1}
+
+        def has_room(s: str) -> bool:
+            cap = sc.site(s).capacity
+            return cap is None or count.get(s, 0) < cap
+
         for o in self.objects:
             if o == target:
                 continue
             u = rng.random()
-            if crowd and u < P_SAME_SITE:
+            if crowd and u < P_SAME_SITE and has_room(site):
                 final[o] = site
-            elif crowd and u < P_SAME_SITE + P_NEAR_SITE and near:
-                final[o] = near[rng.integers(len(near))]
+            elif crowd and P_SAME_SITE <= u < P_SAME_SITE + P_NEAR_SITE and near:
+                pick = near[rng.integers(len(near))]
+                final[o] = pick if has_room(pick) else (
+                    away[rng.integers(len(away))] if away else site)
             else:
                 final[o] = away[rng.integers(len(away))] if away else site
+            count[final[o]] = count.get(final[o], 0) + 1
         staged = list(rng.permutation(away)) if away else []
         for i, o in enumerate(self.objects):
             if staged:
