@@ -31,7 +31,8 @@ Output goes to ``runs/experiments/check_detector_calibration/`` by default. The 
 them:
 
     python experiments/check_detector_calibration.py --looks 3000 --seed 0 --model factorised \
-        --scenario default_apartment --out experiments/results/detector_calibration.md
+        --scenario default_apartment --scenario generated_medium \
+        --out experiments/results/detector_calibration.md
 """
 
 from __future__ import annotations

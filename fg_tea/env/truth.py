@@ -269,11 +269,11 @@ class TruthBackedAdapter(EnvAdapter):
     def slot_count(self, site: str) -> int:
         """How many placement slots an object standing on `site` may occupy (>= 1).
 
-        An object put on a site takes the site's first free slot (:meth:`_free_slot`), so its slot
-        is its arrival rank among the objects standing there. At most every task object stands on
-        one site, and never more than the site's capacity, so the ranks are 0 .. S - 1 with
-        S = min(number of objects, capacity). Known from the scenario alone (its object list and
-        site capacities), not from where objects stand.
+        An object put on a site takes the site's first free slot (:meth:`_free_slot`): with m
+        objects already there, one of slots 0 .. m (its arrival rank when none has left). At most
+        every object stands on one site, and never more than the site's capacity, so the slots
+        used are 0 .. S - 1 with S = min(number of objects, capacity). Known from the scenario
+        alone (its object list and site capacities), not from where objects stand.
         """
         capacity = self.scenario.site(site).capacity
         n = len(self.scenario.objects)
