@@ -1,11 +1,12 @@
 r"""Are the model's expected detection probabilities calibrated against what the camera detects?
 
 The agent's :class:`~fg_tea.beliefs.detection.ViewModel` expects p_{o,j,v} = P(o seen | o stands
-at site j, look from viewpoint v), the visibility curve evaluated at the pixel count an object of
-o's category would cover standing *alone* at j's first slot (house geometry only, docs/design.md
-§3.4, eq. (33)). The environment draws each detection from the camera's curve at the
-pixel count it really renders, so the two agree only as far as the expected pixel counts match
-real looks, in which objects share sites, stand on other slots and hide behind each other.
+at site j, look from viewpoint v): the mean, over j's placement slots taken as equally likely, of
+the visibility curve evaluated at the pixel count an object of o's category would cover standing
+*alone* at that slot (house geometry only, docs/design.md §3.4, eq. (33)). The environment draws
+each detection from the camera's curve at the pixel count it really renders, so the two agree
+only as far as the expected counts and the slot prior match real looks, in which objects share
+sites, stand on slots in the order they came and hide behind each other.
 
 For many seeded looks this script puts a target object on a site (and, sometimes, other task
 objects on the same site or on other sites in view, so occlusion happens as in real episodes),
@@ -15,7 +16,10 @@ grouped per (scenario, category, look kind, distance band of viewpoint to site);
 the detected count is compared with its Poisson-binomial distribution under the model (the sum of
 independent Bernoulli(p_i), computed exactly), and the group is flagged when the observed count
 lies outside the central 95 % interval. A second table splits by set-up: the object alone on its
-site (what the expected counts assume) or sharing the site with other objects.
+site or sharing the site with other objects; a third by the slot the object really stood at,
+with the model's p for that slot alone beside the camera's p at the pixels it rendered, so a gap
+can be told apart into the slot prior (expected p against p at the slot) and occlusion by other
+objects (p at the slot against the camera's p).
 
 Mismatches are reported, never hidden; the exit status is non-zero only on a crash (or bad input).
 
@@ -27,7 +31,8 @@ Output goes to ``runs/experiments/check_detector_calibration/`` by default. The 
 them:
 
     python experiments/check_detector_calibration.py --looks 3000 --seed 0 --model factorised \
-        --scenario default_apartment --out experiments/results/detector_calibration.md
+        --scenario default_apartment --scenario generated_medium \
+        --out experiments/results/detector_calibration.md
 """
 
 from __future__ import annotations
@@ -47,7 +52,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from fg_tea.beliefs.detection import ViewModel  # noqa: E402
+from fg_tea.beliefs.detection import ViewModel, slot_pixels  # noqa: E402
 from fg_tea.episode.runner import env_config_for  # noqa: E402
 from fg_tea.files import atomic_write_text  # noqa: E402
 from fg_tea.model import load_model  # noqa: E402
@@ -79,9 +84,12 @@ class Record:
     category: str
     distance: float    # m, viewpoint floor point to site position (horizontal)
     setup: str         # "alone" on its site, or "shared" with other objects
-    expected_pixels: float
+    expected_pixels: float  # the model's expected pixels, mean over the site's slots
     pixels: int
     p: float           # the model's expected P(seen)
+    slot: int          # the placement slot the object stood at (environment side)
+    slot_pixels: float  # the expected pixels of its category alone at that slot
+    p_slot: float      # the model's curve at slot_pixels: its P(seen) had it known the slot
     p_rendered: float  # the camera's P(seen) at the rendered pixel count (what was drawn from)
     detected: bool
 
@@ -128,6 +136,12 @@ def two_sided_p(pmf: np.ndarray, k: int) -> float:
     return float(min(1.0, 2 * min(pmf[:k + 1].sum(), pmf[k:].sum())))
 
 
+def _nanmean(values: list[float]) -> float:
+    """Mean of the finite values (NaN if none)."""
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.mean(finite)) if finite else math.nan
+
+
 def summarise(records: list[Record], keys: tuple[str, ...]) -> list[dict]:
     """Aggregate records per `keys` (Record field names; "band" for the distance band)."""
     groups: dict[tuple, list[Record]] = {}
@@ -149,6 +163,8 @@ def summarise(records: list[Record], keys: tuple[str, ...]) -> list[dict]:
                      "exp_px": float(np.mean([r.expected_pixels for r in g])),
                      "px": float(np.mean([r.pixels for r in g])),
                      "p_rendered": float(np.mean([r.p_rendered for r in g])),
+                     "slot_px": _nanmean([r.slot_pixels for r in g]),
+                     "p_slot": _nanmean([r.p_slot for r in g]),
                      "ok": lo <= k <= hi})
     return rows
 
@@ -177,6 +193,7 @@ class Calibrator:
         self.category = {o: scenario.object(o).category for o in self.objects}
         categories = sorted(set(self.category.values()))
         self.expected = self.house.expected_pixel_counts(categories)
+        self.curve = model.detection_curve
         self.views = ViewModel(scenario, model, self.objects, self.expected)
         self.viewpoints = {v.name: v for v in scenario.viewpoints if v.name in self.views.names}
         self.room_of = {s.name: s.room for s in scenario.sites}
@@ -190,8 +207,17 @@ class Calibrator:
             return math.nan
         return float(self.camera.probability(self.category[obj], pixels))
 
+    def _slot_of(self, obj: str, site: str) -> int:
+        """The placement slot `obj` stands at on `site` (-1 if at none of its slots)."""
+        x, y, _ = self.house.placements()[obj]
+        for k in range(self.house.slot_count(site)):
+            sx, sy, _ = self.house._slot_position(site, k)
+            if math.hypot(sx - x, sy - y) < 1e-3:
+                return k
+        return -1
+
     def look(self, rng: np.random.Generator, viewpoint: str | None = None, target: str | None = None,
-             crowd: bool = True) -> list[Record]:
+             crowd: bool = True, uniform_slot: bool = False) -> list[Record]:
         """One look: place objects, inspect, return a record per object standing in view.
 
         Args:
@@ -200,6 +226,9 @@ class Calibrator:
             target: the object put on the looked-at site (default: uniform over the objects).
             crowd: whether other objects may join the target's site or other sites in view
                 (False: every other object stands on a site out of view, the target alone).
+            uniform_slot: with ``crowd=False``, stand the target at one of its site's placement
+                slots drawn uniformly (else it takes the first free slot, slot 0): exactly the
+                model's assumption, the object alone at a slot it does not know.
         """
         sc, house = self.scenario, self.house
         names = list(self.viewpoints)
@@ -212,17 +241,28 @@ class Calibrator:
         away = [s.name for s in sc.sites if s.name not in in_view]
         house.reset(int(rng.integers(2**31)))
         # Stage every object out of view first, so slots are free; its final site follows.
+        # Site capacities are respected in view, as real episodes do (PLACE refuses a full site):
+        # a companion drawn for a full in-view site stands out of view instead.
         final = {target: site}
+        count = {site: 1}
+
+        def has_room(s: str) -> bool:
+            cap = sc.site(s).capacity
+            return cap is None or count.get(s, 0) < cap
+
         for o in self.objects:
             if o == target:
                 continue
             u = rng.random()
-            if crowd and u < P_SAME_SITE:
+            if crowd and u < P_SAME_SITE and has_room(site):
                 final[o] = site
-            elif crowd and u < P_SAME_SITE + P_NEAR_SITE and near:
-                final[o] = near[rng.integers(len(near))]
+            elif crowd and P_SAME_SITE <= u < P_SAME_SITE + P_NEAR_SITE and near:
+                pick = near[rng.integers(len(near))]
+                final[o] = pick if has_room(pick) else (
+                    away[rng.integers(len(away))] if away else site)
             else:
                 final[o] = away[rng.integers(len(away))] if away else site
+            count[final[o]] = count.get(final[o], 0) + 1
         staged = list(rng.permutation(away)) if away else []
         for i, o in enumerate(self.objects):
             if staged:
@@ -230,6 +270,12 @@ class Calibrator:
         for i in rng.permutation(len(self.objects)):  # random order: the target's slot varies
             o = self.objects[int(i)]
             house.move_object(o, final[o])
+        if uniform_slot:
+            if crowd:
+                raise ValueError("uniform_slot needs crowd=False (the target alone on its site)")
+            k = int(rng.integers(house.slot_count(site)))
+            house._positions[target] = house._slot_position(site, k)
+            house._sync()
         truth = house.truth_report()["sites"]
         result = house.inspect_viewpoint(vp.name, self.objects)
         probs = self.views.probabilities(vp.name)
@@ -240,11 +286,17 @@ class Calibrator:
                 continue
             sx, sy, _ = sc.site(s).position
             sharing = sum(1 for other in self.objects if truth[other] == s) > 1
+            slots = slot_pixels(self.expected[vp.name][s][self.category[o]])
+            slot = self._slot_of(o, s)
+            at_slot = float(slots[slot]) if slot >= 0 else math.nan
+            p_slot = (float(self.curve.probability(self.category[o], at_slot))
+                      if self.curve is not None and slot >= 0 else math.nan)
             out.append(Record(sc.name, vp.name, vp.kind, s, o, self.category[o],
                               math.hypot(sx - vp.position[0], sy - vp.position[1]),
                               "shared" if sharing else "alone",
-                              float(self.expected[vp.name][s][self.category[o]]),
+                              float(slots.mean()),
                               int(result.pixel_counts[o]), float(probs[o][s]),
+                              slot, at_slot, p_slot,
                               self._camera_p(o, result.pixel_counts[o]),
                               bool(result.detections[o])))
         return out
@@ -260,6 +312,24 @@ def _fmt_row(r: dict, keys: tuple[str, ...]) -> list[str]:
 
 HEADER = ["n", "observed", "expected p", "95% interval", "p-value", "px rendered", "px expected",
           "camera p at rendered px", "within"]
+
+
+SLOT_HEADER = ["n", "observed", "expected p", "95% interval", "within", "px alone at this slot",
+               "px rendered", "model p at this slot", "camera p at rendered px"]
+
+
+def markdown_slots(rows: list[dict], keys: tuple[str, ...]) -> str:
+    """The by-slot table: the slot prior's share of a gap, and occlusion's."""
+    head = list(keys) + SLOT_HEADER
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
+    for r in rows:
+        cells = ([str(r[k]) for k in keys]
+                 + [str(r["n"]), f"{r['observed']:.3f}", f"{r['expected']:.3f}",
+                    f"[{r['lo']:.3f}, {r['hi']:.3f}]", "yes" if r["ok"] else "**NO**",
+                    f"{r['slot_px']:.0f}", f"{r['px']:.0f}", f"{r['p_slot']:.3f}",
+                    f"{r['p_rendered']:.3f}"])
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def markdown(rows: list[dict], keys: tuple[str, ...]) -> str:
@@ -323,6 +393,8 @@ def main(argv: list[str] | None = None) -> int:
     setup_keys = ("scenario", "category", "kind", "setup")
     rows = summarise(records, main_keys)
     setup_rows = summarise(records, setup_keys)
+    slot_keys = ("scenario", "category", "kind", "slot")
+    slot_rows = summarise(records, slot_keys)
     bad = [r for r in rows if not r["ok"]]
     bad_setup = [r for r in setup_rows if not r["ok"]]
 
@@ -333,16 +405,18 @@ def main(argv: list[str] | None = None) -> int:
         md_path, csv_path = out / "calibration.md", out / "calibration.csv"
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    fields = list(main_keys) + ["setup", "n", "detected", "observed", "expected", "lo", "hi",
-                                "p_value", "px_rendered", "px_expected", "camera_p_rendered", "within"]
+    fields = list(main_keys) + ["setup", "slot", "n", "detected", "observed", "expected", "lo",
+                                "hi", "p_value", "px_rendered", "px_expected", "camera_p_rendered",
+                                "px_at_slot", "model_p_at_slot", "within"]
     writer.writerow(fields)
-    for table, keys in ((rows, main_keys), (setup_rows, setup_keys)):
+    for table in (rows, setup_rows, slot_rows):
         for r in table:
-            writer.writerow([r.get(k, "all") for k in main_keys] + [r.get("setup", "all"), r["n"],
+            writer.writerow([r.get(k, "all") for k in main_keys] + [r.get("setup", "all"),
+                            r.get("slot", "all"), r["n"],
                             r["detected"], f"{r['observed']:.6f}", f"{r['expected']:.6f}",
                             f"{r['lo']:.6f}", f"{r['hi']:.6f}", f"{r['p_value']:.6g}",
                             f"{r['px']:.2f}", f"{r['exp_px']:.2f}", f"{r['p_rendered']:.6f}",
-                            int(r["ok"])])
+                            f"{r['slot_px']:.2f}", f"{r['p_slot']:.6f}", int(r["ok"])])
     atomic_write_text(csv_path, buf.getvalue())
 
     n_looks = args.looks * len(args.scenario or default_scenarios())
@@ -364,10 +438,11 @@ def main(argv: list[str] | None = None) -> int:
         f"*{LEVEL:.0%} interval* the central interval of the detected fraction under the model "
         "(exact Poisson-binomial: the sum of independent Bernoulli(p_i)), *p-value* two-sided. "
         "*px rendered* / *px expected* are the mean pixel counts the camera rendered and the "
-        "model assumed (the object alone at the site's first slot), and *camera p at rendered px* the "
+        "model assumed (the object alone on the site, mean over its placement slots), and "
+        "*camera p at rendered px* the "
         "mean P(seen) the camera really drew from: where it is close to *expected p*, a gap "
         "between observed and expected is sampling noise; where it is not, the expected pixel "
-        "counts miss what the camera renders (slots, occlusion). A group outside its interval "
+        "counts miss what the camera renders (slot prior, occlusion). A group outside its interval "
         "is marked **NO**: with many groups, about 5 % fall outside by chance alone.",
         "",
         "## By category, look kind and distance band (viewpoint to site)",
@@ -377,6 +452,16 @@ def main(argv: list[str] | None = None) -> int:
         "## By set-up: alone on its site, or sharing it with other objects",
         "",
         markdown(setup_rows, setup_keys),
+        "",
+        "## By the placement slot the object really stood at",
+        "",
+        "The model does not know the slot; it averages its P(seen) over the site's slots, each "
+        "equally likely (*expected p*). *model p at this slot* is its curve at the pixels the "
+        "object would cover alone at the slot it stood at: the gap between *expected p* and it is "
+        "the slot prior's; the gap between it and *camera p at rendered px* is what other objects "
+        "hid (occlusion) or the facing tolerance changed.",
+        "",
+        markdown_slots(slot_rows, slot_keys),
         "",
     ])
     atomic_write_text(md_path, md)

@@ -1,13 +1,14 @@
 """Does the agent's expected P(seen) match what the PyBullet camera detects?
 
-The agent's view model evaluates the visibility curve at the pixel count the environment
-*expects* for a category on a site from a viewpoint (house geometry only, computed once per
-house); the camera draws each detection from the same curve at the pixel count it *renders*.
-With the object alone on its site, as the expected counts assume, the two agree only if the
-expected pixel counts match what the camera renders: this test checks both the pixel counts look
-by look and the detected frequencies against the model's Poisson-binomial 95 % interval, for the
-teabag (smallest object) and the kettle (largest) at close and glance distance on
-default_apartment. It uses ``experiments/check_detector_calibration.py`` (the full check).
+The agent's view model averages the visibility curve over the pixel counts the environment
+*expects* for a category at each placement slot of a site from a viewpoint (house geometry only,
+computed once per house), each slot equally likely; the camera draws each detection from the same
+curve at the pixel count it *renders*. With the object alone at a uniformly drawn slot of its
+site, as the model assumes, the two agree only if the expected pixel counts match what the camera
+renders: this test checks both the pixel counts look by look (against the count expected at the
+slot the object stood at) and the detected frequencies against the model's Poisson-binomial 95 %
+interval, for the teabag (smallest object) and the kettle (largest) at close and glance distance
+on default_apartment. It uses ``experiments/check_detector_calibration.py`` (the full check).
 """
 
 from __future__ import annotations
@@ -53,8 +54,10 @@ def calibration():
                 recs = []
                 for _ in range(LOOKS):
                     view = names[rng.integers(len(names))]
-                    # crowd=False: every other object stands out of view, the target alone.
-                    recs += [r for r in calibrator.look(rng, viewpoint=view, target=obj, crowd=False)
+                    # crowd=False: every other object stands out of view, the target alone, at
+                    # a slot of its site drawn uniformly (the model's assumption).
+                    recs += [r for r in calibrator.look(rng, viewpoint=view, target=obj, crowd=False,
+                                                        uniform_slot=True)
                              if r.obj == obj]
                 records[obj, kind] = recs
         yield cal, calibrator, records
@@ -69,11 +72,15 @@ def test_rendered_pixels_match_the_expected_counts(calibration, obj, kind):
     recs = records[obj, kind]
     assert len(recs) == LOOKS  # the target alone stands in view, once per look
     assert all(r.setup == "alone" for r in recs)
-    ratio = np.array([r.pixels / r.expected_pixels for r in recs if r.expected_pixels > 0])
-    # The look faces its site to within the turn tolerance (2.5 deg), the expected count exactly:
-    # small objects far away differ by a few pixels; measured 0.91-1.16 on default_apartment.
+    assert all(r.slot >= 0 for r in recs)
+    assert len({r.slot for r in recs}) > 1  # the slots vary
+    ratio = np.array([r.pixels / r.slot_pixels for r in recs if r.slot_pixels > 0])
+    # The look faces its site to within the turn tolerance (2.5 deg), the probe exactly: a small
+    # object far away then covers a few pixels more or fewer (the probe rendered at the look's
+    # own heading gives the look's count exactly). Teabag glances at default_apartment's 21
+    # (site, slot) pairs: 0.79-1.21, mean 0.985; close looks and the kettle closer to 1.
     assert np.all((ratio > 0.75) & (ratio < 1.33)), ratio
-    assert 0.95 < float(np.median(ratio)) < 1.05
+    assert 0.9 < float(np.mean(ratio)) < 1.1, float(np.mean(ratio))
 
 
 @pytest.mark.parametrize("obj", ["teabag", "kettle"])

@@ -11,11 +11,21 @@ l(a) = 1 - p_{o,a} for a in view (1 elsewhere) and the planner's score. Where p 
 
 - ``detector = "threshold"`` (eq. 29; the pre-viewpoint model): a close look shows every object
   on its site, p = 1 - mu (mu the miss likelihood of eqs. 5-6). A room glance shows an object
-  with p = 1 - mu where its expected pixel count reaches ``min_visible_pixels``, else 0.
-- ``detector = "visibility"`` (eq. 30): p = the agent's assumed visibility curve evaluated at the
-  pixel count n^(c, j, v) that an object of o's category c would cover standing alone at j seen
-  from v. That count is computed by the environment from the house geometry and the object
+  with p = 1 - mu times the fraction of j's placement slots at which its expected pixel count
+  reaches ``min_visible_pixels``.
+- ``detector = "visibility"`` (eq. 30): p = the mean, over j's placement slots s, of the agent's
+  assumed visibility curve evaluated at the pixel count n^(c, j, s, v) that an object of o's
+  category c would cover standing alone at slot s of j, seen from v (docs/design.md §3.4,
+  eq. (33)). Those counts are computed by the environment from the house geometry and the object
   models alone, never from where objects truly are, and handed over once per house.
+
+Why a mean over slots, of probabilities: an object put on a site takes the site's first free
+slot, so which slot it stands at depends on how many objects share the site and in what order
+they came, which the agent does not know. It takes each of the site's S slots (S = min(number of
+objects, capacity), slot positions being house geometry) as equally likely; P(seen | o at j) is
+then the average of P(seen | o at slot s) over s. Averaging pixel counts first and applying the
+curve once would not be that expectation, because the curve is not linear in n. A table with one
+number per (viewpoint, site, category) instead of a list is read as a single slot.
 
 Nothing here imports a simulator: the expected pixel counts arrive as numbers.
 """
@@ -30,8 +40,17 @@ import numpy as np
 from fg_tea.model import Model
 from fg_tea.scenario import Scenario
 
-#: Expected pixels: viewpoint -> site -> object category -> pixels.
-PixelTable = Mapping[str, Mapping[str, Mapping[str, float]]]
+#: Expected pixels: viewpoint -> site -> object category -> pixels at each placement slot of the
+#: site (a sequence, slot 0 first; a single number counts as one slot).
+PixelTable = Mapping[str, Mapping[str, Mapping[str, "float | Sequence[float]"]]]
+
+
+def slot_pixels(value: "float | Sequence[float]") -> np.ndarray:
+    """The per-slot expected pixel counts of one table entry as a 1-D array (at least one slot)."""
+    arr = np.atleast_1d(np.asarray(value, dtype=float))
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"expected pixel counts must be a number or a non-empty list, got {value!r}")
+    return arr
 
 
 @dataclass(frozen=True)
@@ -46,7 +65,8 @@ class View:
         probability: shape (N objects in belief order, len(sites)); p_{o,j} in [0, 1].
         miss: the same shape; the miss likelihood 1 - p_{o,j} of eqs. 5-6 (mu itself for the
             threshold detector's close look, so the pre-viewpoint factors are reproduced exactly).
-        pixels: expected pixel counts of the same shape (NaN where none were computed).
+        pixels: the same shape; expected pixel counts averaged over the site's placement slots
+            (NaN where none were computed), for reports; p is computed per slot, not from these.
     """
 
     name: str
@@ -101,9 +121,9 @@ class ViewModel:
         scenario: the house (sites, room vantages, object categories; never truth).
         model: the agent's model (detector kind, assumed curve, miss likelihood, glances switch).
         objects: belief object order (default: the scenario's).
-        expected_pixels: viewpoint -> site -> category -> expected pixels, from the environment's
-            :meth:`~fg_tea.env.base.EnvAdapter.expected_pixel_counts`. Needed unless the model
-            uses the threshold detector with close looks only.
+        expected_pixels: viewpoint -> site -> category -> expected pixels at each placement slot,
+            from the environment's :meth:`~fg_tea.env.base.EnvAdapter.expected_pixel_counts`.
+            Needed unless the model uses the threshold detector with close looks only.
 
     Raises:
         ValueError: expected pixels are needed but missing, or lack a viewpoint, site or category.
@@ -127,11 +147,13 @@ class ViewModel:
             raise ValueError(f"model {model.name!r} needs the expected pixel counts of every "
                              "viewpoint (room glances or the visibility detector)")
         views = []
+        curve = model.detection_curve
         for vp in scenario.viewpoints:
             if vp.kind == "room" and not model.room_glances:
                 continue
             n_view = len(vp.sites)
             pixels = np.full((len(self.objects), n_view), np.nan)
+            prob = np.zeros((len(self.objects), n_view))
             if needs_pixels:
                 assert expected_pixels is not None  # checked above
                 table = expected_pixels.get(vp.name)
@@ -140,20 +162,19 @@ class ViewModel:
                 for c, s in enumerate(vp.sites):
                     for o, cat in enumerate(categories):
                         try:
-                            pixels[o, c] = float(table[s][cat])
+                            slots = slot_pixels(table[s][cat])
                         except KeyError:
                             raise ValueError(f"no expected pixel count for category {cat!r} at "
                                              f"site {s!r} from viewpoint {vp.name!r}") from None
-            if model.detector == "visibility":
-                curve = model.detection_curve
-                assert curve is not None
-                prob = np.array([[curve.probability(cat, pixels[o, c]) for c in range(n_view)]
-                                 for o, cat in enumerate(categories)])
-            elif vp.kind == "site":
+                        pixels[o, c] = float(slots.mean())
+                        # Eq. (33): the mean over slots of P(seen | slot), each slot equally likely.
+                        if model.detector == "visibility":
+                            assert curve is not None  # the visibility detector has its curve
+                            prob[o, c] = float(np.mean([curve.probability(cat, n) for n in slots]))
+                        elif vp.kind == "room":
+                            prob[o, c] = (1.0 - mu) * float(np.mean(slots >= model.min_visible_pixels))
+            if not needs_pixels or (model.detector == "threshold" and vp.kind == "site"):
                 prob = np.full((len(self.objects), n_view), 1.0 - mu)
-            else:
-                prob = np.where(pixels >= model.min_visible_pixels, 1.0 - mu, 0.0)
-            prob = prob.reshape(len(self.objects), n_view)
             miss = (np.full(prob.shape, mu) if model.detector == "threshold" and vp.kind == "site"
                     else 1.0 - prob)
             views.append(View(vp.name, vp.kind, vp.room, tuple(site_index[s] for s in vp.sites),
@@ -179,4 +200,4 @@ class ViewModel:
                 for i, o in enumerate(self.objects)}
 
 
-__all__ = ["View", "ViewModel", "PixelTable", "view_from_log", "found_from_log"]
+__all__ = ["View", "ViewModel", "PixelTable", "slot_pixels", "view_from_log", "found_from_log"]

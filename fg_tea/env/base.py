@@ -92,12 +92,15 @@ class EnvAdapter(abc.ABC):
         """
         return self.inspect_site(viewpoint, objects)
 
-    def expected_pixel_counts(self, categories: Sequence[str]) -> Mapping[str, Mapping[str, Mapping[str, float]]]:
-        """Pixels an object of each category would cover on each site in view of each viewpoint.
+    def expected_pixel_counts(self, categories: Sequence[str]
+                              ) -> Mapping[str, Mapping[str, Mapping[str, Sequence[float]]]]:
+        """Pixels an object of each category would cover on each site in view of each viewpoint,
+        standing alone at each of the site's placement slots in turn.
 
         House geometry and object models only, never where objects truly are (see
-        docs/design.md, "Detection from visibility"). Returns viewpoint -> site -> category ->
-        pixels.
+        docs/design.md §3.4, "Detection from visibility"). Returns viewpoint -> site -> category
+        -> [pixels at slot 0, slot 1, ...]; the agent weighs the slots. An adapter without slots
+        may give one number (one slot) instead of a list.
         """
         raise NotImplementedError(f"{type(self).__name__} cannot predict visibility; use the "
                                   "threshold detector with close looks only")

@@ -10,7 +10,8 @@ replaces geometry and perception by the simplest stand-ins:
   (at most ``movement_step`` per frame, turning at most ``turn_step_deg``);
 * perception [28, 29]: n_o = 100 pixels if object o truly stands at the inspected site and the
   agent looks from the site's own vantage, fewer with the square of the distance from farther away
-  (a room glance), 0 if o stands elsewhere; no occlusion and no field of view.
+  (a room glance), 0 if o stands elsewhere; no occlusion, no field of view, and the same count at
+  every placement slot of a site (so its expected counts, one per slot, are all equal).
 """
 
 from __future__ import annotations
@@ -51,10 +52,11 @@ class FakeHouse(TruthBackedAdapter):
         n = fake_pixels(site.vantage, site.position, (self._pose.x, self._pose.y))
         return {name: n if self._truth.site_of.get(name) == site.name else 0 for name in objects}
 
-    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, float]:
+    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, list[float]]:
+        """The fake camera's count, the same at every slot: it has no slots, only sites."""
         s = self.scenario.sites[site]
         n = fake_pixels(s.vantage, s.position, self._viewpoints[target].position)
-        return {c: float(n) for c in categories}
+        return {c: [float(n)] * self.slot_count(s.name) for c in categories}
 
 
 def fake_pixels(vantage: Sequence[float], surface: Sequence[float], eye: Sequence[float]) -> int:

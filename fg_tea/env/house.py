@@ -66,7 +66,7 @@ LIGHT_COEFFS = (0.6, 0.45, 0.05)
 #: Where bodies wait out of every camera's sight (m): below the floor, far from the house.
 PARKED = (0.0, 0.0, -50.0)
 #: Bump when the expected-visibility computation changes, so cached tables are recomputed.
-VISIBILITY_VERSION = 1
+VISIBILITY_VERSION = 2
 #: Expected-visibility tables already computed in this process (cache key -> table).
 _VISIBILITY_CACHE: dict[str, dict] = {}
 
@@ -267,32 +267,38 @@ class PyBulletHouse(TruthBackedAdapter):
             self._probes[category] = (body, _corners(parts))
         return self._probes[category]
 
-    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, float]:
+    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, list[float]]:
         vx, vy = self._viewpoints[target].position
-        px, py, _ = self.scenario.sites[site].position
+        spec = self.scenario.sites[site]
+        px, py, _ = spec.position
         saved = self._pose
         self._pose = Pose(float(vx), float(vy), math.degrees(math.atan2(py - vy, px - vx)))
         try:
             for body in self._bodies.values():  # the house alone: no task object in the way
                 self._place_body(body, PARKED, 0.0)
             self._place_drone(self._pose)
-            slot = self._slot_position(self.scenario.sites[site].name, 0)
-            out = {}
+            slots = [self._slot_position(spec.name, k) for k in range(self.slot_count(spec.name))]
+            out: dict[str, list[float]] = {}
             for category in categories:
                 body, bounds = self._probe(category)
-                self._place_body(body, slot, 0.0)
-                out[category] = float(self._count_pixels({category: (body, bounds)})[category])
+                seen: dict[tuple[float, float, float], float] = {}  # slots clipped onto one point
+                for slot in slots:
+                    if slot not in seen:
+                        self._place_body(body, slot, 0.0)
+                        seen[slot] = float(self._count_pixels({category: (body, bounds)})[category])
                 self._place_body(body, PARKED, 0.0)
+                out[category] = [seen[slot] for slot in slots]
             return out
         finally:
             self._pose = saved
             self._sync()
 
-    def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, float]]]:
+    def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, list[float]]]]:
         """See :meth:`TruthBackedAdapter.expected_pixel_counts`; cached per house and camera.
 
-        The cache key is a hash of everything the numbers depend on (walls, furniture, sites,
-        viewpoints, object models, camera parameters); the cache lives in memory and in
+        The cache key is a hash of everything the numbers depend on (walls, furniture, sites and
+        their capacities, viewpoints, the number of objects, object models, camera parameters);
+        the cache lives in memory and in
         ``$FG_TEA_CACHE_DIR`` (default ``~/.cache/fg_tea``), so a second run pays nothing.
         """
         key = self._visibility_key(categories)
@@ -319,7 +325,8 @@ class PyBulletHouse(TruthBackedAdapter):
         assets_used = {c: repr(assets.object_parts(
             next((s.asset for s in sc.objects if s.category == c), c), c)) for c in sorted(categories)}
         doc = {"version": VISIBILITY_VERSION, "house": repr(sc.house),
-               "sites": [[s.name, s.position, s.vantage, s.furniture] for s in sc.sites],
+               "sites": [[s.name, s.position, s.vantage, s.furniture, s.capacity] for s in sc.sites],
+               "objects": len(sc.objects),
                "viewpoints": [[v.name, v.kind, v.position, v.sites] for v in sc.viewpoints],
                "assets": assets_used,
                "camera": [cfg.ego_width, cfg.ego_height, cfg.ego_hfov_deg, cfg.sensor_height,

@@ -261,9 +261,23 @@ class TruthBackedAdapter(EnvAdapter):
         """Segmentation pixels n_o [28] of each object, looking at site k from the current pose."""
 
     @abc.abstractmethod
-    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, float]:
-        """Pixels an object of each category would cover standing alone at `site`'s first slot,
-        seen from target `target`'s floor point facing the site (house geometry only)."""
+    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, list[float]]:
+        """Pixels an object of each category would cover standing alone at each placement slot of
+        `site` (slots 0 .. :meth:`slot_count` - 1, in order), seen from target `target`'s floor
+        point facing the site (house geometry only)."""
+
+    def slot_count(self, site: str) -> int:
+        """How many placement slots an object standing on `site` may occupy (>= 1).
+
+        An object put on a site takes the site's first free slot (:meth:`_free_slot`): with m
+        objects already there, one of slots 0 .. m (its arrival rank when none has left). At most
+        every object stands on one site, and never more than the site's capacity, so the slots
+        used are 0 .. S - 1 with S = min(number of objects, capacity). Known from the scenario
+        alone (its object list and site capacities), not from where objects stand.
+        """
+        capacity = self.scenario.site(site).capacity
+        n = len(self.scenario.objects)
+        return max(1, min(n, capacity) if capacity is not None else n)
 
     def _sync(self) -> None:
         """Mirror `_positions` and the agent pose into the simulator (no-op without one)."""
@@ -404,15 +418,18 @@ class TruthBackedAdapter(EnvAdapter):
             detections[name] = bool(float(self._rng.random()) < p)
         return detections
 
-    def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, float]]]:
-        """Pixels an object of each category would cover on each in-view site of each viewpoint.
+    def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, list[float]]]]:
+        """Pixels an object of each category would cover on each in-view site of each viewpoint,
+        one count per placement slot of the site.
 
         Computed from the house geometry and the object models alone (one object of the category
-        standing alone at the site's first slot, seen from the viewpoint facing the site), never
-        from where objects truly are. Returns viewpoint -> site -> category -> pixels.
+        standing alone at each of the site's :meth:`slot_count` slots in turn, seen from the
+        viewpoint facing the site), never from where objects truly are. Returns viewpoint -> site
+        -> category -> [pixels at slot 0, slot 1, ...]; the agent weighs the slots
+        (:class:`~fg_tea.beliefs.detection.ViewModel`).
         """
         self._require_reset()
-        out: dict[str, dict[str, dict[str, float]]] = {}
+        out: dict[str, dict[str, dict[str, list[float]]]] = {}
         for k, view in enumerate(self._viewpoints):
             out[view.name] = {s: self._expected_pixels(k, self._site_index(s), list(categories))
                               for s in view.sites}
