@@ -643,8 +643,17 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
     if out.exists() and not out.is_file():
         raise InputError("<command line>", "--out", f"{out} is not a regular file")
     folder = out.parent if str(out.parent) else Path(".")
+    import os
+
     if folder.exists() and not folder.is_dir():
         raise InputError("<command line>", "--out", f"{folder} is not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError("<command line>", "--out", f"cannot create folder {folder}: "
+                         f"{exc.strerror or exc}") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError("<command line>", "--out", f"cannot write into folder {folder}")
     base_path = Path(resolve_model(base))
     base_model = load_model(base)
     try:
@@ -670,13 +679,20 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
     bundled = bare if (not _exists(Path(bare)) and not Path(bare).suffix
                        and len(Path(bare).parts) == 1) else None
     ref = base_reference(base_path, out, bundled)
+    shadow = folder / f"{ref}.toml"
+    if bundled is not None and (shadow.exists() or shadow.name == out.name):
+        raise InputError("<command line>", "--out", f"{shadow} would shadow the bundled base "
+                         f"model {bundled!r} (extends looks beside the file first); write the "
+                         "learned model under another name or folder")
     stem = base_model.name if base_model.name.endswith("_learned") else f"{base_model.name}_learned"
     text = model_text(learning, ref, name or stem, base_model.name)
-    folder.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out) as tmp:
-        tmp.write_text(text, encoding="utf-8")
-        try:
-            load_model(tmp)
-        except InputError as exc:
-            raise InputError(out, exc.path, exc.fault) from None
+    try:
+        with atomic_path(out) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+            try:
+                load_model(tmp)
+            except InputError as exc:
+                raise InputError(out, exc.path, exc.fault) from None
+    except OSError as exc:
+        raise InputError("<command line>", "--out", f"cannot write {out}: {exc.strerror or exc}") from None
     return out, learning
