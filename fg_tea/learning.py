@@ -636,10 +636,10 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
     from fg_tea.resources import _exists, resolve_model
 
     out = Path(out)
-    if out.suffix != ".toml":
-        raise InputError("<command line>", "--out", f"{out} must end in .toml (a model file)")
     if out.is_dir():
         raise InputError("<command line>", "--out", f"{out} is a folder; name a file")
+    if out.suffix != ".toml":
+        raise InputError("<command line>", "--out", f"{out} must end in .toml (a model file)")
     if out.exists() and not out.is_file():
         raise InputError("<command line>", "--out", f"{out} is not a regular file")
     folder = out.parent if str(out.parent) else Path(".")
