@@ -39,13 +39,20 @@ METRICS = [("mug_inspections", "inspections until the mug is found"),
            ("log_loss", "-log q0(true site), mean over objects (nats)")]
 
 
-def _episode(world_name: str, model_name: str, learning, world_seed: int, env_kind: str):
+def _episode(world_name: str, model_name: str, learning, world_seed: int, env_kind: str,
+             move: tuple[str, str] | None = None):
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
     from fg_tea.model import load_model
     from fg_tea.worlds import load_world
 
     world = load_world(world_name)
     scenario = world.sample(world_seed)
+    if move is not None:  # the household moves an object for good (the recovery experiment)
+        from dataclasses import replace
+
+        obj, site = move
+        scenario = replace(scenario, objects=tuple(
+            replace(o, true_site=site) if o.name == obj else o for o in scenario.objects))
     model = load_model(model_name)
     if learning is not None:
         model = apply_learning(model, learning)
@@ -69,13 +76,14 @@ def _episode(world_name: str, model_name: str, learning, world_seed: int, env_ki
 
 def household(args: tuple) -> list[dict]:
     """K episodes of one household for one model, learning on and off (same placements)."""
-    world_name, model_name, h, episodes, env_kind = args
+    world_name, model_name, h, episodes, env_kind, gamma, move_after, move = args
     rows = []
     for arm in ("learned", "hand-set"):
         learning = None
         for k in range(episodes):
             seed = 1000 * h + k
-            events, m, scenario = _episode(world_name, model_name, learning, seed, env_kind)
+            moved = move if move is not None and k + 1 > move_after else None
+            events, m, scenario = _episode(world_name, model_name, learning, seed, env_kind, moved)
             # evaluation only: the truth of the sampled world scores the agent's prior
             start = events[0]
             sites = [s["name"] for s in start["sites"]]
@@ -93,7 +101,7 @@ def household(args: tuple) -> list[dict]:
                 "learned_logs": 0 if learning is None else len(learning.sources)})
             if arm == "learned":
                 learning = learn([(events, Source(f"household{h}/episode{k + 1}",
-                                                  f"{seed:064x}"))], learning)
+                                                  f"{seed:064x}"))], learning, gamma)
     return rows
 
 
@@ -119,11 +127,19 @@ def main(argv=None) -> int:
     p.add_argument("--env", choices=("fake", "pybullet"), default="fake")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--out", default="runs/experiments/lifelong")
+    p.add_argument("--forgetting", type=float, default=None,
+                   help="forgetting factor gamma of the learned arm (default 1: never forget)")
+    p.add_argument("--move", nargs=3, metavar=("OBJECT", "SITE", "AFTER"), default=None,
+                   help="from episode AFTER+1 on, OBJECT always stands at SITE (recovery experiment)")
     args = p.parse_args(argv)
+    if args.forgetting is not None and not 0 < args.forgetting <= 1:
+        p.error("--forgetting must be in (0, 1]")
+    move = (args.move[0], args.move[1]) if args.move else None
+    move_after = int(args.move[2]) if args.move else 0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(args.world, m, h, args.episodes, args.env) for m in args.models
-            for h in range(args.households)]
+    jobs = [(args.world, m, h, args.episodes, args.env, args.forgetting, move_after, move)
+            for m in args.models for h in range(args.households)]
     rows: list[dict] = []
     if args.workers > 1:
         with ProcessPoolExecutor(args.workers) as pool:

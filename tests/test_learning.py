@@ -249,3 +249,20 @@ def test_logs_of_another_house_are_refused(logs, tmp_path):
     _episode(load_scenario("generated_small"), load_model("factorised"), 0, other)
     with pytest.raises(InputError, match="another house"):
         learn_files([logs[0], other], "factorised", tmp_path / "x.toml")
+
+
+def test_lifelong_script_smoke(tmp_path):
+    import csv
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("lifelong", ROOT / "experiments" / "lifelong.py")
+    lifelong = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(lifelong)
+    assert lifelong.main(["--households", "1", "--episodes", "3", "--workers", "1", "--models",
+                          "factorised", "--out", str(tmp_path), "--forgetting", "0.5",
+                          "--move", "mug", "dining_table", "1"]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "episodes.csv")))
+    learned = [r for r in rows if r["arm"] == "learned"]
+    assert [r["learned_logs"] for r in learned] == ["0", "1", "2"]
+    assert [r["mug_site"] for r in learned][1:] == ["dining_table", "dining_table"]
+    assert (tmp_path / "curves.png").stat().st_size > 0
