@@ -785,6 +785,43 @@ def _add_house_parser(sub) -> None:
 # ------------------------------------------------------------------------------ end house generator
 
 
+# ------------------------------------------------------------------------------ learning
+@_command("learn")
+def cmd_learn(args: argparse.Namespace) -> int:
+    """Write a model that extends a base model and holds the counts learned from logs
+    (docs/design.md §12)."""
+    from fg_tea.learning import learn_files, summary
+
+    out, learning = learn_files(args.logs, args.base, args.out, name=args.name,
+                                forgetting=args.forgetting, prior_strength=args.prior_strength)
+    info = summary(learning)
+    where = "; ".join(f"{cat}: " + ", ".join(f"{s} {share:.2f}" for s, share in shares.items())
+                      for cat, shares in info["sites"].items()) or "no objects found"
+    print(f"learned: {out} ({len(args.logs)} new log(s), {info['sources']} in all; found at: {where})")
+    return 0
+
+
+def _add_learn_parser(sub) -> None:
+    p = sub.add_parser("learn", help="learn site priors, detector and sensor reliability from logs",
+                       description="Count, from episode logs and only from what the agent observed, "
+                       "where it found each object, the looks that saw or missed an object at the "
+                       "site where it stood, and state readings that other readings settled; write "
+                       "a model file that extends --base and holds the counts (docs/design.md §12). "
+                       "Learning from A then B (with the first result as --base) equals learning "
+                       "from A and B at once.")
+    p.add_argument("logs", nargs="*", metavar="LOG", help="episode.jsonl logs, counted in this order")
+    p.add_argument("--base", default=DEFAULT_MODEL, help=MODEL_HELP.replace("model file", "base model file"))
+    p.add_argument("--out", required=True, help="the learned model file to write (.toml)")
+    p.add_argument("--name", default=None, help="the learned model's name (default: <base>_learned)")
+    p.add_argument("--forgetting", type=float, default=None,
+                   help="forgetting factor gamma in (0, 1]: held counts are multiplied by it before "
+                   "each new log (default: the base's, else 1 = never forget)")
+    p.add_argument("--prior-strength", type=float, default=None,
+                   help="pseudo-count mass S of the declared location prior (default: the base's, "
+                   "else 5)")
+# ------------------------------------------------------------------------------ end learning
+
+
 # ------------------------------------------------------------------------------ bundled names
 MODEL_HELP = "model file, or bundled model or ablation name (default: %(default)s)"
 
@@ -902,6 +939,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run_parsers(sub)
     _add_compare_parser(sub)  # docs/design.md §11
     _add_house_parser(sub)
+    _add_learn_parser(sub)  # docs/design.md §12
     return parser
 
 

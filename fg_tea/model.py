@@ -17,6 +17,7 @@ from typing import Any, Mapping
 
 from fg_tea.detector import DETECTORS, CurveParams, VisibilityCurve
 from fg_tea.errors import InputError, Reader, read_toml
+from fg_tea.learning import Learning, apply_to_sensors, read_learning
 
 STRUCTURES = ("factorised", "joint")
 #: Longest chain of ``extends`` (the bundled ablations use two levels).
@@ -173,6 +174,10 @@ class Model:
     camera_curve: VisibilityCurve | None = None
     detection_curve: VisibilityCurve | None = None
     room_glances: bool = False
+    #: Experience learned from logs (docs/design.md §12); None or without counts: no change.
+    learning: Learning | None = None
+    #: The declared sensors before eq. 51 was applied (None when no learning changed them).
+    declared_sensors: Mapping[str, Sensor] | None = None
 
     @property
     def close_looks_only(self) -> bool:
@@ -333,6 +338,15 @@ def parse_model(data: dict, file: str | Path = "<model>",
     detection_curve = (_read_curve(assumed_r, camera_curve) if assumed_r is not None
                        else camera_curve)
     viewpoints = r.child("viewpoints", required=False) or Reader({}, file, "$.viewpoints")
+    learning = None
+    declared_sensors = None
+    learning_r = r.child("learning", required=False)
+    if learning_r is not None:
+        learning = read_learning(learning_r)
+        learned = apply_to_sensors(learning, sensors, learning_r)
+        if learned != sensors:
+            declared_sensors = MappingProxyType(dict(sensors))
+            sensors = learned
     floor = beliefs.probability("prior_floor")
     if floor <= 0:
         raise beliefs.fail("the prior floor must be positive (eq. 2)", "prior_floor")
@@ -357,6 +371,8 @@ def parse_model(data: dict, file: str | Path = "<model>",
         detection_curve=detection_curve,
         room_glances=viewpoints.opt("room_glances", bool, False),
         retries=retries,
+        learning=learning,
+        declared_sensors=declared_sensors,
     )
     r.finish()
     return model

@@ -18,7 +18,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 AGENT_DIRS = ("fg_tea/beliefs", "fg_tea/planning", "fg_tea/tasks")
-AGENT_FILES = ("fg_tea/scenario.py", "fg_tea/model.py", "fg_tea/env/base.py", "fg_tea/env/truth.py",
+AGENT_FILES = ("fg_tea/scenario.py", "fg_tea/model.py", "fg_tea/learning.py", "fg_tea/env/base.py", "fg_tea/env/truth.py",
                "fg_tea/env/navigation.py", "fg_tea/env/fake.py")
 #: Modules that import pybullet themselves: importing them from the agent side is just as bad.
 FORBIDDEN = ("pybullet", "pybullet_data", "pybullet_utils", "fg_tea.env.house", "fg_tea.env.assets")
@@ -82,7 +82,7 @@ def test_agent_modules_do_not_load_pybullet_at_run_time():
 
 #: What the agent side (beliefs, planning, tasks) may import from fg_tea: the layers before it
 #: and the agent/environment contract — never the environment, the episode or the renderer.
-AGENT_MAY_IMPORT = ("fg_tea.errors", "fg_tea.resources", "fg_tea.scenario", "fg_tea.model",
+AGENT_MAY_IMPORT = ("fg_tea.errors", "fg_tea.resources", "fg_tea.scenario", "fg_tea.model", "fg_tea.learning",
                     "fg_tea.interface", "fg_tea.beliefs", "fg_tea.planning", "fg_tea.tasks")
 
 

@@ -177,6 +177,8 @@ class ViewModel:
                 prob = np.full((len(self.objects), n_view), 1.0 - mu)
             miss = (np.full(prob.shape, mu) if model.detector == "threshold" and vp.kind == "site"
                     else 1.0 - prob)
+            if model.learning is not None and model.learning.detection_active:
+                prob, miss = _learned(model, scenario, vp, categories, prob, miss)
             views.append(View(vp.name, vp.kind, vp.room, tuple(site_index[s] for s in vp.sites),
                               prob, miss, pixels))
         self.views: tuple[View, ...] = tuple(views)
@@ -198,6 +200,26 @@ class ViewModel:
         v = self.view(name)
         return {o: {self.sites[j]: float(v.probability[i, c]) for c, j in enumerate(v.sites)}
                 for i, o in enumerate(self.objects)}
+
+
+def _learned(model: Model, scenario: Scenario, vp, categories: Sequence[str], prob: np.ndarray,
+             miss: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 51 on one viewpoint's p_{o,j}: each (category, look band) cell with counts moves its
+    probabilities to the Beta posterior mean; cells without counts are left exactly as they are."""
+    import math
+
+    from fg_tea.learning import band_of, learned_detection
+
+    prob, miss = prob.copy(), miss.copy()
+    for c, s in enumerate(vp.sites):
+        site = scenario.site(s)
+        distance = math.hypot(vp.position[0] - site.position[0], vp.position[1] - site.position[1])
+        band = band_of(vp.kind, distance)
+        for o, cat in enumerate(categories):
+            new = float(learned_detection(model.learning, cat, band, np.array([prob[o, c]]))[0])
+            if new != prob[o, c]:
+                prob[o, c], miss[o, c] = new, 1.0 - new
+    return prob, miss
 
 
 __all__ = ["View", "ViewModel", "PixelTable", "slot_pixels", "view_from_log", "found_from_log"]

@@ -23,6 +23,7 @@ import numpy as np
 
 from fg_tea.beliefs.factors import (Factor, capacity_factor, location_prior, location_var,
                                     pair_factor, state_prior)
+from fg_tea.learning import location_weights
 from fg_tea.model import Model
 from fg_tea.scenario import Scenario
 
@@ -171,7 +172,11 @@ def build_graph(scenario: Scenario, model: Model) -> BeliefGraph:
         rooms=[s.room for s in scenario.sites],
         objects=scenario.object_names,
         categories=[o.category for o in scenario.objects],
-        weights=np.stack([prior_weights(scenario, o.category) for o in scenario.objects]),
+        # Eq. 2's weights, or with experience eq. 50's posterior-predictive mean (docs/design.md §12).
+        weights=np.stack([location_weights(model.learning, o.category, scenario.site_names,
+                                           prior_weights(scenario, o.category), model.prior_floor,
+                                           model.source)
+                          for o in scenario.objects]),
         capacities=[s.capacity for s in scenario.sites],
         state_priors={f"{o.name}.{name}": p for o in scenario.objects
                       for name, p in o.state_priors.items()},

@@ -254,11 +254,16 @@ class EpisodeRunner:
                            "transition_form": model.transition_form,
                            "recovery": {**asdict(model.retries),
                                         "tries": self.executor.transient_tries(),
-                                        "action_runs": self.executor.practical_runs()}},
+                                        "action_runs": self.executor.practical_runs()},
+                           # Experience (docs/design.md §12), only for a model that has some, so
+                           # a model learned from no logs writes its base model's events.
+                           **({"learning": model.learning.to_json()}
+                              if model.learning is not None and model.learning.active else {})},
             "sites": [{"name": s.name, "room": s.room, "vantage": list(s.vantage),
                        "position": list(s.position)} for s in self.scenario.sites],
             "viewpoints": viewpoints,
             "objects": list(self.scenario.object_names),
+            "categories": {o.name: o.category for o in self.scenario.objects},
             "searched": self.executor.pending_search_objects(),
             "graph": self.graph.to_json(),
             "tasks": [[n, self.graph.status(n)] for n in self.graph],
@@ -329,7 +334,10 @@ class EpisodeRunner:
         distances = distances_for(self.model, self.scenario, (pose.x, pose.y),
                                   geodesic=_EnvDistances(self.env))
         excluded = frozenset(self.executor.excluded_sites)
-        views = None if self.model.close_looks_only else self.views
+        learned = self.model.learning is not None and self.model.learning.detection_active
+        # A close-looks model scores sites with its miss likelihood; once it has learned
+        # per-category reliabilities (eq. 50) the planner scores them through the views.
+        views = None if self.model.close_looks_only and not learned else self.views
         extra = {"views": views} if views is not None else {}
         decision = self.planner.choose(self.belief, objects, relevance, distances,
                                        dict(self.state.inspected), excluded, **extra)

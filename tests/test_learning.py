@@ -1,0 +1,268 @@
+"""Learning across episodes (docs/design.md §12): exact, order-independent counts from what the
+agent observed; a model learned from nothing is its base; reliabilities converge to the camera's."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fg_tea.beliefs.graph import build_graph
+from fg_tea.env.fake import FakeHouse
+from fg_tea.episode.log import EventLog
+from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+from fg_tea.errors import InputError
+from fg_tea.learning import (Learning, Source, apply_learning, beta_interval, counts_from_events,
+                             learn, learn_files, learned_prior, read_log)
+from fg_tea.model import load_model, parse_model
+from fg_tea.scenario import load_scenario
+from fg_tea.worlds import load_world
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _episode(scenario, model, seed: int, path: Path | None = None) -> list[dict]:
+    env = FakeHouse(scenario, env_config_for(model))
+    log = EventLog(path) if path is not None else None
+    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed), log)
+    runner.run()
+    if path is not None:
+        log.close()
+    return runner.events
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory) -> list[Path]:
+    """Five logs of sampled worlds over the default apartment (fake house), on disk."""
+    folder = tmp_path_factory.mktemp("logs")
+    world = load_world("correlated")
+    model = load_model("factorised")
+    paths = []
+    for seed in range(5):
+        path = folder / f"ep{seed}.jsonl"
+        _episode(world.sample(seed), model, seed, path)
+        paths.append(path)
+    return paths
+
+
+def _read(paths):
+    out = []
+    for p in paths:
+        events, sha = read_log(p)
+        out.append((events, Source(str(p), sha)))
+    return out
+
+
+def test_counts_are_equal_in_any_order(logs):
+    read = _read(logs)
+    reference = learn(read).counts
+    assert not reference.is_empty()
+    for order in itertools.islice(itertools.permutations(range(len(read))), 0, 120, 17):
+        assert learn([read[i] for i in order]).counts == reference
+    # every object found once per episode: the site counts sum to the number of logs
+    for row in reference.sites.values():
+        assert sum(row.values()) == len(logs)
+
+
+def test_learning_a_then_b_equals_a_plus_b(logs, tmp_path):
+    a, b = [str(p) for p in logs[:2]], [str(p) for p in logs[2:]]
+    for gamma in (None, 0.5):
+        both, _ = learn_files(a + b, "factorised", tmp_path / "ab.toml", forgetting=gamma)
+        first, _ = learn_files(a, "factorised", tmp_path / "sub" / "a.toml", forgetting=gamma)
+        then, _ = learn_files(b, first, tmp_path / "a_then_b.toml")
+        m_both, m_then = load_model(both), load_model(then)
+        assert m_both.learning.counts == m_then.learning.counts
+        assert m_both.learning.sources == m_then.learning.sources
+        assert m_both.learning.forgetting == m_then.learning.forgetting
+        assert m_both.sensors == m_then.sensors
+
+
+def test_model_learned_from_no_logs_runs_its_base_episodes(tmp_path):
+    """Learned under its base's name (``--name``), the model's episodes are byte-identical to the
+    base's except for the two episode_start fields naming the model file and its hash
+    (``model_file``, ``inputs.model``)."""
+    for base in ("factorised", "joint", "factorised_close"):
+        out, learning = learn_files([], base, tmp_path / f"{base}_zero.toml", name=base)
+        assert not learning.active
+        scenario = load_scenario("prior_violation")
+        runs = []
+        for model in (load_model(base), load_model(out)):
+            events = _episode(scenario, model, 3)
+            start = dict(events[0])
+            start.pop("model_file")
+            start["inputs"] = {k: v for k, v in start["inputs"].items() if k != "model"}
+            runs.append([json.dumps(e, sort_keys=True) for e in [start, *events[1:]]])
+        assert runs[0] == runs[1]
+
+
+def test_prior_is_the_posterior_predictive_mean():
+    scenario = load_scenario("prior_violation")
+    base = load_model("factorised")
+    learning = Learning(prior_strength=4.0, counts=Learning().counts.plus(
+        type(Learning().counts)(sites={"mug": {"study_shelf": 3.0, "sideboard": 1.0}})))
+    model = apply_learning(base, learning)
+    got = build_graph(scenario, model).location_priors[0].table
+    a = np.array([s.affordances["mug"] for s in scenario.sites])
+    q0 = np.maximum(a, base.prior_floor) / np.maximum(a, base.prior_floor).sum()
+    n = np.array([3.0 if s.name == "study_shelf" else 1.0 if s.name == "sideboard" else 0.0
+                  for s in scenario.sites])
+    want = (4.0 * q0 + n) / 8.0
+    assert np.allclose(got, want / want.sum(), atol=1e-12)
+    assert np.allclose(learned_prior(q0, n, 4.0), want)
+    # the other objects keep exactly the declared prior
+    assert np.array_equal(build_graph(scenario, base).location_priors[1].table,
+                          build_graph(scenario, model).location_priors[1].table)
+
+
+def test_counts_never_read_world_truth(logs):
+    events, _ = read_log(logs[0])
+    forged = [dict(e) for e in events]
+    forged[0]["world"] = {"placements": {}}
+    for e in forged:
+        if e["event"] == "episode_end":
+            e["world_truth"] = {"sites": {o: "nowhere" for o in e["world_truth"]["sites"]}}
+            e["yardstick"] = None
+    assert counts_from_events(forged) == counts_from_events(events)
+
+
+def test_sensor_counts_need_readings_settled_by_others():
+    start = {"event": "episode_start", "sites": [{"name": "a", "position": [0, 0]}]}
+    reading = lambda v: {"event": "state_reading", "state": "kettle.contains_water", "value": v}  # noqa: E731
+    fill = {"event": "action", "transition": {"effects": [{"state": "kettle.contains_water"}]}}
+    events = [start, reading(True), reading(True), reading(False), fill, reading(True), reading(True)]
+    counts = counts_from_events(events).sensors["state"]
+    # first slice: the False reading is settled True by the two others (a false negative); each
+    # True reading has one True and one False beside it (unsettled). Second slice: two readings.
+    assert counts == {"true_positive": 0.0, "false_negative": 1.0, "true_negative": 0.0,
+                      "false_positive": 0.0}
+    model = apply_learning(load_model("factorised"), learn([(events, Source("x", "0" * 64))]))
+    assert model.sensor().sensitivity == pytest.approx((20 * 0.95 + 0) / 21)
+    assert model.sensor().specificity == 0.95
+
+
+def test_learned_detection_converges_to_the_camera(tmp_path):
+    """The agent assumes a worse camera than it has (p = 0.62 at a close look, the camera's is
+    0.84); the learned close-look reliability of every category converges to the camera's
+    frequency measured in a long run of looks at the object's own site, within its 95 % interval.
+
+    (An agent that assumes a *better* camera gives up on exactly the episodes in which it missed
+    an object, and rule 2 cannot count those: docs/design.md §12.2 states this bias.)"""
+    model = parse_model({**_doc("factorised"), "detection": {
+        **_doc("factorised")["detection"],
+        "visibility": {"half_pixels": 50.0, "slope": 3.0, "max_probability": 0.7}}},
+        "assumed.toml")
+    world = load_world("correlated")
+    learning = None
+    for seed in range(40):
+        events = _episode(world.sample(seed), model if learning is None
+                          else apply_learning(model, learning), seed)
+        learning = learn([(events, Source(f"ep{seed}", f"{seed:064x}"))], learning)
+    # the environment's frequency, measured: 3000 close looks at the kettle's own site
+    scenario = world.sample(0)
+    env = FakeHouse(scenario, env_config_for(model))
+    env.reset(0)
+    site = scenario.object("kettle").true_site
+    seen = sum(bool(env.inspect_viewpoint(site, ["kettle"]).detections["kettle"]) for _ in range(3000))
+    measured = seen / 3000
+    assumed = 0.7 / (1 + (51 / 100) ** 3)
+    for category, cells in learning.counts.detection.items():
+        h, m = cells["close"]
+        assert h + m >= 30, category
+        lo, hi = beta_interval(h + 1, m + 1)
+        assert lo <= measured <= hi, (category, h, m, measured)
+        learned = (learning.detection_strength * assumed + h) / (learning.detection_strength + h + m)
+        assert abs(learned - measured) < abs(assumed - measured)
+
+
+def _doc(name):
+    import tomllib
+
+    from fg_tea.model import _load_document
+    from fg_tea.resources import resolve_model
+
+    path = Path(resolve_model(name))
+    return _load_document(path, (path.resolve(),))
+
+
+def test_learning_table_is_strict(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('extends = "factorised"\nname = "x"\n[learning]\nprior_strenght = 3\n')
+    with pytest.raises(InputError, match="prior_strenght.*did you mean"):
+        load_model(bad)
+    bad.write_text('extends = "factorised"\nname = "x"\n[learning.detection.mug]\n'
+                   'closer = { hits = 1, misses = 0 }\n')
+    with pytest.raises(InputError, match="unknown band"):
+        load_model(bad)
+    bad.write_text('extends = "factorised"\nname = "x"\n[learning]\nforgetting = 0\n')
+    with pytest.raises(InputError, match="forgetting"):
+        load_model(bad)
+
+
+def _cli(*args, cwd=ROOT):
+    return subprocess.run([sys.executable, "-m", "fg_tea.cli", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True,
+                          env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
+
+
+def test_cli_learn_writes_a_model_that_validates_and_runs(logs, tmp_path):
+    out = tmp_path / "learned.toml"
+    done = _cli("learn", *logs, "--out", out)
+    assert done.returncode == 0, done.stderr
+    text = out.read_text()
+    for p in logs:
+        assert read_log(p)[1] in text
+    assert _cli("validate", out).returncode == 0
+    run = _cli("run", "default_apartment", "--model", out, "--no-video", "--out", tmp_path / "run")
+    assert run.returncode == 0, run.stderr
+    start = json.loads((tmp_path / "run" / "episode.jsonl").read_text().splitlines()[0])
+    assert start["parameters"]["learning"]["sites"]["mug"]
+
+
+@pytest.mark.parametrize("args, fault", [
+    (["missing.jsonl"], "no such log file"),
+    (["BAD"], "not a JSON line"),
+    (["LOG", "LOG"], "already counted"),
+    (["LOG", "--out", "FOLDER"], "is a folder"),
+    (["LOG", "--forgetting", "1.5"], "--forgetting"),
+    (["LOG", "--base", "nonexistent_model"], "nonexistent_model"),
+])
+def test_cli_learn_bad_input_is_one_line(logs, tmp_path, args, fault):
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text("{not json\n")
+    args = [str(logs[0]) if a == "LOG" else str(bad) if a == "BAD" else
+            str(tmp_path) if a == "FOLDER" else a for a in args]
+    if "--out" not in args:
+        args += ["--out", str(tmp_path / "x.toml")]
+    done = _cli("learn", *args)
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and fault in done.stderr, done.stderr
+    assert not (tmp_path / "x.toml").exists()
+
+
+def test_logs_of_another_house_are_refused(logs, tmp_path):
+    other = tmp_path / "other.jsonl"
+    _episode(load_scenario("generated_small"), load_model("factorised"), 0, other)
+    with pytest.raises(InputError, match="another house"):
+        learn_files([logs[0], other], "factorised", tmp_path / "x.toml")
+
+
+def test_lifelong_script_smoke(tmp_path):
+    import csv
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("lifelong", ROOT / "experiments" / "lifelong.py")
+    lifelong = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(lifelong)
+    assert lifelong.main(["--households", "1", "--episodes", "3", "--workers", "1", "--models",
+                          "factorised", "--out", str(tmp_path), "--forgetting", "0.5",
+                          "--move", "mug", "dining_table", "1"]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "episodes.csv")))
+    learned = [r for r in rows if r["arm"] == "learned"]
+    assert [r["learned_logs"] for r in learned] == ["0", "1", "2"]
+    assert [r["mug_site"] for r in learned][1:] == ["dining_table", "dining_table"]
+    assert (tmp_path / "curves.png").stat().st_size > 0
