@@ -57,11 +57,16 @@ MATRIX_OBJECTS = 9       # up to this many objects, batches of subset convolutio
                          # multiplications instead of 3^N gathered ones, faster up to about N = 9
 
 
+_TINY = np.finfo(float).tiny
+
+
 def _neg_xlogx_sum(p: np.ndarray, axis=None) -> np.ndarray:
     """sum -p log p (nats), 0 where p = 0."""
     p = np.asarray(p, dtype=float)
-    logs = np.log(p, out=np.zeros_like(p), where=p > 0)
-    return -(p * logs).sum(axis=axis)
+    logs = np.maximum(p, _TINY)        # p ln(tiny) = 0 for p = 0; the entries are never negative
+    np.log(logs, out=logs)
+    logs *= p
+    return -logs.sum(axis=axis)
 
 
 def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarray:
@@ -308,12 +313,7 @@ class JointViewGain:
         masks = ((codes > 0) @ bits)[:, None] | emb[None, :]                # (n_c, 2^f)
         cls = (g_n,) + (m + 1,) * s
         p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
-        # P(L_o = a, C_{tracked∖o}) for every site a (0 for a in view), each target.
-        rows = np.stack([np.nonzero(codes[:, i] == 0)[0] for i in targets])   # (T, n_r)
         o_sel = np.array([tracked[i] for i in targets])
-        vals = w_oa[:, :, o_sel[:, None, None], masks[rows]]                # (G, K, T, n_r, 2^f)
-        outs = (vals * psi[:, None, rows]).sum(axis=4) / sm.z
-        outs = outs.reshape((g_n, self.k, n_t) + (m + 1,) * (s - 1))
         # Detection tables per look and tracked object: (G, s, class, outcome).
         tab = np.zeros((g_n, s, m + 1, m + 1))
         tab[:, :, :, 1:] = self.fp
@@ -331,15 +331,7 @@ class JointViewGain:
                      for b in range(s)]
         part = _outcomes(part, part_tabs, 2)
         h_part = _neg_xlogx_sum(part, axis=tuple(range(2, 2 + s)))                   # (G, T)
-        # Out-of-view: the other tracked objects' axes transformed; layout (G, T, K, ...).
-        outs = np.moveaxis(outs, 2, 1)
-        others = np.array([[x for x in range(s) if x != targets[t]] for t in range(n_t)],
-                          dtype=int).reshape(n_t, s - 1)
-        outs = _outcomes(outs, [tab[:, others[:, b]] for b in range(s - 1)], 2)
-        axes = tuple(range(3, 3 + s - 1))
-        out_y = outs.sum(axis=2)                                     # P(C_o = 0, Y_{-o}), (G, T, ...)
-        h_out_y = _neg_xlogx_sum(out_y, axis=tuple(range(2, 2 + s - 1)))
-        h_out = _neg_xlogx_sum(outs, axis=(2,) + axes)                                # (G, T)
+        h_out, h_out_y = self._out_of_view(sites, tracked, targets, psi, tab, w_oa, emb)
         own = tab[:, targets]                                                         # (G, T, c, y)
         h_own = _neg_xlogx_sum(own, axis=3)                                           # (G, T, c)
         q = self.q[o_sel]                                                             # (T, K)
@@ -350,6 +342,56 @@ class JointViewGain:
         h_lo_y = h_in + h_out + p_out * h_own[:, :, 0]
         gain = h_o[None, :] + h_y[:, None] - h_lo_y
         return np.where(np.abs(gain) < MI_TOLERANCE, np.maximum(gain, 0.0), gain)
+
+    def _out_of_view(self, sites: np.ndarray, tracked: Sequence[int], targets: Sequence[int],
+                     psi: np.ndarray, tab: np.ndarray, w_oa: np.ndarray,
+                     emb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """-sum P ln P over (a out of view, Y_{tracked∖o}) and over Y_{tracked∖o} alone (P summed
+        over those a), for each look and target, shapes (G, T) and (G, T), nats.
+
+        With o at an out-of-view site a (so o not in view), Z P(L_o = a, Y) = sum_T W_{v,o,a}(T)
+        M_o(T, Y) over the sets T of objects in view, T not containing o, where the kernel
+        M_o(T, Y) = sum over class configurations c and free-object sets E with in-view set
+        mask(c) ∪ E = T of psi(c, E) P(Y | c) does not depend on a. M_o is built by turning each
+        tracked class axis c into the pair (in view?, outcome) — a (m+1) x 2(m+1) table per
+        axis — so the table for every a is one matrix product with the weights, and the outcome
+        transform is done once per look instead of once per site.
+        """
+        g_n, m = sites.shape
+        s, f = len(tracked), len(emb).bit_length() - 1
+        c1 = m + 1
+        # Class -> (in view?, outcome): tabp[g, b, c, bit, y] = [bit = (c > 0)] P(y | c).
+        tabp = np.zeros((g_n, s, c1, 2, c1))
+        tabp[:, :, 0, 0, :] = tab[:, :, 0, :]
+        tabp[:, :, 1:, 1, :] = tab[:, :, 1:, :]
+        tabp = tabp.reshape(g_n, s, c1, 2 * c1)
+        in_view = np.zeros((g_n, self.k), dtype=bool)
+        in_view[np.arange(g_n)[:, None], sites] = True
+        psi = psi.reshape((g_n,) + (c1,) * s + (1 << f,))
+        h_out = np.zeros((g_n, len(targets)))
+        h_out_y = np.zeros((g_n, len(targets)))
+        for t, i in enumerate(targets):
+            o = tracked[i]
+            others = [b for b in range(s) if b != i]
+            x = np.take(psi, 0, axis=1 + i)                         # (G, c.., 2^f), C_o = 0
+            for b in others:                                        # cyclic: class axis -> end
+                x = np.matmul(x.reshape(g_n, c1, -1).transpose(0, 2, 1), tabp[:, b])
+            # x: (G, 2^f, (bit, y) per other tracked object) -> (G, sets, outcomes)
+            s1 = len(others)
+            x = x.reshape((g_n, 1 << f) + (2, c1) * s1)
+            x = x.transpose((0, 1) + tuple(2 + 2 * k for k in range(s1))
+                            + tuple(3 + 2 * k for k in range(s1)))
+            kernel = x.reshape(g_n, (1 << f) << s1, c1 ** s1)
+            bits = np.indices((2,) * s1).reshape(s1, -1) if s1 else np.zeros((0, 1), dtype=int)
+            tb = np.zeros(bits.shape[1], dtype=np.int64)
+            for k, b in enumerate(others):
+                tb |= bits[k].astype(np.int64) << tracked[b]
+            masks = (emb[:, None] | tb[None, :]).reshape(-1)
+            w = np.take(w_oa[:, :, o], masks, axis=2)[~in_view].reshape(g_n, -1, len(masks))
+            p = np.matmul(w, kernel) / self.sm.z                          # (G, K - m, outcomes)
+            h_out[:, t] = _neg_xlogx_sum(p, axis=(1, 2))
+            h_out_y[:, t] = _neg_xlogx_sum(p.sum(axis=1), axis=1)
+        return h_out, h_out_y
 
     def _tracked_for(self, o: int, m: int) -> list[int]:
         """o and the observed objects most coupled to it, as many as the outcome limit allows."""
