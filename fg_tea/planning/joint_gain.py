@@ -305,11 +305,25 @@ class JointViewGain:
             emb[(np.arange(1 << f) >> b) & 1 == 1] |= 1 << o
         psi = np.ones((g_n, len(codes), 1 << f))
         psi[:, :, 1:] = 0.0
-        fa = SubsetAlgebra(f) if f else None
+        fix = subset_index(f) if f else None
+        sub = np.array([sum(int(bits[b]) for b in range(s) if a >> b & 1)    # A -> object mask
+                        for a in range(1 << s)], dtype=np.int64)
         for t in range(m):
             a_mask = (codes == t + 1) @ bits
-            kern = sm.g[sites[:, t]][:, a_mask[:, None] | emb[None, :]]     # (G, n_c, 2^f)
-            psi = fa.conv(psi, kern) if f else psi * kern
+            if not f:
+                psi = psi * sm.g[sites[:, t]][:, a_mask, None]
+                continue
+            # psi <- conv(psi, g_{s_t}(A ∪ ·)) by object set A of the tracked objects on s_t:
+            # one matrix M_A[E, U] = g_{s_t}(A ∪ (U ∖ E)) per A, a product (BLAS) per A.
+            a_idx = ((codes == t + 1) * (1 << np.arange(s))).sum(axis=1)
+            mats = np.zeros((g_n, len(sub), 1 << f, 1 << f))
+            vals = sm.g[sites[:, t]][:, sub[:, None] | emb[None, :]]        # (G, 2^s, 2^f)
+            mats[:, :, fix.a, fix.union] = vals[:, :, fix.b]
+            new_psi = np.empty_like(psi)
+            for a in np.unique(a_idx):
+                sel = np.nonzero(a_idx == a)[0]
+                new_psi[:, sel] = np.matmul(psi[:, sel], mats[:, a])
+            psi = new_psi
         masks = ((codes > 0) @ bits)[:, None] | emb[None, :]                # (n_c, 2^f)
         cls = (g_n,) + (m + 1,) * s
         p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
