@@ -209,7 +209,10 @@ class JointViewGain:
         w_oa = np.zeros((len(room), self.k, self.n, self.full + 1))
         if len(outside):
             w_oa[:, outside] = self._completions_without_o(excl, out[outside])
-        fill = None
+        # o at another site a of the same room: W_{v,o,a}(T) = sum_{B ∋ o, B disjoint T}
+        # g_a(B) D_{ja}(T ⊔ B) with D_{ja} = completions(C_{R∖{j,a}}, W_R) (completing by a
+        # convolution is completing by each factor in turn), for the sets T without o.
+        pairs, c_rest = [], []
         for t, j in enumerate(room):
             rest = [a for a in room if a != j]
             if not rest:
@@ -221,17 +224,36 @@ class JointViewGain:
             for a in rest[::-1]:
                 suf.append(alg.conv(sm.g[a], suf[-1]))
             suf = suf[::-1]
-            c_rest = alg.conv(np.stack(pre[:-1]), np.stack(suf[1:]))          # C_{R∖{j,a}}
-            c_oa = alg.conv(self.mem[None] * sm.g[rest][:, None, :], c_rest[:, None, :])
+            c_rest.append(alg.conv(np.stack(pre[:-1]), np.stack(suf[1:])))     # C_{R∖{j,a}}
+            pairs += [(t, a) for a in rest]
+        if pairs:
+            c_rest = np.concatenate(c_rest)
             if self.n <= MATRIX_OBJECTS:
-                if fill is None:
-                    fill = alg.completion_matrix(w_room)
-                w_oa[t, rest] = c_oa @ fill
+                d = c_rest @ alg.completion_matrix(w_room)
             else:
-                w_oa[t, rest] = alg.completions(c_oa, w_room)
+                d = alg.completions(c_rest, w_room)
+            t_idx = np.array([p[0] for p in pairs])
+            a_idx = np.array([p[1] for p in pairs])
+            w_oa[t_idx, a_idx] = self._place_o(sm.g[a_idx], d)
         cached = {j: (w_v[t], w_oa[t]) for t, j in enumerate(room)}
         self._close[r0] = cached
         return cached
+
+    def _place_o(self, g: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """out[p, o, T] = sum_{B ∋ o, B disjoint T} g[p, B] d[p, T ⊔ B] for T without o (0 for
+        T with o), shape (P, N, 2^N): o placed on the site of g, the rest completed by d."""
+        n = self.n
+        out = np.zeros((g.shape[0], n, self.full + 1))
+        if n == 1:
+            out[:, 0, 0] = g[:, 1] * d[:, 1]
+            return out
+        ix = subset_index(n - 1)
+        low = np.arange(1 << (n - 1))
+        for o in range(n):
+            expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
+            prods = g[:, expand[ix.xb] | (1 << o)] * d[:, expand[ix.xunion] | (1 << o)]
+            out[:, o, expand] = np.add.reduceat(prods, ix.xstarts, axis=1)
+        return out
 
     def _completions_without_o(self, c: np.ndarray, w: np.ndarray) -> np.ndarray:
         """completions(c[l], w[a, o]) for every l, a, o, shape (L, A, N, 2^N), using that
