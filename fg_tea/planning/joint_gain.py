@@ -50,6 +50,8 @@ import numpy as np
 
 from fg_tea.beliefs.structured import StructuredLocationModel, SubsetAlgebra, subset_index
 
+CHUNK_ENTRIES = 1 << 16  # looks per step of the out-of-view tables: about this many entries (half
+                         # a megabyte, a core's L2 cache here; larger batches measured slower)
 OUTCOME_LIMIT = 1 << 17  # entries of one object's P(L_o = a, Y_{-o}) table before restricting
 MI_TOLERANCE = 1e-12     # gains are clipped at 0 from below within this tolerance
 MATRIX_OBJECTS = 9       # up to this many objects, batches of subset convolutions with one
@@ -406,27 +408,34 @@ class JointViewGain:
         psi = psi.reshape((g_n,) + (c1,) * s + (1 << f,))
         h_out = np.zeros((g_n, len(targets)))
         h_out_y = np.zeros((g_n, len(targets)))
+        s1 = s - 1
+        per_look = (((1 << f) << s1) + self.k) * c1 ** s1       # kernel and table entries
+        chunk = max(1, CHUNK_ENTRIES // per_look)
+        bits = np.indices((2,) * s1).reshape(s1, -1).astype(np.int64)
         for t, i in enumerate(targets):
             o = tracked[i]
             others = [b for b in range(s) if b != i]
-            x = np.take(psi, 0, axis=1 + i)                         # (G, c.., 2^f), C_o = 0
-            for b in others:                                        # cyclic: class axis -> end
-                x = np.matmul(x.reshape(g_n, c1, -1).transpose(0, 2, 1), tabp[:, b])
-            # x: (G, 2^f, (bit, y) per other tracked object) -> (G, sets, outcomes)
-            s1 = len(others)
-            x = x.reshape((g_n, 1 << f) + (2, c1) * s1)
-            x = x.transpose((0, 1) + tuple(2 + 2 * k for k in range(s1))
-                            + tuple(3 + 2 * k for k in range(s1)))
-            kernel = x.reshape(g_n, (1 << f) << s1, c1 ** s1)
-            bits = np.indices((2,) * s1).reshape(s1, -1) if s1 else np.zeros((0, 1), dtype=int)
-            tb = np.zeros(bits.shape[1], dtype=np.int64)
+            tb = np.zeros(1 << s1, dtype=np.int64)
             for k, b in enumerate(others):
-                tb |= bits[k].astype(np.int64) << tracked[b]
+                tb |= bits[k] << tracked[b]
             masks = (emb[:, None] | tb[None, :]).reshape(-1)
-            w = np.take(w_oa[:, :, o], masks, axis=2)[~in_view].reshape(g_n, -1, len(masks))
-            p = np.matmul(w, kernel) / self.sm.z                          # (G, K - m, outcomes)
-            h_out[:, t] = _neg_xlogx_sum(p, axis=(1, 2))
-            h_out_y[:, t] = _neg_xlogx_sum(p.sum(axis=1), axis=1)
+            w_all = np.take(w_oa[:, :, o], masks, axis=2)
+            for lo in range(0, g_n, chunk):                     # chunks that stay in cache
+                hi = min(g_n, lo + chunk)
+                gc = hi - lo
+                x = np.take(psi[lo:hi], 0, axis=1 + i)              # (g, c.., 2^f), C_o = 0
+                for b in others:                                    # cyclic: class axis -> end
+                    x = np.matmul(x.reshape(gc, c1, -1).transpose(0, 2, 1), tabp[lo:hi, b])
+                # x: (g, 2^f, (bit, y) per other tracked object) -> (g, sets, outcomes)
+                x = x.reshape((gc, 1 << f) + (2, c1) * s1)
+                x = x.transpose((0, 1) + tuple(2 + 2 * k for k in range(s1))
+                                + tuple(3 + 2 * k for k in range(s1)))
+                kernel = x.reshape(gc, len(masks), c1 ** s1)
+                w = w_all[lo:hi][~in_view[lo:hi]].reshape(gc, -1, len(masks))
+                p = np.matmul(w, kernel)                          # Z P(a, Y), (g, K - m, Y)
+                p /= self.sm.z
+                h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
+                h_out_y[lo:hi, t] = _neg_xlogx_sum(p.sum(axis=1), axis=1)
         return h_out, h_out_y
 
     def _tracked_for(self, o: int, m: int) -> list[int]:
