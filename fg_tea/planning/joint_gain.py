@@ -44,6 +44,8 @@ bound whose error is measured in ``tests/test_planning_joint_gain.py`` and by
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -116,6 +118,43 @@ def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
         f[1 + c, 1 + c] = prob[c]
     f[:, 0] = 1.0 - f[:, 1:].sum(axis=1)
     return np.clip(f, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Index arrays of one batch shape (objects, in-view sites, tracked objects), reused across
+    decisions: class configurations in C order over the tracked objects' axes, their in-view
+    object masks, and the embedding of the free (untracked) objects' subsets."""
+
+    f: int
+    codes: np.ndarray      # (n_c, s) class of each tracked object
+    bits: np.ndarray       # (s,) 1 << tracked object
+    emb: np.ndarray        # (2^f,) free-object subset index -> object mask
+    sub: np.ndarray        # (2^s,) tracked subset index -> object mask
+    a_mask: np.ndarray     # (m, n_c) mask of the tracked objects on in-view site t
+    a_idx: np.ndarray      # (m, n_c) the same as a tracked subset index
+    masks: np.ndarray      # (n_c, 2^f) in-view object mask of (configuration, free subset)
+
+
+@lru_cache(maxsize=64)
+def _layout(n: int, m: int, tracked: tuple[int, ...]) -> _Layout:
+    s = len(tracked)
+    free = [o for o in range(n) if o not in tracked]
+    f = len(free)
+    codes = np.indices((m + 1,) * s).reshape(s, -1).T
+    bits = np.array([1 << o for o in tracked], dtype=np.int64)
+    emb = np.zeros(1 << f, dtype=np.int64)
+    for b, o in enumerate(free):
+        emb[(np.arange(1 << f) >> b) & 1 == 1] |= 1 << o
+    sub = np.array([sum(int(bits[b]) for b in range(s) if a >> b & 1) for a in range(1 << s)],
+                   dtype=np.int64)
+    on = [(codes == t + 1) for t in range(m)]
+    a_mask = np.stack([(x * bits).sum(axis=1) for x in on]) if m else np.zeros((0, len(codes)), np.int64)
+    a_idx = np.stack([(x * (1 << np.arange(s))).sum(axis=1) for x in on]) if m else a_mask
+    masks = ((codes > 0) * bits).sum(axis=1)[:, None] | emb[None, :]
+    for x in (codes, bits, emb, sub, a_mask, a_idx, masks):
+        x.setflags(write=False)
+    return _Layout(f, codes, bits, emb, sub, a_mask, a_idx, masks)
 
 
 class JointViewGain:
@@ -320,26 +359,20 @@ class JointViewGain:
         g_n, m = sites.shape
         s, targets = len(tracked), list(targets)
         n_t = len(targets)
-        free = [o for o in range(self.n) if o not in tracked]
-        f = len(free)
-        codes = np.indices((m + 1,) * s).reshape(s, -1).T
-        bits = np.array([1 << o for o in tracked], dtype=np.int64)
-        emb = np.zeros(1 << f, dtype=np.int64)
-        for b, o in enumerate(free):
-            emb[(np.arange(1 << f) >> b) & 1 == 1] |= 1 << o
+        lay = _layout(self.n, m, tuple(int(o) for o in tracked))
+        codes, bits, emb, sub = lay.codes, lay.bits, lay.emb, lay.sub
+        f = lay.f
         psi = np.ones((g_n, len(codes), 1 << f))
         psi[:, :, 1:] = 0.0
         fix = subset_index(f) if f else None
-        sub = np.array([sum(int(bits[b]) for b in range(s) if a >> b & 1)    # A -> object mask
-                        for a in range(1 << s)], dtype=np.int64)
         for t in range(m):
-            a_mask = (codes == t + 1) @ bits
+            a_mask = lay.a_mask[t]
             if not f:
                 psi = psi * sm.g[sites[:, t]][:, a_mask, None]
                 continue
             # psi <- conv(psi, g_{s_t}(A ∪ ·)) by object set A of the tracked objects on s_t:
             # one matrix M_A[E, U] = g_{s_t}(A ∪ (U ∖ E)) per A, a product (BLAS) per A.
-            a_idx = ((codes == t + 1) * (1 << np.arange(s))).sum(axis=1)
+            a_idx = lay.a_idx[t]
             mats = np.zeros((g_n, len(sub), 1 << f, 1 << f))
             vals = sm.g[sites[:, t]][:, sub[:, None] | emb[None, :]]        # (G, 2^s, 2^f)
             mats[:, :, fix.a, fix.union] = vals[:, :, fix.b]
@@ -348,7 +381,7 @@ class JointViewGain:
                 sel = np.nonzero(a_idx == a)[0]
                 new_psi[:, sel] = np.matmul(psi[:, sel], mats[:, a])
             psi = new_psi
-        masks = ((codes > 0) @ bits)[:, None] | emb[None, :]                # (n_c, 2^f)
+        masks = lay.masks                                                   # (n_c, 2^f)
         cls = (g_n,) + (m + 1,) * s
         p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
         o_sel = np.array([tracked[i] for i in targets])
@@ -361,21 +394,23 @@ class JointViewGain:
         tab = np.clip(tab, 0.0, 1.0)
         y = _outcomes(p_c, [tab[:, b] for b in range(s)], 1)
         h_y = _neg_xlogx_sum(y, axis=tuple(range(1, 1 + s)))                          # (G,)
-        # P(C_o, Y_{-o}) for each target: every axis but o's transformed (o's: the identity).
-        part = np.broadcast_to(p_c[:, None], (g_n, n_t) + cls[1:])
-        eye = np.eye(m + 1)
-        own_axis = np.array(targets)
-        part_tabs = [np.where((own_axis == b)[None, :, None, None], eye, tab[:, None, b])
-                     for b in range(s)]
-        part = _outcomes(part, part_tabs, 2)
-        h_part = _neg_xlogx_sum(part, axis=tuple(range(2, 2 + s)))                   # (G, T)
-        h_out, h_out_y = self._out_of_view(sites, tracked, targets, psi, tab, w_oa, emb)
+        # -sum P ln P of P(C_o = c, Y_{-o}) over o's in-view classes c >= 1 (C_o = c is L_o = s_c):
+        # every tracked axis but o's turned into outcomes, o's axis last (cyclic products).
+        c1 = m + 1
+        h_part = np.zeros((g_n, n_t))
+        for t, i in enumerate(targets):
+            x = np.moveaxis(np.take(p_c, np.arange(1, c1), axis=1 + i), 1 + i, -1)
+            for b in range(s):
+                if b != i:
+                    x = np.matmul(x.reshape(g_n, c1, -1).transpose(0, 2, 1), tab[:, b])
+            h_part[:, t] = _neg_xlogx_sum(x.reshape(g_n, -1), axis=1)
+        h_out = self._out_of_view(sites, tracked, targets, psi, tab, w_oa, emb)
         own = tab[:, targets]                                                         # (G, T, c, y)
         h_own = _neg_xlogx_sum(own, axis=3)                                           # (G, T, c)
         q = self.q[o_sel]                                                             # (T, K)
         p_in = q[:, sites].transpose(1, 0, 2)                          # q(L_o = s_c), (G, T, m)
         p_out = 1.0 - p_in.sum(axis=2)
-        h_in = h_part - h_out_y + (p_in * h_own[:, :, 1:]).sum(axis=2)
+        h_in = h_part + (p_in * h_own[:, :, 1:]).sum(axis=2)
         h_o = _neg_xlogx_sum(q, axis=1)                                               # (T,)
         h_lo_y = h_in + h_out + p_out * h_own[:, :, 0]
         gain = h_o[None, :] + h_y[:, None] - h_lo_y
@@ -383,9 +418,9 @@ class JointViewGain:
 
     def _out_of_view(self, sites: np.ndarray, tracked: Sequence[int], targets: Sequence[int],
                      psi: np.ndarray, tab: np.ndarray, w_oa: np.ndarray,
-                     emb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """-sum P ln P over (a out of view, Y_{tracked∖o}) and over Y_{tracked∖o} alone (P summed
-        over those a), for each look and target, shapes (G, T) and (G, T), nats.
+                     emb: np.ndarray) -> np.ndarray:
+        """-sum P ln P over (a out of view, Y_{tracked∖o}) for each look and target, shape (G, T),
+        nats.
 
         With o at an out-of-view site a (so o not in view), Z P(L_o = a, Y) = sum_T W_{v,o,a}(T)
         M_o(T, Y) over the sets T of objects in view, T not containing o, where the kernel
@@ -407,7 +442,6 @@ class JointViewGain:
         in_view[np.arange(g_n)[:, None], sites] = True
         psi = psi.reshape((g_n,) + (c1,) * s + (1 << f,))
         h_out = np.zeros((g_n, len(targets)))
-        h_out_y = np.zeros((g_n, len(targets)))
         s1 = s - 1
         per_look = (((1 << f) << s1) + self.k) * c1 ** s1       # kernel and table entries
         chunk = max(1, CHUNK_ENTRIES // per_look)
@@ -435,8 +469,7 @@ class JointViewGain:
                 p = np.matmul(w, kernel)                          # Z P(a, Y), (g, K - m, Y)
                 p /= self.sm.z
                 h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
-                h_out_y[lo:hi, t] = _neg_xlogx_sum(p.sum(axis=1), axis=1)
-        return h_out, h_out_y
+        return h_out
 
     def _tracked_for(self, o: int, m: int) -> list[int]:
         """o and the observed objects most coupled to it, as many as the outcome limit allows."""
