@@ -308,9 +308,10 @@ class JointViewGain:
         low = np.arange(1 << (n - 1))
         for o in range(n):
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
-            mat = np.zeros((c.shape[0], len(low), len(low)))
-            mat[:, ix.xunion, ix.xa] = c[:, expand[ix.xb]]
-            out[:, :, o, expand] = np.matmul(w[:, o, expand][None], mat)
+            mat = np.zeros((len(low), c.shape[0], len(low)))       # one product for every l
+            mat[ix.xunion, :, ix.xa] = c[:, expand[ix.xb]].T
+            res = w[:, o, expand] @ mat.reshape(len(low), -1)       # (A, L * 2^(N-1))
+            out[:, :, o, expand] = res.reshape(w.shape[0], c.shape[0], -1).transpose(1, 0, 2)
         return out
 
     def _view_weights(self, sites: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
