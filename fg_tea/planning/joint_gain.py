@@ -192,6 +192,10 @@ class JointViewGain:
         self.mem = ix.members.T                          # (N, 2^N)
         n = self.n
         self.coupling = (np.zeros((n, n)) if coupling is None else np.asarray(coupling, float))
+        # W_{v,o,a}(T) is 0 whenever o is in T (o stands out of view), so it is kept "reduced":
+        # red[o] lists the 2^(N-1) sets without o in increasing order, W[a, o, i] = W(red[o][i]).
+        low = np.arange(1 << (n - 1))
+        self.red = np.stack([((low >> o) << (o + 1)) | (low & ((1 << o) - 1)) for o in range(n)])
         self._split: dict[int, np.ndarray] = {}
         self._out: dict[int, np.ndarray] = {}
         self._close: dict[int, dict] = {}
@@ -247,7 +251,7 @@ class JointViewGain:
         out = self._room_out(r0)
         w_v = alg.completions(excl, w_room)                   # (L, 2^N)
         outside = np.array([a for a in range(self.k) if int(sm.room_of[a]) != r0], dtype=int)
-        w_oa = np.zeros((len(room), self.k, self.n, self.full + 1))
+        w_oa = np.zeros((len(room), self.k, self.n, self.red.shape[1]))
         if len(outside):
             w_oa[:, outside] = self._completions_without_o(excl, out[outside])
         # o at another site a of the same room: W_{v,o,a}(T) = sum_{B ∋ o, B disjoint T}
@@ -281,10 +285,10 @@ class JointViewGain:
         return cached
 
     def _place_o(self, g: np.ndarray, d: np.ndarray) -> np.ndarray:
-        """out[p, o, T] = sum_{B ∋ o, B disjoint T} g[p, B] d[p, T ⊔ B] for T without o (0 for
-        T with o), shape (P, N, 2^N): o placed on the site of g, the rest completed by d."""
+        """out[p, o, i] = sum_{B ∋ o, B disjoint T} g[p, B] d[p, T ⊔ B] for T = red[o][i] (the sets
+        without o), shape (P, N, 2^(N-1)): o placed on the site of g, the rest completed by d."""
         n = self.n
-        out = np.zeros((g.shape[0], n, self.full + 1))
+        out = np.zeros((g.shape[0], n, self.red.shape[1]))
         if n == 1:
             out[:, 0, 0] = g[:, 1] * d[:, 1]
             return out
@@ -293,29 +297,31 @@ class JointViewGain:
         for o in range(n):
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
             prods = g[:, expand[ix.xb] | (1 << o)] * d[:, expand[ix.xunion] | (1 << o)]
-            out[:, o, expand] = np.add.reduceat(prods, ix.xstarts, axis=1)
+            out[:, o] = np.add.reduceat(prods, ix.xstarts, axis=1)
         return out
 
     def _completions_without_o(self, c: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """completions(c[l], w[a, o]) for every l, a, o, shape (L, A, N, 2^N), using that
+        """completions(c[l], w[a, o]) on the sets without o (reduced, see red), for every l, a, o,
+        shape (L, A, N, 2^(N-1)), using that
         w[a, o](T) = 0 whenever o is in T (o stands outside): only sets without o take part, as
         one matrix product per object over the 2^(N-1) such sets."""
         n, alg = self.n, self.alg
         if n == 1:
-            return alg.completions(c[:, None, None, :], w[None])
+            return alg.completions(c[:, None, None, :], w[None])[..., :1]
         ix = subset_index(n - 1)
-        out = np.zeros((c.shape[0],) + w.shape)
+        out = np.zeros((c.shape[0],) + w.shape[:2] + (1 << (n - 1),))
         low = np.arange(1 << (n - 1))
         for o in range(n):
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
             mat = np.zeros((len(low), c.shape[0], len(low)))       # one product for every l
             mat[ix.xunion, :, ix.xa] = c[:, expand[ix.xb]].T
             res = w[:, o, expand] @ mat.reshape(len(low), -1)       # (A, L * 2^(N-1))
-            out[:, :, o, expand] = res.reshape(w.shape[0], c.shape[0], -1).transpose(1, 0, 2)
+            out[:, :, o] = res.reshape(w.shape[0], c.shape[0], -1).transpose(1, 0, 2)
         return out
 
     def _view_weights(self, sites: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        """W_v(T), shape (2^N,), and W_{v,o,a}(T), shape (K, N, 2^N) (0 for a in view)."""
+        """W_v(T), shape (2^N,), and W_{v,o,a}(T) on the sets T without o, shape (K, N, 2^(N-1))
+        (reduced, see red; 0 for a in view)."""
         sm, alg = self.sm, self.alg
         rooms = {int(sm.room_of[j]) for j in sites}
         if len(rooms) != 1:
@@ -324,7 +330,7 @@ class JointViewGain:
         in_view = set(int(j) for j in sites)
         rest = [int(j) for j in sm.room_sites[r0] if int(j) not in in_view]
         if not rest:                                           # a glance over the whole room
-            return sm._w[r0], self._room_out(r0)
+            return sm._w[r0], self._reduce(self._room_out(r0))
         if len(sites) == 1:
             return self._close_weights(r0)[int(sites[0])]
         pre = [alg.delta()]
@@ -337,11 +343,16 @@ class JointViewGain:
         w_room = sm._w[r0]
         c_d = pre[-1]
         w_v = alg.completions(c_d, w_room)
-        w_oa = alg.completions(c_d, self._room_out(r0))
+        w_oa = alg.completions(c_d, self._room_out(r0))            # full sets, reduced below
         for i, a in enumerate(rest):
             c_oa = alg.conv(self.mem * sm.g[a], alg.conv(pre[i], suf[i + 1]))   # (N, 2^N)
             w_oa[a] = alg.completions(c_oa, w_room)
-        return w_v, w_oa
+        return w_v, self._reduce(w_oa)
+
+    def _reduce(self, w: np.ndarray) -> np.ndarray:
+        """W over all sets (..., N, 2^N) -> over the sets without each o (..., N, 2^(N-1))."""
+        return np.take_along_axis(w, np.broadcast_to(self.red, w.shape[:-1] + self.red.shape[1:]),
+                                  axis=-1)
 
     # ------------------------------------------------------------------ batched class tables
     def _batch(self, sites: np.ndarray, prob: np.ndarray, tracked: Sequence[int],
@@ -351,7 +362,7 @@ class JointViewGain:
         Args:
             sites: in-view sites, shape (G, m).
             prob: p_{u,c} of the tracked objects, shape (G, s, m).
-            w_v, w_oa: shapes (G, 2^N) and (G, K, N, 2^N).
+            w_v, w_oa: shapes (G, 2^N) and (G, K, N, 2^(N-1)) (reduced, see red).
 
         Returns:
             shape (G, len(targets)), nats.
@@ -453,20 +464,37 @@ class JointViewGain:
             tb = np.zeros(1 << s1, dtype=np.int64)
             for k, b in enumerate(others):
                 tb |= bits[k] << tracked[b]
-            masks = (emb[:, None] | tb[None, :]).reshape(-1)
-            w_all = np.take(w_oa[:, :, o], masks, axis=2)
+            masks = (emb[:, None] | tb[None, :]).reshape(-1)      # kernel row -> set
+            order = np.argsort(masks)                               # -> increasing, as red[o]
+            if np.array_equal(order, np.arange(len(order))):
+                order = None
+            kron = m == 1 and f == 0 and s1 > 0
             for lo in range(0, g_n, chunk):                     # chunks that stay in cache
                 hi = min(g_n, lo + chunk)
                 gc = hi - lo
                 x = np.take(psi[lo:hi], 0, axis=1 + i)              # (g, c.., 2^f), C_o = 0
-                for b in others:                                    # cyclic: class axis -> end
-                    x = np.matmul(x.reshape(gc, c1, -1).transpose(0, 2, 1), tabp[lo:hi, b])
-                # x: (g, 2^f, (bit, y) per other tracked object) -> (g, sets, outcomes)
-                x = x.reshape((gc, 1 << f) + (2, c1) * s1)
-                x = x.transpose((0, 1) + tuple(2 + 2 * k for k in range(s1))
-                                + tuple(3 + 2 * k for k in range(s1)))
-                kernel = x.reshape(gc, len(masks), c1 ** s1)
-                w = w_all[lo:hi][~in_view[lo:hi]].reshape(gc, -1, len(masks))
+                if kron:
+                    # One site in view, every object tracked: class = in view, so the kernel is
+                    # psi(T) prod_u P(y_u | [u in T]), built as an outer product, the highest
+                    # object's axis first so that rows come in increasing set order.
+                    x = x.reshape((gc,) + (2,) * s1).transpose((0,) + tuple(range(s1, 0, -1)))
+                    kernel = tab[lo:hi, others[-1]]
+                    for b in others[-2::-1]:
+                        r, c = kernel.shape[1:]
+                        kernel = (kernel[:, :, None, :, None] * tab[lo:hi, b][:, None, :, None, :]
+                                  ).reshape(gc, 2 * r, 2 * c)
+                    kernel = kernel * x.reshape(gc, -1, 1)
+                else:
+                    for b in others:                                # cyclic: class axis -> end
+                        x = np.matmul(x.reshape(gc, c1, -1).transpose(0, 2, 1), tabp[lo:hi, b])
+                    # x: (g, 2^f, (bit, y) per other tracked object) -> (g, sets, outcomes)
+                    x = x.reshape((gc, 1 << f) + (2, c1) * s1)
+                    x = x.transpose((0, 1) + tuple(2 + 2 * k for k in range(s1))
+                                    + tuple(3 + 2 * k for k in range(s1)))
+                    kernel = x.reshape(gc, len(masks), c1 ** s1)
+                    if order is not None:
+                        kernel = kernel[:, order]
+                w = w_oa[lo:hi, :, o][~in_view[lo:hi]].reshape(gc, -1, len(masks))
                 p = np.matmul(w, kernel)                          # Z P(a, Y), (g, K - m, Y)
                 p /= self.sm.z
                 h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
