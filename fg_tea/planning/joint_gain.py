@@ -457,7 +457,7 @@ class JointViewGain:
         s1 = s - 1
         per_look = (((1 << f) << s1) + self.k) * c1 ** s1       # kernel and table entries
         chunk = max(1, CHUNK_ENTRIES // per_look)
-        bits = np.indices((2,) * s1).reshape(s1, -1).astype(np.int64)
+        bits = np.indices((2,) * s1).reshape(s1, 1 << s1).astype(np.int64)
         for t, i in enumerate(targets):
             o = tracked[i]
             others = [b for b in range(s) if b != i]
