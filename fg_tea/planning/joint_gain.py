@@ -104,6 +104,16 @@ def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarra
     return x.reshape(shape[:len(shape) - s] + tuple(np.asarray(t).shape[-1] for t in tables))
 
 
+def _kron(tab: np.ndarray, objs: Sequence[int]) -> np.ndarray:
+    """Kronecker product of the 2 x 2 tables tab[:, b] for b in objs (first = most significant),
+    batched over the first axis, shape (G, 2^len, 2^len); the identity (1 x 1) when empty."""
+    out = np.ones((tab.shape[0], 1, 1))
+    for b in objs:
+        r, c = out.shape[1:]
+        out = (out[:, :, None, :, None] * tab[:, b][:, None, :, None, :]).reshape(-1, 2 * r, 2 * c)
+    return out
+
+
 def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
     """P(Y_u = y | C_u = c) for one object, shape (m + 1, m + 1): rows class, columns outcome.
 
@@ -475,15 +485,21 @@ class JointViewGain:
                 x = np.take(psi[lo:hi], 0, axis=1 + i)              # (g, c.., 2^f), C_o = 0
                 if kron:
                     # One site in view, every object tracked: class = in view, so the kernel is
-                    # psi(T) prod_u P(y_u | [u in T]), built as an outer product, the highest
-                    # object's axis first so that rows come in increasing set order.
+                    # diag(psi) times the Kronecker product of the objects' 2 x 2 tables, applied
+                    # as two factors (rows in increasing set order: highest object first).
                     x = x.reshape((gc,) + (2,) * s1).transpose((0,) + tuple(range(s1, 0, -1)))
-                    kernel = tab[lo:hi, others[-1]]
-                    for b in others[-2::-1]:
-                        r, c = kernel.shape[1:]
-                        kernel = (kernel[:, :, None, :, None] * tab[lo:hi, b][:, None, :, None, :]
-                                  ).reshape(gc, 2 * r, 2 * c)
-                    kernel = kernel * x.reshape(gc, -1, 1)
+                    w = w_oa[lo:hi, :, o][~in_view[lo:hi]].reshape(gc, -1, len(masks))
+                    w = w * x.reshape(gc, 1, -1)
+                    desc = others[::-1]
+                    h = s1 // 2
+                    k_hi, k_lo = _kron(tab[lo:hi], desc[:h]), _kron(tab[lo:hi], desc[h:])
+                    n_hi, n_lo, n_a = k_hi.shape[1], k_lo.shape[1], w.shape[1]
+                    p = np.matmul(w.reshape(gc, n_a * n_hi, n_lo), k_lo)
+                    p = p.reshape(gc, n_a, n_hi, n_lo).transpose(0, 2, 1, 3).reshape(gc, n_hi, -1)
+                    p = np.matmul(k_hi.transpose(0, 2, 1), p)
+                    p /= self.sm.z
+                    h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
+                    continue
                 else:
                     for b in others:                                # cyclic: class axis -> end
                         x = np.matmul(x.reshape(gc, c1, -1).transpose(0, 2, 1), tabp[lo:hi, b])
