@@ -225,8 +225,57 @@ class JointViewGain:
 
     def _room_out(self, r0: int) -> np.ndarray:
         """Out[a, o, T] = rho(T) * (weight of every object not in T outside room r0, with o at a),
-        for a outside r0 (rows of r0's sites are 0), shape (K, N, 2^N)."""
+        for a outside r0 (rows of r0's sites are 0), on the sets T without o (reduced, see red),
+        shape (K, N, 2^(N-1))."""
         cached = self._out.get(r0)
+        if cached is None:
+            if 2 <= self.n <= MATRIX_OBJECTS:
+                self._out.update(self._room_out_all())
+            else:
+                self._out[r0] = self._reduce(self._room_out_full(r0))
+            cached = self._out[r0]
+        return cached
+
+    def _room_out_all(self) -> dict[int, np.ndarray]:
+        """_room_out for every room at once, on the sets without o throughout: for a in room r,
+        Out[a, o](T) = rho(T) (split_{a,o} * E_{r0 r})(complement of T), with E_{r0 r} the
+        convolution of every room but r0 and r. split_{a,o} lives on sets with o and the
+        complement of T contains o, so each object's part is a 2^(N-1)-square problem: one
+        matrix product per (room r, object o) with the matrices of every r0 side by side."""
+        sm, alg = self.sm, self.alg
+        n, half = self.n, 1 << (self.n - 1)
+        ix = subset_index(n - 1)
+        rooms = len(sm.room_sites)
+        excl: dict[tuple[int, int], np.ndarray] = {}
+        for r0 in range(rooms):                     # E_{r0 r} = E_{r r0}: rooms before r0, ...
+            acc = sm.rpre[r0]
+            for r in range(r0 + 1, rooms):
+                excl[(r0, r)] = excl[(r, r0)] = alg.conv(acc, sm.rsuf[r + 1])
+                acc = alg.conv(acc, sm.h[r])
+        out = {r0: np.zeros((self.k, n, half)) for r0 in range(rooms)}
+        flip = (half - 1) ^ np.arange(half)                      # complement within N∖o
+        for r in range(rooms):
+            others = [r0 for r0 in range(rooms) if r0 != r]
+            if not others:
+                continue
+            sites = sm.room_sites[r]
+            e = np.stack([excl[(r0, r)] for r0 in others])       # (R - 1, 2^N)
+            for o in range(n):
+                red, bit = self.red[o], 1 << o
+                # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y')
+                c_rest = np.stack(sm._excl[r])                   # (L, 2^N)
+                prods = sm.g[sites][:, red[ix.a] | bit] * c_rest[:, red[ix.b]]
+                split = np.add.reduceat(prods, ix.starts, axis=1) * sm.rho[red | bit]
+                mat = np.zeros((half, len(others), half))
+                mat[ix.a, :, ix.union] = e[:, red[ix.b]].T
+                res = (split @ mat.reshape(half, -1)).reshape(len(sites), len(others), half)
+                for k, r0 in enumerate(others):
+                    out[r0][sites, o] = res[:, k, flip] * sm.rho[red]
+        return out
+
+    def _room_out_full(self, r0: int) -> np.ndarray:
+        """_room_out on all sets, shape (K, N, 2^N) (for N = 1 or above MATRIX_OBJECTS)."""
+        cached = None
         if cached is None:
             sm, alg = self.sm, self.alg
             others = [r for r in range(len(sm.room_sites)) if r != r0]
@@ -246,7 +295,6 @@ class JointViewGain:
                 else:
                     oa[sm.room_sites[r]] = alg.conv(split, excl)
             cached = sm.rho * oa[:, :, self.comp]
-            self._out[r0] = cached
         return cached
 
     def _close_weights(self, r0: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
@@ -311,13 +359,13 @@ class JointViewGain:
         return out
 
     def _completions_without_o(self, c: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """completions(c[l], w[a, o]) on the sets without o (reduced, see red), for every l, a, o,
-        shape (L, A, N, 2^(N-1)), using that
+        """completions(c[l], w[a, o]) on the sets without o (w and the result reduced, see red),
+        for every l, a, o, shape (L, A, N, 2^(N-1)), using that
         w[a, o](T) = 0 whenever o is in T (o stands outside): only sets without o take part, as
         one matrix product per object over the 2^(N-1) such sets."""
         n, alg = self.n, self.alg
-        if n == 1:
-            return alg.completions(c[:, None, None, :], w[None])[..., :1]
+        if n == 1:                                    # only the empty set: c(empty) w(empty)
+            return c[:, None, None, :1] * w[None]
         ix = subset_index(n - 1)
         out = np.zeros((c.shape[0],) + w.shape[:2] + (1 << (n - 1),))
         low = np.arange(1 << (n - 1))
@@ -325,7 +373,7 @@ class JointViewGain:
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
             mat = np.zeros((len(low), c.shape[0], len(low)))       # one product for every l
             mat[ix.xunion, :, ix.xa] = c[:, expand[ix.xb]].T
-            res = w[:, o, expand] @ mat.reshape(len(low), -1)       # (A, L * 2^(N-1))
+            res = w[:, o] @ mat.reshape(len(low), -1)               # (A, L * 2^(N-1))
             out[:, :, o] = res.reshape(w.shape[0], c.shape[0], -1).transpose(1, 0, 2)
         return out
 
@@ -340,7 +388,7 @@ class JointViewGain:
         in_view = set(int(j) for j in sites)
         rest = [int(j) for j in sm.room_sites[r0] if int(j) not in in_view]
         if not rest:                                           # a glance over the whole room
-            return sm._w[r0], self._reduce(self._room_out(r0))
+            return sm._w[r0], self._room_out(r0)
         if len(sites) == 1:
             return self._close_weights(r0)[int(sites[0])]
         pre = [alg.delta()]
@@ -353,11 +401,11 @@ class JointViewGain:
         w_room = sm._w[r0]
         c_d = pre[-1]
         w_v = alg.completions(c_d, w_room)
-        w_oa = alg.completions(c_d, self._room_out(r0))            # full sets, reduced below
+        w_oa = self._completions_without_o(c_d[None], self._room_out(r0))[0]
         for i, a in enumerate(rest):
             c_oa = alg.conv(self.mem * sm.g[a], alg.conv(pre[i], suf[i + 1]))   # (N, 2^N)
-            w_oa[a] = alg.completions(c_oa, w_room)
-        return w_v, self._reduce(w_oa)
+            w_oa[a] = self._reduce(alg.completions(c_oa, w_room))
+        return w_v, w_oa
 
     def _reduce(self, w: np.ndarray) -> np.ndarray:
         """W over all sets (..., N, 2^N) -> over the sets without each o (..., N, 2^(N-1))."""
