@@ -206,22 +206,6 @@ class JointViewGain:
         # red[o] lists the 2^(N-1) sets without o in increasing order, W[a, o, i] = W(red[o][i]).
         low = np.arange(1 << (n - 1))
         self.red = np.stack([((low >> o) << (o + 1)) | (low & ((1 << o) - 1)) for o in range(n)])
-        # Free sites (docs/design.md §6.2): o's factor at a is u_o(a) g_a(B) for every set B
-        # beside it (no same-site weight of o differing from its same-room weight, and a's
-        # capacity never binds), so W_{v,o,a} = u_o(a) x one weight per room. Rows of the weight
-        # arrays: the K sites, then one such per-unit row per room, then a row of zeros.
-        rooms = len(sm.room_sites)
-        self.rows = self.k + rooms + 1
-        self.free = np.zeros((n, self.k), dtype=bool)
-        if 2 <= n <= MATRIX_OBJECTS:
-            cp = sm._cap_pairs
-            for o in range(n):
-                self.free[o] = np.all(cp[self.red[o] | (1 << o)] == cp[self.red[o]], axis=0)
-        self.need = np.ones((n, self.rows), dtype=bool)      # rows computed for each object
-        self.need[:, :self.k] = ~self.free
-        self.need[:, self.k:self.k + rooms] = np.stack(
-            [self.free[:, sm.room_sites[r]].any(axis=1) for r in range(rooms)], axis=1)
-        self.need[:, -1] = False
         self._split: dict[int, np.ndarray] = {}
         self._out: dict[int, np.ndarray] = {}
         self._close: dict[int, dict] = {}
@@ -242,14 +226,13 @@ class JointViewGain:
     def _room_out(self, r0: int) -> np.ndarray:
         """Out[a, o, T] = rho(T) * (weight of every object not in T outside room r0, with o at a),
         for a outside r0 (rows of r0's sites are 0), on the sets T without o (reduced, see red),
-        shape (rows, N, 2^(N-1)): site rows, then per-unit rows of other rooms' free sites."""
+        shape (K, N, 2^(N-1))."""
         cached = self._out.get(r0)
         if cached is None:
             if 2 <= self.n <= MATRIX_OBJECTS:
                 self._out.update(self._room_out_all())
             else:
-                self._out[r0] = np.zeros((self.rows, self.n, self.red.shape[1]))
-                self._out[r0][:self.k] = self._reduce(self._room_out_full(r0))
+                self._out[r0] = self._reduce(self._room_out_full(r0))
             cached = self._out[r0]
         return cached
 
@@ -269,32 +252,25 @@ class JointViewGain:
             for r in range(r0 + 1, rooms):
                 excl[(r0, r)] = excl[(r, r0)] = alg.conv(acc, sm.rsuf[r + 1])
                 acc = alg.conv(acc, sm.h[r])
-        out = {r0: np.zeros((self.rows, n, half)) for r0 in range(rooms)}
+        out = {r0: np.zeros((self.k, n, half)) for r0 in range(rooms)}
         flip = (half - 1) ^ np.arange(half)                      # complement within N∖o
         for r in range(rooms):
             others = [r0 for r0 in range(rooms) if r0 != r]
             if not others:
                 continue
+            sites = sm.room_sites[r]
             e = np.stack([excl[(r0, r)] for r0 in others])       # (R - 1, 2^N)
-            c_all = np.stack(sm._excl[r])                        # C_{R∖a}, (L, 2^N)
             for o in range(n):
                 red, bit = self.red[o], 1 << o
-                keep = self.need[o, sm.room_sites[r]]
-                sites = sm.room_sites[r][keep]
                 # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y')
-                prods = sm.g[sites][:, red[ix.a] | bit] * c_all[keep][:, red[ix.b]]
+                c_rest = np.stack(sm._excl[r])                   # (L, 2^N)
+                prods = sm.g[sites][:, red[ix.a] | bit] * c_rest[:, red[ix.b]]
                 split = np.add.reduceat(prods, ix.starts, axis=1) * sm.rho[red | bit]
-                rows = list(sites)
-                if self.need[o, self.k + r]:                    # per unit of u_o at a free site
-                    split = np.vstack([split, sm.pre[r][-1][red] * sm.rho[red | bit]])
-                    rows.append(self.k + r)
-                if not rows:
-                    continue
                 mat = np.zeros((half, len(others), half))
                 mat[ix.a, :, ix.union] = e[:, red[ix.b]].T
-                res = (split @ mat.reshape(half, -1)).reshape(len(rows), len(others), half)
+                res = (split @ mat.reshape(half, -1)).reshape(len(sites), len(others), half)
                 for k, r0 in enumerate(others):
-                    out[r0][rows, o] = res[:, k, flip] * sm.rho[red]
+                    out[r0][sites, o] = res[:, k, flip] * sm.rho[red]
         return out
 
     def _room_out_full(self, r0: int) -> np.ndarray:
@@ -332,13 +308,10 @@ class JointViewGain:
         w_room = sm._w[r0]
         out = self._room_out(r0)
         w_v = alg.completions(excl, w_room)                   # (L, 2^N)
-        outside = np.array([a for a in range(self.k) if int(sm.room_of[a]) != r0]
-                           + [self.k + r for r in range(len(sm.room_sites)) if r != r0], dtype=int)
-        w_oa = np.zeros((len(room), self.rows, self.n, self.red.shape[1]))
+        outside = np.array([a for a in range(self.k) if int(sm.room_of[a]) != r0], dtype=int)
+        w_oa = np.zeros((len(room), self.k, self.n, self.red.shape[1]))
         if len(outside):
-            w_oa[:, outside] = self._completions_without_o(excl, out[outside],
-                                                           self.need[:, outside].T)
-        self._own_room_unit(w_oa, w_v, r0)
+            w_oa[:, outside] = self._completions_without_o(excl, out[outside])
         # o at another site a of the same room: W_{v,o,a}(T) = sum_{B ∋ o, B disjoint T}
         # g_a(B) D_{ja}(T ⊔ B) with D_{ja} = completions(C_{R∖{j,a}}, W_R) (completing by a
         # convolution is completing by each factor in turn), for the sets T without o.
@@ -364,24 +337,14 @@ class JointViewGain:
                 d = alg.completions(c_rest, w_room)
             t_idx = np.array([p[0] for p in pairs])
             a_idx = np.array([p[1] for p in pairs])
-            w_oa[t_idx, a_idx] = self._place_o(sm.g[a_idx], d, self.need[:, a_idx].T)
+            w_oa[t_idx, a_idx] = self._place_o(sm.g[a_idx], d)
         cached = {j: (w_v[t], w_oa[t]) for t, j in enumerate(room)}
         self._close[r0] = cached
         return cached
 
-    def _own_room_unit(self, w_oa: np.ndarray, w_v: np.ndarray, r0: int) -> None:
-        """The per-unit row of the view's own room: o at a free out-of-view site a of room r0
-        gives W_{v,o,a}(T) = u_o(a) W_v(T ∪ o) (a's factor is u_o(a) times what a contributes
-        without o, so completing with a is completing with the rest of the room)."""
-        row = self.k + r0
-        for o in range(self.n):
-            if self.need[o, row]:
-                w_oa[..., row, o, :] = w_v[..., self.red[o] | (1 << o)]
-
-    def _place_o(self, g: np.ndarray, d: np.ndarray, need: np.ndarray | None = None) -> np.ndarray:
+    def _place_o(self, g: np.ndarray, d: np.ndarray) -> np.ndarray:
         """out[p, o, i] = sum_{B ∋ o, B disjoint T} g[p, B] d[p, T ⊔ B] for T = red[o][i] (the sets
-        without o), shape (P, N, 2^(N-1)): o placed on the site of g, the rest completed by d.
-        need (P, N): rows to compute (others left 0)."""
+        without o), shape (P, N, 2^(N-1)): o placed on the site of g, the rest completed by d."""
         n = self.n
         out = np.zeros((g.shape[0], n, self.red.shape[1]))
         if n == 1:
@@ -391,18 +354,15 @@ class JointViewGain:
         low = np.arange(1 << (n - 1))
         for o in range(n):
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
-            rows = slice(None) if need is None else np.nonzero(need[:, o])[0]
-            prods = g[rows][:, expand[ix.xb] | (1 << o)] * d[rows][:, expand[ix.xunion] | (1 << o)]
-            out[rows, o] = np.add.reduceat(prods, ix.xstarts, axis=1)
+            prods = g[:, expand[ix.xb] | (1 << o)] * d[:, expand[ix.xunion] | (1 << o)]
+            out[:, o] = np.add.reduceat(prods, ix.xstarts, axis=1)
         return out
 
-    def _completions_without_o(self, c: np.ndarray, w: np.ndarray,
-                               need: np.ndarray | None = None) -> np.ndarray:
+    def _completions_without_o(self, c: np.ndarray, w: np.ndarray) -> np.ndarray:
         """completions(c[l], w[a, o]) on the sets without o (w and the result reduced, see red),
         for every l, a, o, shape (L, A, N, 2^(N-1)), using that
         w[a, o](T) = 0 whenever o is in T (o stands outside): only sets without o take part, as
-        one matrix product per object over the 2^(N-1) such sets. need (A, N): rows to compute
-        (others left 0)."""
+        one matrix product per object over the 2^(N-1) such sets."""
         n, alg = self.n, self.alg
         if n == 1:                                    # only the empty set: c(empty) w(empty)
             return c[:, None, None, :1] * w[None]
@@ -413,9 +373,8 @@ class JointViewGain:
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
             mat = np.zeros((len(low), c.shape[0], len(low)))       # one product for every l
             mat[ix.xunion, :, ix.xa] = c[:, expand[ix.xb]].T
-            rows = slice(None) if need is None else np.nonzero(need[:, o])[0]
-            res = w[rows, o] @ mat.reshape(len(low), -1)            # (A, L * 2^(N-1))
-            out[:, rows, o] = res.reshape(-1, c.shape[0], len(low)).transpose(1, 0, 2)
+            res = w[:, o] @ mat.reshape(len(low), -1)               # (A, L * 2^(N-1))
+            out[:, :, o] = res.reshape(w.shape[0], c.shape[0], -1).transpose(1, 0, 2)
         return out
 
     def _view_weights(self, sites: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
@@ -442,8 +401,7 @@ class JointViewGain:
         w_room = sm._w[r0]
         c_d = pre[-1]
         w_v = alg.completions(c_d, w_room)
-        w_oa = self._completions_without_o(c_d[None], self._room_out(r0), self.need.T)[0]
-        self._own_room_unit(w_oa, w_v, r0)
+        w_oa = self._completions_without_o(c_d[None], self._room_out(r0))[0]
         for i, a in enumerate(rest):
             c_oa = alg.conv(self.mem * sm.g[a], alg.conv(pre[i], suf[i + 1]))   # (N, 2^N)
             w_oa[a] = self._reduce(alg.completions(c_oa, w_room))
@@ -569,17 +527,16 @@ class JointViewGain:
             if np.array_equal(order, np.arange(len(order))):
                 order = None
             kron = m == 1 and f == 0 and s1 > 0
-            rows, alpha, beta = self._table_rows(o, in_view)
             for lo in range(0, g_n, chunk):                     # chunks that stay in cache
                 hi = min(g_n, lo + chunk)
                 gc = hi - lo
-                w = w_oa[np.arange(lo, hi)[:, None], rows[lo:hi], o]       # (g, rows, sets)
                 x = np.take(psi[lo:hi], 0, axis=1 + i)              # (g, c.., 2^f), C_o = 0
                 if kron:
                     # One site in view, every object tracked: class = in view, so the kernel is
                     # diag(psi) times the Kronecker product of the objects' 2 x 2 tables, applied
                     # as two factors (rows in increasing set order: highest object first).
                     x = x.reshape((gc,) + (2,) * s1).transpose((0,) + tuple(range(s1, 0, -1)))
+                    w = w_oa[lo:hi, :, o][~in_view[lo:hi]].reshape(gc, -1, len(masks))
                     w = w * x.reshape(gc, 1, -1)
                     desc = others[::-1]
                     h = s1 // 2
@@ -587,11 +544,9 @@ class JointViewGain:
                     n_hi, n_lo, n_a = k_hi.shape[1], k_lo.shape[1], w.shape[1]
                     p = np.matmul(w.reshape(gc, n_a * n_hi, n_lo), k_lo)
                     p = p.reshape(gc, n_a, n_hi, n_lo).transpose(0, 2, 1, 3).reshape(gc, n_hi, -1)
-                    p = np.matmul(k_hi.transpose(0, 2, 1), p).reshape(gc, n_hi, n_a, n_lo)
+                    p = np.matmul(k_hi.transpose(0, 2, 1), p)
                     p /= self.sm.z
-                    h_row = _neg_xlogx_sum(p, axis=(1, 3))
-                    s_row = p.sum(axis=(1, 3))
-                    h_out[lo:hi, t] = (alpha[lo:hi] * h_row + beta[lo:hi] * s_row).sum(axis=1)
+                    h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
                     continue
                 else:
                     for b in others:                                # cyclic: class axis -> end
@@ -603,40 +558,11 @@ class JointViewGain:
                     kernel = x.reshape(gc, len(masks), c1 ** s1)
                     if order is not None:
                         kernel = kernel[:, order]
-                p = np.matmul(w, kernel)                          # Z P(a, Y), (g, rows, Y)
+                w = w_oa[lo:hi, :, o][~in_view[lo:hi]].reshape(gc, -1, len(masks))
+                p = np.matmul(w, kernel)                          # Z P(a, Y), (g, K - m, Y)
                 p /= self.sm.z
-                h_row = _neg_xlogx_sum(p, axis=2)
-                h_out[lo:hi, t] = (alpha[lo:hi] * h_row + beta[lo:hi] * p.sum(axis=2)).sum(axis=1)
+                h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
         return h_out
-
-    def _table_rows(self, o: int, in_view: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Weight rows of o's out-of-view table per look, and how each counts in -sum P ln P.
-
-        Rows: o's non-free out-of-view sites (P(a, y) itself: alpha 1, beta 0) and one per-unit
-        row per room with free out-of-view sites A (P(a, y) = u_o(a) P1(y) for a in A, so they
-        add U H(P1) - (sum_a u ln u) S(P1) with U = sum_a u_o(a), S = sum_y): alpha U, beta
-        -sum u ln u. Padded with the zero row. Shapes (G, n), (G, n), (G, n).
-        """
-        sm, k = self.sm, self.k
-        g_n = in_view.shape[0]
-        sites = np.nonzero(self.need[o, :k])[0]
-        units = np.nonzero(self.need[o, k:k + len(sm.room_sites)])[0]
-        keep = ~in_view[:, sites]                                       # (G, sites)
-        order = np.argsort(~keep, axis=1, kind="stable")                # kept sites first
-        kept = np.take_along_axis(keep, order, axis=1)
-        width = int(keep.sum(axis=1).max()) if g_n and len(sites) else 0
-        rows = np.where(kept, sites[order], self.rows - 1)[:, :width]
-        alpha = kept[:, :width].astype(float)
-        beta = np.zeros((g_n, width))
-        if len(units):
-            u = sm.unary[o]
-            free_out = self.free[o][None, :] & ~in_view                    # (G, K)
-            member = (sm.room_of[:, None] == units[None, :]).astype(float)  # (K, units)
-            ulogu = np.where(u > 0, u * np.log(np.where(u > 0, u, 1.0)), 0.0)
-            rows = np.hstack([rows, np.broadcast_to(k + units, (g_n, len(units)))])
-            alpha = np.hstack([alpha, (free_out * u) @ member])
-            beta = np.hstack([beta, -(free_out * ulogu) @ member])
-        return rows, alpha, beta
 
     def _tracked_for(self, o: int, m: int) -> list[int]:
         """o and the observed objects most coupled to it, as many as the outcome limit allows."""
