@@ -315,20 +315,21 @@ class JointViewGain:
         # o at another site a of the same room: W_{v,o,a}(T) = sum_{B ∋ o, B disjoint T}
         # g_a(B) D_{ja}(T ⊔ B) with D_{ja} = completions(C_{R∖{j,a}}, W_R) (completing by a
         # convolution is completing by each factor in turn), for the sets T without o.
-        pairs, c_rest = [], []
-        for t, j in enumerate(room):
-            rest = [a for a in room if a != j]
-            if not rest:
-                continue
-            pre = [alg.delta()]
-            for a in rest:
-                pre.append(alg.conv(pre[-1], sm.g[a]))
-            suf = [alg.delta()]
-            for a in rest[::-1]:
-                suf.append(alg.conv(sm.g[a], suf[-1]))
-            suf = suf[::-1]
-            c_rest.append(alg.conv(np.stack(pre[:-1]), np.stack(suf[1:])))     # C_{R∖{j,a}}
-            pairs += [(t, a) for a in rest]
+        # C_{R∖{j,a}} for every pair from the room's prefix and suffix products (j before a:
+        # sites before j, those between j and a, those after a).
+        n_s = len(room)
+        pre, suf = sm.pre[r0], sm.suf[r0]
+        c_pair: dict[tuple[int, int], np.ndarray] = {}
+        for ti in range(n_s - 1):
+            accs = [pre[ti]]
+            for ta in range(ti + 1, n_s - 1):
+                accs.append(alg.conv(accs[-1], sm.g[room[ta]]))
+            both = alg.conv(np.stack(accs), np.stack([suf[ta + 1] for ta in range(ti + 1, n_s)]))
+            for x, ta in enumerate(range(ti + 1, n_s)):
+                c_pair[(ti, ta)] = c_pair[(ta, ti)] = both[x]
+        pairs = [(t, room[ta]) for t in range(n_s) for ta in range(n_s) if ta != t]
+        c_rest = [np.stack([c_pair[(t, ta)] for t in range(n_s) for ta in range(n_s) if ta != t])
+                  ] if pairs else []
         if pairs:
             c_rest = np.concatenate(c_rest)
             if self.n <= MATRIX_OBJECTS:
