@@ -260,10 +260,10 @@ class JointViewGain:
                 continue
             sites = sm.room_sites[r]
             e = np.stack([excl[(r0, r)] for r0 in others])       # (R - 1, 2^N)
+            c_rest = np.stack(sm._excl[r])                       # C_{R∖a}, (L, 2^N)
             for o in range(n):
                 red, bit = self.red[o], 1 << o
                 # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y')
-                c_rest = np.stack(sm._excl[r])                   # (L, 2^N)
                 prods = sm.g[sites][:, red[ix.a] | bit] * c_rest[:, red[ix.b]]
                 split = np.add.reduceat(prods, ix.starts, axis=1) * sm.rho[red | bit]
                 mat = np.zeros((half, len(others), half))
@@ -275,27 +275,24 @@ class JointViewGain:
 
     def _room_out_full(self, r0: int) -> np.ndarray:
         """_room_out on all sets, shape (K, N, 2^N) (for N = 1 or above MATRIX_OBJECTS)."""
-        cached = None
-        if cached is None:
-            sm, alg = self.sm, self.alg
-            others = [r for r in range(len(sm.room_sites)) if r != r0]
-            pre = [alg.delta()]
-            for r in others:
-                pre.append(alg.conv(pre[-1], sm.h[r]))
-            suf = [alg.delta()]
-            for r in others[::-1]:
-                suf.append(alg.conv(sm.h[r], suf[-1]))
-            suf = suf[::-1]
-            oa = np.zeros((self.k, self.n, self.full + 1))
-            for i, r in enumerate(others):
-                excl = alg.conv(pre[i], suf[i + 1])              # every room but r0 and r
-                split = self._room_split(r)
-                if self.n <= MATRIX_OBJECTS:                     # one matrix product (BLAS)
-                    oa[sm.room_sites[r]] = split @ alg.conv_matrix(excl)
-                else:
-                    oa[sm.room_sites[r]] = alg.conv(split, excl)
-            cached = sm.rho * oa[:, :, self.comp]
-        return cached
+        sm, alg = self.sm, self.alg
+        others = [r for r in range(len(sm.room_sites)) if r != r0]
+        pre = [alg.delta()]
+        for r in others:
+            pre.append(alg.conv(pre[-1], sm.h[r]))
+        suf = [alg.delta()]
+        for r in others[::-1]:
+            suf.append(alg.conv(sm.h[r], suf[-1]))
+        suf = suf[::-1]
+        oa = np.zeros((self.k, self.n, self.full + 1))
+        for i, r in enumerate(others):
+            excl = alg.conv(pre[i], suf[i + 1])              # every room but r0 and r
+            split = self._room_split(r)
+            if self.n <= MATRIX_OBJECTS:                     # one matrix product (BLAS)
+                oa[sm.room_sites[r]] = split @ alg.conv_matrix(excl)
+            else:
+                oa[sm.room_sites[r]] = alg.conv(split, excl)
+        return sm.rho * oa[:, :, self.comp]
 
     def _close_weights(self, r0: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """W_v and W_{v,o,a} of the close look at every site of room r0 (see _view_weights)."""
