@@ -261,12 +261,12 @@ class JointViewGain:
             sites = sm.room_sites[r]
             e = np.stack([excl[(r0, r)] for r0 in others])       # (R - 1, 2^N)
             c_rest = np.stack(sm._excl[r])                       # C_{R∖a}, (L, 2^N)
+            mat = np.zeros((half, len(others), half))            # same nonzeros for every o
             for o in range(n):
                 red, bit = self.red[o], 1 << o
                 # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y')
                 prods = sm.g[sites][:, red[ix.a] | bit] * c_rest[:, red[ix.b]]
                 split = np.add.reduceat(prods, ix.starts, axis=1) * sm.rho[red | bit]
-                mat = np.zeros((half, len(others), half))
                 mat[ix.a, :, ix.union] = e[:, red[ix.b]].T
                 res = (split @ mat.reshape(half, -1)).reshape(len(sites), len(others), half)
                 for k, r0 in enumerate(others):
@@ -367,9 +367,9 @@ class JointViewGain:
         ix = subset_index(n - 1)
         out = np.zeros((c.shape[0],) + w.shape[:2] + (1 << (n - 1),))
         low = np.arange(1 << (n - 1))
-        for o in range(n):
+        mat = np.zeros((len(low), c.shape[0], len(low)))   # one product for every l; the same
+        for o in range(n):                                 # nonzeros for every o
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
-            mat = np.zeros((len(low), c.shape[0], len(low)))       # one product for every l
             mat[ix.xunion, :, ix.xa] = c[:, expand[ix.xb]].T
             res = w[:, o] @ mat.reshape(len(low), -1)               # (A, L * 2^(N-1))
             out[:, :, o] = res.reshape(w.shape[0], c.shape[0], -1).transpose(1, 0, 2)
