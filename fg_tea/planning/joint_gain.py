@@ -44,12 +44,16 @@ bound whose error is measured in ``tests/test_planning_joint_gain.py`` and by
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
 
 from fg_tea.beliefs.structured import StructuredLocationModel, SubsetAlgebra, subset_index
 
+CHUNK_ENTRIES = 1 << 16  # looks per step of the out-of-view tables: about this many entries (half
+                         # a megabyte, a core's L2 cache here; larger batches measured slower)
 OUTCOME_LIMIT = 1 << 17  # entries of one object's P(L_o = a, Y_{-o}) table before restricting
 MI_TOLERANCE = 1e-12     # gains are clipped at 0 from below within this tolerance
 MATRIX_OBJECTS = 9       # up to this many objects, batches of subset convolutions with one
@@ -57,11 +61,16 @@ MATRIX_OBJECTS = 9       # up to this many objects, batches of subset convolutio
                          # multiplications instead of 3^N gathered ones, faster up to about N = 9
 
 
+_TINY = np.finfo(float).tiny
+
+
 def _neg_xlogx_sum(p: np.ndarray, axis=None) -> np.ndarray:
     """sum -p log p (nats), 0 where p = 0."""
     p = np.asarray(p, dtype=float)
-    logs = np.log(p, out=np.zeros_like(p), where=p > 0)
-    return -(p * logs).sum(axis=axis)
+    logs = np.maximum(p, _TINY)        # p ln(tiny) = 0 for p = 0; the entries are never negative
+    np.log(logs, out=logs)
+    logs *= p
+    return -logs.sum(axis=axis)
 
 
 def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarray:
@@ -95,6 +104,16 @@ def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarra
     return x.reshape(shape[:len(shape) - s] + tuple(np.asarray(t).shape[-1] for t in tables))
 
 
+def _kron(tab: np.ndarray, objs: Sequence[int]) -> np.ndarray:
+    """Kronecker product of the 2 x 2 tables tab[:, b] for b in objs (first = most significant),
+    batched over the first axis, shape (G, 2^len, 2^len); the identity (1 x 1) when empty."""
+    out = np.ones((tab.shape[0], 1, 1))
+    for b in objs:
+        r, c = out.shape[1:]
+        out = (out[:, :, None, :, None] * tab[:, b][:, None, :, None, :]).reshape(-1, 2 * r, 2 * c)
+    return out
+
+
 def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
     """P(Y_u = y | C_u = c) for one object, shape (m + 1, m + 1): rows class, columns outcome.
 
@@ -109,6 +128,43 @@ def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
         f[1 + c, 1 + c] = prob[c]
     f[:, 0] = 1.0 - f[:, 1:].sum(axis=1)
     return np.clip(f, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Index arrays of one batch shape (objects, in-view sites, tracked objects), reused across
+    decisions: class configurations in C order over the tracked objects' axes, their in-view
+    object masks, and the embedding of the free (untracked) objects' subsets."""
+
+    f: int
+    codes: np.ndarray      # (n_c, s) class of each tracked object
+    bits: np.ndarray       # (s,) 1 << tracked object
+    emb: np.ndarray        # (2^f,) free-object subset index -> object mask
+    sub: np.ndarray        # (2^s,) tracked subset index -> object mask
+    a_mask: np.ndarray     # (m, n_c) mask of the tracked objects on in-view site t
+    a_idx: np.ndarray      # (m, n_c) the same as a tracked subset index
+    masks: np.ndarray      # (n_c, 2^f) in-view object mask of (configuration, free subset)
+
+
+@lru_cache(maxsize=64)
+def _layout(n: int, m: int, tracked: tuple[int, ...]) -> _Layout:
+    s = len(tracked)
+    free = [o for o in range(n) if o not in tracked]
+    f = len(free)
+    codes = np.indices((m + 1,) * s).reshape(s, -1).T
+    bits = np.array([1 << o for o in tracked], dtype=np.int64)
+    emb = np.zeros(1 << f, dtype=np.int64)
+    for b, o in enumerate(free):
+        emb[(np.arange(1 << f) >> b) & 1 == 1] |= 1 << o
+    sub = np.array([sum(int(bits[b]) for b in range(s) if a >> b & 1) for a in range(1 << s)],
+                   dtype=np.int64)
+    on = [(codes == t + 1) for t in range(m)]
+    a_mask = np.stack([(x * bits).sum(axis=1) for x in on]) if m else np.zeros((0, len(codes)), np.int64)
+    a_idx = np.stack([(x * (1 << np.arange(s))).sum(axis=1) for x in on]) if m else a_mask
+    masks = ((codes > 0) * bits).sum(axis=1)[:, None] | emb[None, :]
+    for x in (codes, bits, emb, sub, a_mask, a_idx, masks):
+        x.setflags(write=False)
+    return _Layout(f, codes, bits, emb, sub, a_mask, a_idx, masks)
 
 
 class JointViewGain:
@@ -146,6 +202,10 @@ class JointViewGain:
         self.mem = ix.members.T                          # (N, 2^N)
         n = self.n
         self.coupling = (np.zeros((n, n)) if coupling is None else np.asarray(coupling, float))
+        # W_{v,o,a}(T) is 0 whenever o is in T (o stands out of view), so it is kept "reduced":
+        # red[o] lists the 2^(N-1) sets without o in increasing order, W[a, o, i] = W(red[o][i]).
+        low = np.arange(1 << (n - 1))
+        self.red = np.stack([((low >> o) << (o + 1)) | (low & ((1 << o) - 1)) for o in range(n)])
         self._split: dict[int, np.ndarray] = {}
         self._out: dict[int, np.ndarray] = {}
         self._close: dict[int, dict] = {}
@@ -165,29 +225,74 @@ class JointViewGain:
 
     def _room_out(self, r0: int) -> np.ndarray:
         """Out[a, o, T] = rho(T) * (weight of every object not in T outside room r0, with o at a),
-        for a outside r0 (rows of r0's sites are 0), shape (K, N, 2^N)."""
+        for a outside r0 (rows of r0's sites are 0), on the sets T without o (reduced, see red),
+        shape (K, N, 2^(N-1))."""
         cached = self._out.get(r0)
         if cached is None:
-            sm, alg = self.sm, self.alg
-            others = [r for r in range(len(sm.room_sites)) if r != r0]
-            pre = [alg.delta()]
-            for r in others:
-                pre.append(alg.conv(pre[-1], sm.h[r]))
-            suf = [alg.delta()]
-            for r in others[::-1]:
-                suf.append(alg.conv(sm.h[r], suf[-1]))
-            suf = suf[::-1]
-            oa = np.zeros((self.k, self.n, self.full + 1))
-            for i, r in enumerate(others):
-                excl = alg.conv(pre[i], suf[i + 1])              # every room but r0 and r
-                split = self._room_split(r)
-                if self.n <= MATRIX_OBJECTS:                     # one matrix product (BLAS)
-                    oa[sm.room_sites[r]] = split @ alg.conv_matrix(excl)
-                else:
-                    oa[sm.room_sites[r]] = alg.conv(split, excl)
-            cached = sm.rho * oa[:, :, self.comp]
-            self._out[r0] = cached
+            if 2 <= self.n <= MATRIX_OBJECTS:
+                self._out.update(self._room_out_all())
+            else:
+                self._out[r0] = self._reduce(self._room_out_full(r0))
+            cached = self._out[r0]
         return cached
+
+    def _room_out_all(self) -> dict[int, np.ndarray]:
+        """_room_out for every room at once, on the sets without o throughout: for a in room r,
+        Out[a, o](T) = rho(T) (split_{a,o} * E_{r0 r})(complement of T), with E_{r0 r} the
+        convolution of every room but r0 and r. split_{a,o} lives on sets with o and the
+        complement of T contains o, so each object's part is a 2^(N-1)-square problem: one
+        matrix product per (room r, object o) with the matrices of every r0 side by side."""
+        sm, alg = self.sm, self.alg
+        n, half = self.n, 1 << (self.n - 1)
+        ix = subset_index(n - 1)
+        rooms = len(sm.room_sites)
+        excl: dict[tuple[int, int], np.ndarray] = {}
+        for r0 in range(rooms):                     # E_{r0 r} = E_{r r0}: rooms before r0, ...
+            acc = sm.rpre[r0]
+            for r in range(r0 + 1, rooms):
+                excl[(r0, r)] = excl[(r, r0)] = alg.conv(acc, sm.rsuf[r + 1])
+                acc = alg.conv(acc, sm.h[r])
+        out = {r0: np.zeros((self.k, n, half)) for r0 in range(rooms)}
+        flip = (half - 1) ^ np.arange(half)                      # complement within N∖o
+        for r in range(rooms):
+            others = [r0 for r0 in range(rooms) if r0 != r]
+            if not others:
+                continue
+            sites = sm.room_sites[r]
+            e = np.stack([excl[(r0, r)] for r0 in others])       # (R - 1, 2^N)
+            c_rest = np.stack(sm._excl[r])                       # C_{R∖a}, (L, 2^N)
+            mat = np.zeros((half, len(others), half))            # same nonzeros for every o
+            for o in range(n):
+                red, bit = self.red[o], 1 << o
+                # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y')
+                prods = sm.g[sites][:, red[ix.a] | bit] * c_rest[:, red[ix.b]]
+                split = np.add.reduceat(prods, ix.starts, axis=1) * sm.rho[red | bit]
+                mat[ix.a, :, ix.union] = e[:, red[ix.b]].T
+                res = (split @ mat.reshape(half, -1)).reshape(len(sites), len(others), half)
+                for k, r0 in enumerate(others):
+                    out[r0][sites, o] = res[:, k, flip] * sm.rho[red]
+        return out
+
+    def _room_out_full(self, r0: int) -> np.ndarray:
+        """_room_out on all sets, shape (K, N, 2^N) (for N = 1 or above MATRIX_OBJECTS)."""
+        sm, alg = self.sm, self.alg
+        others = [r for r in range(len(sm.room_sites)) if r != r0]
+        pre = [alg.delta()]
+        for r in others:
+            pre.append(alg.conv(pre[-1], sm.h[r]))
+        suf = [alg.delta()]
+        for r in others[::-1]:
+            suf.append(alg.conv(sm.h[r], suf[-1]))
+        suf = suf[::-1]
+        oa = np.zeros((self.k, self.n, self.full + 1))
+        for i, r in enumerate(others):
+            excl = alg.conv(pre[i], suf[i + 1])              # every room but r0 and r
+            split = self._room_split(r)
+            if self.n <= MATRIX_OBJECTS:                     # one matrix product (BLAS)
+                oa[sm.room_sites[r]] = split @ alg.conv_matrix(excl)
+            else:
+                oa[sm.room_sites[r]] = alg.conv(split, excl)
+        return sm.rho * oa[:, :, self.comp]
 
     def _close_weights(self, r0: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """W_v and W_{v,o,a} of the close look at every site of room r0 (see _view_weights)."""
@@ -201,52 +306,76 @@ class JointViewGain:
         out = self._room_out(r0)
         w_v = alg.completions(excl, w_room)                   # (L, 2^N)
         outside = np.array([a for a in range(self.k) if int(sm.room_of[a]) != r0], dtype=int)
-        w_oa = np.zeros((len(room), self.k, self.n, self.full + 1))
+        w_oa = np.zeros((len(room), self.k, self.n, self.red.shape[1]))
         if len(outside):
             w_oa[:, outside] = self._completions_without_o(excl, out[outside])
-        fill = None
-        for t, j in enumerate(room):
-            rest = [a for a in room if a != j]
-            if not rest:
-                continue
-            pre = [alg.delta()]
-            for a in rest:
-                pre.append(alg.conv(pre[-1], sm.g[a]))
-            suf = [alg.delta()]
-            for a in rest[::-1]:
-                suf.append(alg.conv(sm.g[a], suf[-1]))
-            suf = suf[::-1]
-            c_rest = alg.conv(np.stack(pre[:-1]), np.stack(suf[1:]))          # C_{R∖{j,a}}
-            c_oa = alg.conv(self.mem[None] * sm.g[rest][:, None, :], c_rest[:, None, :])
+        # o at another site a of the same room: W_{v,o,a}(T) = sum_{B ∋ o, B disjoint T}
+        # g_a(B) D_{ja}(T ⊔ B) with D_{ja} = completions(C_{R∖{j,a}}, W_R) (completing by a
+        # convolution is completing by each factor in turn), for the sets T without o.
+        # C_{R∖{j,a}} for every pair from the room's prefix and suffix products (j before a:
+        # sites before j, those between j and a, those after a).
+        n_s = len(room)
+        pre, suf = sm.pre[r0], sm.suf[r0]
+        c_pair: dict[tuple[int, int], np.ndarray] = {}
+        for ti in range(n_s - 1):
+            accs = [pre[ti]]
+            for ta in range(ti + 1, n_s - 1):
+                accs.append(alg.conv(accs[-1], sm.g[room[ta]]))
+            both = alg.conv(np.stack(accs), np.stack([suf[ta + 1] for ta in range(ti + 1, n_s)]))
+            for x, ta in enumerate(range(ti + 1, n_s)):
+                c_pair[(ti, ta)] = c_pair[(ta, ti)] = both[x]
+        pairs = [(t, room[ta]) for t in range(n_s) for ta in range(n_s) if ta != t]
+        if pairs:
+            c_rest = np.stack([c_pair[(t, ta)] for t in range(n_s) for ta in range(n_s) if ta != t])
             if self.n <= MATRIX_OBJECTS:
-                if fill is None:
-                    fill = alg.completion_matrix(w_room)
-                w_oa[t, rest] = c_oa @ fill
+                d = c_rest @ alg.completion_matrix(w_room)
             else:
-                w_oa[t, rest] = alg.completions(c_oa, w_room)
+                d = alg.completions(c_rest, w_room)
+            t_idx = np.array([p[0] for p in pairs])
+            a_idx = np.array([p[1] for p in pairs])
+            w_oa[t_idx, a_idx] = self._place_o(sm.g[a_idx], d)
         cached = {j: (w_v[t], w_oa[t]) for t, j in enumerate(room)}
         self._close[r0] = cached
         return cached
 
-    def _completions_without_o(self, c: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """completions(c[l], w[a, o]) for every l, a, o, shape (L, A, N, 2^N), using that
-        w[a, o](T) = 0 whenever o is in T (o stands outside): only sets without o take part, as
-        one matrix product per object over the 2^(N-1) such sets."""
-        n, alg = self.n, self.alg
+    def _place_o(self, g: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """out[p, o, i] = sum_{B ∋ o, B disjoint T} g[p, B] d[p, T ⊔ B] for T = red[o][i] (the sets
+        without o), shape (P, N, 2^(N-1)): o placed on the site of g, the rest completed by d."""
+        n = self.n
+        out = np.zeros((g.shape[0], n, self.red.shape[1]))
         if n == 1:
-            return alg.completions(c[:, None, None, :], w[None])
+            out[:, 0, 0] = g[:, 1] * d[:, 1]
+            return out
         ix = subset_index(n - 1)
-        out = np.zeros((c.shape[0],) + w.shape)
         low = np.arange(1 << (n - 1))
         for o in range(n):
             expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
-            mat = np.zeros((c.shape[0], len(low), len(low)))
-            mat[:, ix.xunion, ix.xa] = c[:, expand[ix.xb]]
-            out[:, :, o, expand] = np.matmul(w[:, o, expand][None], mat)
+            prods = g[:, expand[ix.xb] | (1 << o)] * d[:, expand[ix.xunion] | (1 << o)]
+            out[:, o] = np.add.reduceat(prods, ix.xstarts, axis=1)
+        return out
+
+    def _completions_without_o(self, c: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """completions(c[l], w[a, o]) on the sets without o (w and the result reduced, see red),
+        for every l, a, o, shape (L, A, N, 2^(N-1)), using that
+        w[a, o](T) = 0 whenever o is in T (o stands outside): only sets without o take part, as
+        one matrix product per object over the 2^(N-1) such sets."""
+        n, alg = self.n, self.alg
+        if n == 1:                                    # only the empty set: c(empty) w(empty)
+            return c[:, None, None, :1] * w[None]
+        ix = subset_index(n - 1)
+        out = np.zeros((c.shape[0],) + w.shape[:2] + (1 << (n - 1),))
+        low = np.arange(1 << (n - 1))
+        mat = np.zeros((len(low), c.shape[0], len(low)))   # one product for every l; the same
+        for o in range(n):                                 # nonzeros for every o
+            expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
+            mat[ix.xunion, :, ix.xa] = c[:, expand[ix.xb]].T
+            res = w[:, o] @ mat.reshape(len(low), -1)               # (A, L * 2^(N-1))
+            out[:, :, o] = res.reshape(w.shape[0], c.shape[0], -1).transpose(1, 0, 2)
         return out
 
     def _view_weights(self, sites: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-        """W_v(T), shape (2^N,), and W_{v,o,a}(T), shape (K, N, 2^N) (0 for a in view)."""
+        """W_v(T), shape (2^N,), and W_{v,o,a}(T) on the sets T without o, shape (K, N, 2^(N-1))
+        (reduced, see red; 0 for a in view)."""
         sm, alg = self.sm, self.alg
         rooms = {int(sm.room_of[j]) for j in sites}
         if len(rooms) != 1:
@@ -268,11 +397,16 @@ class JointViewGain:
         w_room = sm._w[r0]
         c_d = pre[-1]
         w_v = alg.completions(c_d, w_room)
-        w_oa = alg.completions(c_d, self._room_out(r0))
+        w_oa = self._completions_without_o(c_d[None], self._room_out(r0))[0]
         for i, a in enumerate(rest):
             c_oa = alg.conv(self.mem * sm.g[a], alg.conv(pre[i], suf[i + 1]))   # (N, 2^N)
-            w_oa[a] = alg.completions(c_oa, w_room)
+            w_oa[a] = self._reduce(alg.completions(c_oa, w_room))
         return w_v, w_oa
+
+    def _reduce(self, w: np.ndarray) -> np.ndarray:
+        """W over all sets (..., N, 2^N) -> over the sets without each o (..., N, 2^(N-1))."""
+        return np.take_along_axis(w, np.broadcast_to(self.red, w.shape[:-1] + self.red.shape[1:]),
+                                  axis=-1)
 
     # ------------------------------------------------------------------ batched class tables
     def _batch(self, sites: np.ndarray, prob: np.ndarray, tracked: Sequence[int],
@@ -282,7 +416,7 @@ class JointViewGain:
         Args:
             sites: in-view sites, shape (G, m).
             prob: p_{u,c} of the tracked objects, shape (G, s, m).
-            w_v, w_oa: shapes (G, 2^N) and (G, K, N, 2^N).
+            w_v, w_oa: shapes (G, 2^N) and (G, K, N, 2^(N-1)) (reduced, see red).
 
         Returns:
             shape (G, len(targets)), nats.
@@ -291,29 +425,33 @@ class JointViewGain:
         g_n, m = sites.shape
         s, targets = len(tracked), list(targets)
         n_t = len(targets)
-        free = [o for o in range(self.n) if o not in tracked]
-        f = len(free)
-        codes = np.indices((m + 1,) * s).reshape(s, -1).T
-        bits = np.array([1 << o for o in tracked], dtype=np.int64)
-        emb = np.zeros(1 << f, dtype=np.int64)
-        for b, o in enumerate(free):
-            emb[(np.arange(1 << f) >> b) & 1 == 1] |= 1 << o
+        lay = _layout(self.n, m, tuple(int(o) for o in tracked))
+        codes, bits, emb, sub = lay.codes, lay.bits, lay.emb, lay.sub
+        f = lay.f
         psi = np.ones((g_n, len(codes), 1 << f))
         psi[:, :, 1:] = 0.0
-        fa = SubsetAlgebra(f) if f else None
+        fix = subset_index(f) if f else None
         for t in range(m):
-            a_mask = (codes == t + 1) @ bits
-            kern = sm.g[sites[:, t]][:, a_mask[:, None] | emb[None, :]]     # (G, n_c, 2^f)
-            psi = fa.conv(psi, kern) if fa is not None else psi * kern
-        masks = ((codes > 0) @ bits)[:, None] | emb[None, :]                # (n_c, 2^f)
+            a_mask = lay.a_mask[t]
+            if not f:
+                psi = psi * sm.g[sites[:, t]][:, a_mask, None]
+                continue
+            # psi <- conv(psi, g_{s_t}(A ∪ ·)) by object set A of the tracked objects on s_t:
+            # one matrix M_A[E, U] = g_{s_t}(A ∪ (U ∖ E)) per A, a product (BLAS) per A.
+            a_idx = lay.a_idx[t]
+            assert fix is not None  # f > 0 here
+            mats = np.zeros((g_n, len(sub), 1 << f, 1 << f))
+            vals = sm.g[sites[:, t]][:, sub[:, None] | emb[None, :]]        # (G, 2^s, 2^f)
+            mats[:, :, fix.a, fix.union] = vals[:, :, fix.b]
+            new_psi = np.empty_like(psi)
+            for a in np.unique(a_idx):
+                sel = np.nonzero(a_idx == a)[0]
+                new_psi[:, sel] = np.matmul(psi[:, sel], mats[:, a])
+            psi = new_psi
+        masks = lay.masks                                                   # (n_c, 2^f)
         cls = (g_n,) + (m + 1,) * s
         p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
-        # P(L_o = a, C_{tracked∖o}) for every site a (0 for a in view), each target.
-        rows = np.stack([np.nonzero(codes[:, i] == 0)[0] for i in targets])   # (T, n_r)
         o_sel = np.array([tracked[i] for i in targets])
-        vals = w_oa[:, :, o_sel[:, None, None], masks[rows]]                # (G, K, T, n_r, 2^f)
-        outs = (vals * psi[:, None, rows]).sum(axis=4) / sm.z
-        outs = outs.reshape((g_n, self.k, n_t) + (m + 1,) * (s - 1))
         # Detection tables per look and tracked object: (G, s, class, outcome).
         tab = np.zeros((g_n, s, m + 1, m + 1))
         tab[:, :, :, 1:] = self.fp
@@ -323,33 +461,104 @@ class JointViewGain:
         tab = np.clip(tab, 0.0, 1.0)
         y = _outcomes(p_c, [tab[:, b] for b in range(s)], 1)
         h_y = _neg_xlogx_sum(y, axis=tuple(range(1, 1 + s)))                          # (G,)
-        # P(C_o, Y_{-o}) for each target: every axis but o's transformed (o's: the identity).
-        part = np.broadcast_to(p_c[:, None], (g_n, n_t) + cls[1:])
-        eye = np.eye(m + 1)
-        own_axis = np.array(targets)
-        part_tabs = [np.where((own_axis == b)[None, :, None, None], eye, tab[:, None, b])
-                     for b in range(s)]
-        part = _outcomes(part, part_tabs, 2)
-        h_part = _neg_xlogx_sum(part, axis=tuple(range(2, 2 + s)))                   # (G, T)
-        # Out-of-view: the other tracked objects' axes transformed; layout (G, T, K, ...).
-        outs = np.moveaxis(outs, 2, 1)
-        others = np.array([[x for x in range(s) if x != targets[t]] for t in range(n_t)],
-                          dtype=int).reshape(n_t, s - 1)
-        outs = _outcomes(outs, [tab[:, others[:, b]] for b in range(s - 1)], 2)
-        axes = tuple(range(3, 3 + s - 1))
-        out_y = outs.sum(axis=2)                                     # P(C_o = 0, Y_{-o}), (G, T, ...)
-        h_out_y = _neg_xlogx_sum(out_y, axis=tuple(range(2, 2 + s - 1)))
-        h_out = _neg_xlogx_sum(outs, axis=(2,) + axes)                                # (G, T)
+        # -sum P ln P of P(C_o = c, Y_{-o}) over o's in-view classes c >= 1 (C_o = c is L_o = s_c):
+        # every tracked axis but o's turned into outcomes, o's axis last (cyclic products).
+        c1 = m + 1
+        h_part = np.zeros((g_n, n_t))
+        for t, i in enumerate(targets):
+            x = np.moveaxis(np.take(p_c, np.arange(1, c1), axis=1 + i), 1 + i, -1)
+            for b in range(s):
+                if b != i:
+                    x = np.matmul(x.reshape(g_n, c1, -1).transpose(0, 2, 1), tab[:, b])
+            h_part[:, t] = _neg_xlogx_sum(x.reshape(g_n, -1), axis=1)
+        h_out = self._out_of_view(sites, tracked, targets, psi, tab, w_oa, emb)
         own = tab[:, targets]                                                         # (G, T, c, y)
         h_own = _neg_xlogx_sum(own, axis=3)                                           # (G, T, c)
         q = self.q[o_sel]                                                             # (T, K)
         p_in = q[:, sites].transpose(1, 0, 2)                          # q(L_o = s_c), (G, T, m)
         p_out = 1.0 - p_in.sum(axis=2)
-        h_in = h_part - h_out_y + (p_in * h_own[:, :, 1:]).sum(axis=2)
+        h_in = h_part + (p_in * h_own[:, :, 1:]).sum(axis=2)
         h_o = _neg_xlogx_sum(q, axis=1)                                               # (T,)
         h_lo_y = h_in + h_out + p_out * h_own[:, :, 0]
         gain = h_o[None, :] + h_y[:, None] - h_lo_y
         return np.where(np.abs(gain) < MI_TOLERANCE, np.maximum(gain, 0.0), gain)
+
+    def _out_of_view(self, sites: np.ndarray, tracked: Sequence[int], targets: Sequence[int],
+                     psi: np.ndarray, tab: np.ndarray, w_oa: np.ndarray,
+                     emb: np.ndarray) -> np.ndarray:
+        """-sum P ln P over (a out of view, Y_{tracked∖o}) for each look and target, shape (G, T),
+        nats.
+
+        With o at an out-of-view site a (so o not in view), Z P(L_o = a, Y) = sum_T W_{v,o,a}(T)
+        M_o(T, Y) over the sets T of objects in view, T not containing o, where the kernel
+        M_o(T, Y) = sum over class configurations c and free-object sets E with in-view set
+        mask(c) ∪ E = T of psi(c, E) P(Y | c) does not depend on a. M_o is built by turning each
+        tracked class axis c into the pair (in view?, outcome) — a (m+1) x 2(m+1) table per
+        axis — so the table for every a is one matrix product with the weights, and the outcome
+        transform is done once per look instead of once per site.
+        """
+        g_n, m = sites.shape
+        s, f = len(tracked), len(emb).bit_length() - 1
+        c1 = m + 1
+        # Class -> (in view?, outcome): tabp[g, b, c, bit, y] = [bit = (c > 0)] P(y | c).
+        tabp = np.zeros((g_n, s, c1, 2, c1))
+        tabp[:, :, 0, 0, :] = tab[:, :, 0, :]
+        tabp[:, :, 1:, 1, :] = tab[:, :, 1:, :]
+        tabp = tabp.reshape(g_n, s, c1, 2 * c1)
+        in_view = np.zeros((g_n, self.k), dtype=bool)
+        in_view[np.arange(g_n)[:, None], sites] = True
+        psi = psi.reshape((g_n,) + (c1,) * s + (1 << f,))
+        h_out = np.zeros((g_n, len(targets)))
+        s1 = s - 1
+        per_look = (((1 << f) << s1) + self.k) * c1 ** s1       # kernel and table entries
+        chunk = max(1, CHUNK_ENTRIES // per_look)
+        bits = np.indices((2,) * s1).reshape(s1, 1 << s1).astype(np.int64)
+        for t, i in enumerate(targets):
+            o = tracked[i]
+            others = [b for b in range(s) if b != i]
+            tb = np.zeros(1 << s1, dtype=np.int64)
+            for k, b in enumerate(others):
+                tb |= bits[k] << tracked[b]
+            masks = (emb[:, None] | tb[None, :]).reshape(-1)      # kernel row -> set
+            sort = np.argsort(masks)                                # -> increasing, as red[o]
+            order = None if np.array_equal(sort, np.arange(len(masks))) else sort
+            kron = m == 1 and f == 0 and s1 > 0
+            for lo in range(0, g_n, chunk):                     # chunks that stay in cache
+                hi = min(g_n, lo + chunk)
+                gc = hi - lo
+                x = np.take(psi[lo:hi], 0, axis=1 + i)              # (g, c.., 2^f), C_o = 0
+                if kron:
+                    # One site in view, every object tracked: class = in view, so the kernel is
+                    # diag(psi) times the Kronecker product of the objects' 2 x 2 tables, applied
+                    # as two factors (rows in increasing set order: highest object first).
+                    x = x.reshape((gc,) + (2,) * s1).transpose((0,) + tuple(range(s1, 0, -1)))
+                    w = w_oa[lo:hi, :, o][~in_view[lo:hi]].reshape(gc, -1, len(masks))
+                    w = w * x.reshape(gc, 1, -1)
+                    desc = others[::-1]
+                    h = s1 // 2
+                    k_hi, k_lo = _kron(tab[lo:hi], desc[:h]), _kron(tab[lo:hi], desc[h:])
+                    n_hi, n_lo, n_a = k_hi.shape[1], k_lo.shape[1], w.shape[1]
+                    p = np.matmul(w.reshape(gc, n_a * n_hi, n_lo), k_lo)
+                    p = p.reshape(gc, n_a, n_hi, n_lo).transpose(0, 2, 1, 3).reshape(gc, n_hi, -1)
+                    p = np.matmul(k_hi.transpose(0, 2, 1), p)
+                    p /= self.sm.z
+                    h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
+                    continue
+                else:
+                    for b in others:                                # cyclic: class axis -> end
+                        x = np.matmul(x.reshape(gc, c1, -1).transpose(0, 2, 1), tabp[lo:hi, b])
+                    # x: (g, 2^f, (bit, y) per other tracked object) -> (g, sets, outcomes)
+                    x = x.reshape((gc, 1 << f) + (2, c1) * s1)
+                    x = x.transpose((0, 1) + tuple(2 + 2 * k for k in range(s1))
+                                    + tuple(3 + 2 * k for k in range(s1)))
+                    kernel = x.reshape(gc, len(masks), c1 ** s1)
+                    if order is not None:
+                        kernel = kernel[:, order]
+                w = w_oa[lo:hi, :, o][~in_view[lo:hi]].reshape(gc, -1, len(masks))
+                p = np.matmul(w, kernel)                          # Z P(a, Y), (g, K - m, Y)
+                p /= self.sm.z
+                h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
+        return h_out
 
     def _tracked_for(self, o: int, m: int) -> list[int]:
         """o and the observed objects most coupled to it, as many as the outcome limit allows."""
