@@ -150,7 +150,7 @@ def test_rollout_value_is_the_exact_cost_of_its_sequence():
     distances = _at_near(scenario)
     problem = build_problem(belief, ["mug"], distances, frozenset(), None, 0.5)
     first = np.full(1, -1)
-    value, _ = rollout_values(problem, np.array([-1]), problem.p[None], np.ones((1, 1), bool),
+    value, _ = rollout_values(problem, np.array([-1]), problem.root()[None], np.ones((1, 1), bool),
                               first=first, max_looks=3)
     q = belief.location("mug")
     # The sweep: near (0 m), then the better per metre of far / farther, then the last.
