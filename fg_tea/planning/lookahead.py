@@ -263,22 +263,37 @@ def _expectation(beliefs: np.ndarray, factors: np.ndarray, independent: bool) ->
     return x[:, 0]
 
 
-def truth_table(belief, objects: Sequence[str], allowed: Sequence[int],
-                limit: int | None = MAX_TRUTHS) -> np.ndarray:
+def size_fault(n_sites: int, n_objects: int, correlated: bool, limit: int | None = None) -> str | None:
+    """Why the lookahead planner cannot hold this search problem, or None.
+
+    A correlated belief is planned on its exact joint over the required objects, a table of
+    ``n_sites ** n_objects`` truths; a factorised belief is held per object (``n_objects x
+    n_sites`` numbers) and has no limit. The first decision of an episode plans over every site
+    for every object still to find, the largest problem the planner will be asked. `limit`
+    defaults to :data:`MAX_TRUTHS`.
+    """
+    limit = MAX_TRUTHS if limit is None else limit
+    if correlated and n_sites ** n_objects > limit:
+        return (f"{n_objects} objects over {n_sites} sites give {n_sites ** n_objects:,} joint "
+                f"truths, more than the limit of {limit:,} (a correlated belief is planned on its "
+                "exact joint; a factorised one has no limit)")
+    return None
+
+
+def truth_table(belief, objects: Sequence[str], allowed: Sequence[int]) -> np.ndarray:
     """P(L_U) over the `allowed` sites, normalised: the dense joint of shape (K',) * |U| for a
     correlated belief, the per-object marginals of shape (|U|, K') for a factorised one.
 
     Raises:
-        ValueError: a correlated belief's K'^|U| exceeds `limit`, or the belief puts no mass on
+        ValueError: a correlated belief's K'^|U| exceeds :data:`MAX_TRUTHS`, or the belief puts no mass on
             `allowed`.
     """
     idx = [belief.objects.index(o) for o in objects]
     n, k = len(idx), len(allowed)
     if belief.correlated:
-        if limit is not None and k ** n > limit:
-            raise ValueError(f"lookahead planner: {n} objects over {k} sites give {k ** n:,} "
-                             f"truths, more than {limit:,} (a correlated belief is planned on "
-                             "its exact joint)")
+        fault = size_fault(k, n, True)
+        if fault is not None:
+            raise ValueError(f"lookahead planner: {fault}; use a factorised model or another planner")
         joint = belief.location_joint()
         others = tuple(a for a in range(joint.ndim) if a not in idx)
         p_u = joint.sum(axis=others) if others else joint
@@ -287,23 +302,22 @@ def truth_table(belief, objects: Sequence[str], allowed: Sequence[int],
         p_u = p_u[np.ix_(*([list(allowed)] * n))]
         total = float(p_u.sum())
         if not total > 0:
-            raise ValueError("lookahead planner: the belief puts no mass on the open sites")
+            raise ValueError("lookahead: the belief puts no mass on the open sites")
         return p_u / total
     q = belief.location_matrix()[np.ix_(idx, list(allowed))]
     totals = q.sum(axis=1, keepdims=True)
     if not np.all(totals > 0):
-        raise ValueError("lookahead planner: the belief puts no mass on the open sites")
+        raise ValueError("lookahead: the belief puts no mass on the open sites")
     return q / totals
 
 
 def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
-                  excluded: frozenset[str], views, look: float,
-                  limit: int | None = MAX_TRUTHS) -> SearchProblem:
+                  excluded: frozenset[str], views, look: float) -> SearchProblem:
     """Derive the :class:`SearchProblem` of one decision (see the module docstring).
 
     Raises:
         ValueError: every viewpoint is excluded, or a correlated belief's joint over the open
-            sites has more than `limit` truths (``"lookahead planner: ..."``).
+            sites has more than :data:`MAX_TRUTHS` truths (``"lookahead planner: ..."``).
     """
     sites = list(belief.sites)
     k = len(sites)
@@ -330,12 +344,12 @@ def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
         raise ValueError("planner: every viewpoint is excluded")
     open_sites = [j for j, s in enumerate(sites) if s not in excluded]
     try:
-        table = truth_table(belief, objects, open_sites, limit)
+        table = truth_table(belief, objects, open_sites)
     except ValueError as exc:
         if "no mass" not in str(exc) or len(open_sites) == k:
             raise
         open_sites = list(range(k))
-        table = truth_table(belief, objects, open_sites, limit)
+        table = truth_table(belief, objects, open_sites)
     start = np.array([float(distances.from_agent(s)) for s in names])
     between = np.array([[float(distances.between(a, b)) if a != b else 0.0 for b in names]
                         for a in names])
@@ -412,7 +426,9 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray,
     else:
         axes = tuple(range(1, n + 1))
         q = np.stack([beliefs.sum(axis=axes[:u] + axes[u + 1:]) for u in range(n)], axis=1)
-    flat = prob.reshape(a_count, n * k).T                  # (n K', A)
+    # One product gives both E[new finds] of every look (A columns) and, for a product belief,
+    # P(u unseen) of every object (n columns of ones over its own sites).
+    flat = np.hstack([prob.reshape(a_count, n * k).T, np.kron(np.eye(n), np.ones((k, 1)))])
     miss = 1.0 - prob
     rem = np.repeat(unfound[:, :, None].astype(float), k, axis=2)  # P(u unseen | L_u = k)
     value = np.zeros(count)
@@ -420,27 +436,27 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray,
     looked = np.zeros((count, a_count)) if looked is None else looked.astype(float)
     rows = np.arange(count)
     active = np.ones(count, dtype=bool)
+    taken = np.zeros(count, dtype=np.int64)
     if first is not None:
         first[:] = -1
-    steps = 0
     for step in range(max_looks + 1):
-        unseen = q * rem                                   # (L, n, K'): P(L_u = k, u unseen)
+        both = (q * rem).reshape(count, n * k) @ flat      # (L, A + n)
         if independent:                                    # P(not over) = 1 - prod_u P(u seen)
-            cont = 1.0 - np.prod(1.0 - unseen.sum(axis=2), axis=1)
+            cont = 1.0 - np.prod(1.0 - both[:, a_count:], axis=1)
         else:
             cont = 1.0 - _expectation(beliefs, 1.0 - rem, independent)
         active &= cont > stop
         if step == max_looks or not active.any():
             break
-        gain = unseen.reshape(count, n * k) @ flat         # (L, A): E[new finds]
-        best, cost = _mppm_choice(problem, gain, cont, cur, looked)
+        best, cost = _mppm_choice(problem, both[:, :a_count], cont, cur, looked)
         if first is not None and step == 0:
             first[active] = best[active]
         value += cost * cont * active
-        steps += int(np.count_nonzero(active))
+        taken += active
         looked[rows, best] += 1.0
         rem *= miss[best]
         cur = best
+    steps = int(taken.sum())
     return value, steps
 
 
@@ -660,6 +676,16 @@ class LookaheadPlanner:
         q = cost + sum(p * LookaheadPlanner._backup(c) for p, c in kids)
         return min(q, node.rollout) if a == node.base else q
 
+    def check_belief(self, belief, objects: Sequence[str]) -> None:
+        """Refuse, before an episode starts, a correlated belief whose joint is too large to hold.
+
+        Raises:
+            ValueError: ``"lookahead planner: ..."`` with :func:`size_fault`'s reason.
+        """
+        fault = size_fault(len(belief.sites), len(objects), belief.correlated)
+        if fault is not None:
+            raise ValueError(f"lookahead planner: {fault}; use a factorised model or another planner")
+
     # ------------------------------------------------------------------ the decision
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
@@ -729,4 +755,4 @@ class LookaheadPlanner:
 
 
 __all__ = ["LookaheadPlanner", "LookaheadSettings", "SearchProblem", "build_problem",
-           "rollout_values", "truth_table", "LOOK_COST"]
+           "rollout_values", "truth_table", "size_fault", "LOOK_COST", "MAX_TRUTHS"]
