@@ -53,19 +53,21 @@ def _safe(name: str) -> str:
 
 def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: str,
                 miss_rate: float | None) -> dict:
-    """One episode; returns its metrics and the wall time of every decision (seconds)."""
+    """One episode; returns its metrics and the wall and CPU time of every decision (seconds)."""
     model = load_model(model_path(model_name))
     scenario = load_world(world_path(world)).sample(seed)
     rate = model.miss_likelihood if miss_rate is None else miss_rate
     env = _make_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate))
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
     times: list[float] = []
+    cpu: list[float] = []
     choose = runner.planner.choose
 
     def timed(*args, **kwargs):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         decision = choose(*args, **kwargs)
         times.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
         return decision
 
     runner.planner.choose = timed
@@ -78,7 +80,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: 
     return {"world": world, "seed": seed, "model": model_name, "planner": planner,
             "env": env_kind, "miss_rate": rate, "search_distance": m["search_distance"],
             "inspections": m["inspections"], "success": bool(m["success"]) and runner.done,
-            "reason": runner.reason, "decision_seconds": times}
+            "reason": runner.reason, "decision_seconds": times, "decision_cpu_seconds": cpu}
 
 
 def bootstrap_ratio(x: np.ndarray, y: np.ndarray, n: int = 4000, seed: int = 0) -> tuple[float, float]:
@@ -97,7 +99,8 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
     lines = ["# Planner frontier", "",
              "Search travel relative to the Bayes-optimal planner (`optimal`, the perfect-detection "
              "limit) on paired worlds; 95 % paired bootstrap intervals; decision times are wall "
-             "clock, serial, on a shared machine.", ""]
+             "clock, serial, on a shared machine (CPU: the process's CPU time for the same "
+             "decisions, less sensitive to what else the machine runs).", ""]
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for model in sorted({r["model"] for r in rows}):
         by = {}
@@ -108,13 +111,15 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
         lines += [f"## model `{model}`, world `{rows[0]['world']}`, env `{rows[0]['env']}`, "
                   f"detector miss rate {rows[0]['miss_rate']}", "",
                   "| planner | worlds | search travel (m) | ratio to optimal [95 %] | "
-                  "ms/decision median | p95 | inspections | success |",
-                  "|---|---|---|---|---|---|---|---|"]
+                  "ms/decision median | p95 | CPU ms median | inspections | success |",
+                  "|---|---|---|---|---|---|---|---|---|"]
         points = []
         for planner, eps in by.items():
             seeds = sorted(set(eps) & set(ref)) if ref else sorted(eps)
             travel = np.array([eps[s]["search_distance"] for s in seeds])
             times = np.concatenate([eps[s]["decision_seconds"] for s in seeds]) * 1000
+            cpu = [t for s in seeds for t in eps[s].get("decision_cpu_seconds", [])]
+            cpu_txt = f"{np.median(cpu) * 1000:.2f}" if cpu else "n/a"
             ins = np.mean([eps[s]["inspections"] for s in seeds])
             succ = np.mean([eps[s]["success"] for s in seeds])
             if ref:
@@ -126,7 +131,7 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
                 ratio, ratio_txt = float("nan"), "n/a"
             med, p95 = float(np.median(times)), float(np.percentile(times, 95))
             lines.append(f"| {planner} | {len(seeds)} | {travel.mean():.2f} | {ratio_txt} | "
-                         f"{med:.2f} | {p95:.2f} | {ins:.2f} | {succ:.2f} |")
+                         f"{med:.2f} | {p95:.2f} | {cpu_txt} | {ins:.2f} | {succ:.2f} |")
             points.append((planner, med, ratio))
         lines.append("")
         for planner, med, ratio in points:
@@ -156,6 +161,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="injected detector miss rate (default: the model's mu)")
     p.add_argument("--out", default="runs/experiments/planner_frontier",
                    help="output folder (default: %(default)s)")
+    p.add_argument("--summary-only", action="store_true",
+                   help="run nothing: summarise the episodes already in OUT/episodes (missing "
+                        "ones are left out, so a planner may cover fewer worlds)")
     args = p.parse_args(argv)
     planners = args.planners or list(DEFAULT_PLANNERS)
     try:
@@ -177,6 +185,8 @@ def main(argv: list[str] | None = None) -> int:
                 path = episodes / f"{args.world}__{model}__{_safe(planner)}__{seed:05d}.json"
                 if path.exists():
                     rows.append(json.loads(path.read_text()))
+                    continue
+                if args.summary_only:
                     continue
                 row = run_episode(args.world, seed, model, planner, args.env, args.miss_rate)
                 tmp = path.with_suffix(".tmp")

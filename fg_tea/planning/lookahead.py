@@ -427,10 +427,17 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray,
         axes = tuple(range(1, n + 1))
         q = np.stack([beliefs.sum(axis=axes[:u] + axes[u + 1:]) for u in range(n)], axis=1)
     # One product gives both E[new finds] of every look (A columns) and, for a product belief,
-    # P(u unseen) of every object (n columns of ones over its own sites).
-    flat = np.hstack([prob.reshape(a_count, n * k).T, np.kron(np.eye(n), np.ones((k, 1)))])
-    miss = 1.0 - prob
-    rem = np.repeat(unfound[:, :, None].astype(float), k, axis=2)  # P(u unseen | L_u = k)
+    # P(u unseen) of every object (n columns of ones over its own sites). Per-object arrays are
+    # held flat, (L, n K').
+    flat = problem.__dict__.get("_rollout_flat")
+    if flat is None:
+        flat = (np.hstack([prob.reshape(a_count, n * k).T, np.kron(np.eye(n), np.ones((k, 1)))]),
+                (1.0 - prob).reshape(a_count, n * k))
+        problem.__dict__["_rollout_flat"] = flat
+    flat, miss = flat
+    cost_table, inverse = _step_costs(problem)
+    q = q.reshape(count, n * k)
+    rem = np.repeat(unfound.astype(float), k, axis=1)      # P(u unseen | L_u = k), (L, n K')
     value = np.zeros(count)
     cur = np.asarray(pos, dtype=np.int64).copy()
     looked = np.zeros((count, a_count)) if looked is None else looked.astype(float)
@@ -440,18 +447,24 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray,
     if first is not None:
         first[:] = -1
     for step in range(max_looks + 1):
-        both = (q * rem).reshape(count, n * k) @ flat      # (L, A + n)
+        both = (q * rem) @ flat                            # (L, A + n)
         if independent:                                    # P(not over) = 1 - prod_u P(u seen)
-            cont = 1.0 - np.prod(1.0 - both[:, a_count:], axis=1)
+            cont = 1.0 - np.multiply.reduce(1.0 - both[:, a_count:], axis=1, keepdims=True)
         else:
-            cont = 1.0 - _expectation(beliefs, 1.0 - rem, independent)
-        active &= cont > stop
+            cont = 1.0 - _expectation(beliefs, (1.0 - rem).reshape(count, n, k),
+                                      independent)[:, None]
+        active &= cont[:, 0] > stop
         if step == max_looks or not active.any():
             break
-        best, cost = _mppm_choice(problem, both[:, :a_count], cont, cur, looked)
+        gain = both[:, :a_count]
+        # The most-probable-per-metre step (as _mppm_choice), inlined: sweeps, then gain/cost.
+        seen_count = np.where(gain > 1e-12 * cont, looked, np.inf)
+        score = np.where(seen_count <= seen_count.min(axis=1, keepdims=True),
+                         gain * inverse[cur], -np.inf)
+        best = score.argmax(axis=1)
         if first is not None and step == 0:
             first[active] = best[active]
-        value += cost * cont * active
+        value += np.where(active, cost_table[cur, best] * cont[:, 0], 0.0)
         taken += active
         looked[rows, best] += 1.0
         rem *= miss[best]
