@@ -80,6 +80,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: 
     return {"world": world, "seed": seed, "model": model_name, "planner": planner,
             "env": env_kind, "miss_rate": rate, "search_distance": m["search_distance"],
             "inspections": m["inspections"], "success": bool(m["success"]) and runner.done,
+            "spl": m.get("spl"),
             "reason": runner.reason, "decision_seconds": times, "decision_cpu_seconds": cpu}
 
 
@@ -102,6 +103,13 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
              "clock, serial, on a shared machine (CPU: the process's CPU time for the same "
              "decisions, less sensitive to what else the machine runs).", ""]
     fig, ax = plt.subplots(figsize=(7, 4.5))
+    with_spl = any(r.get("spl") is not None for r in rows)
+    with_ref = any(r["planner"] == reference for r in rows)
+    plotted = False
+    if with_spl:
+        lines[-1:-1] = ["SPL: success weighted by the clairvoyant route's search travel over the "
+                        "agent's (docs/design.md eq. 48), mean over worlds with a 95 % bootstrap "
+                        "interval.", ""]
     for model in sorted({r["model"] for r in rows}):
         by = {}
         for r in rows:
@@ -111,8 +119,9 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
         lines += [f"## model `{model}`, world `{rows[0]['world']}`, env `{rows[0]['env']}`, "
                   f"detector miss rate {rows[0]['miss_rate']}", "",
                   "| planner | worlds | search travel (m) | ratio to optimal [95 %] | "
-                  "ms/decision median | p95 | CPU ms median | inspections | success |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+                  "ms/decision median | p95 | CPU ms median | inspections | success |"
+                  + (" SPL [95 %] |" if with_spl else ""),
+                  "|---|---|---|---|---|---|---|---|---|" + ("---|" if with_spl else "")]
         points = []
         for planner, eps in by.items():
             seeds = sorted(set(eps) & set(ref)) if ref else sorted(eps)
@@ -130,17 +139,30 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
             else:
                 ratio, ratio_txt = float("nan"), "n/a"
             med, p95 = float(np.median(times)), float(np.percentile(times, 95))
+            spl = np.array([eps[s]["spl"] for s in seeds if eps[s].get("spl") is not None])
+            spl_mean = float(spl.mean()) if len(spl) else float("nan")
+            spl_txt = ""
+            if with_spl:
+                spl_txt = " n/a |"
+                if len(spl):
+                    draws = spl[np.random.default_rng(0).integers(0, len(spl), (4000, len(spl)))]
+                    lo, hi = np.percentile(draws.mean(axis=1), [2.5, 97.5])
+                    spl_txt = f" {spl_mean:.3f} [{lo:.3f}, {hi:.3f}] |"
             lines.append(f"| {planner} | {len(seeds)} | {travel.mean():.2f} | {ratio_txt} | "
-                         f"{med:.2f} | {p95:.2f} | {cpu_txt} | {ins:.2f} | {succ:.2f} |")
-            points.append((planner, med, ratio))
+                         f"{med:.2f} | {p95:.2f} | {cpu_txt} | {ins:.2f} | {succ:.2f} |{spl_txt}")
+            points.append((planner, med, ratio if with_ref else spl_mean))
         lines.append("")
         for planner, med, ratio in points:
+            if not (np.isfinite(ratio) and med > 0):  # no reference (and no SPL): nothing to plot
+                continue
+            plotted = True
             ax.scatter(med, ratio)
             ax.annotate(f"{planner} ({model})", (med, ratio), fontsize=7)
-    ax.set_xscale("log")
+    if plotted:
+        ax.set_xscale("log")
     ax.axhline(1.0, color="grey", lw=0.8)
     ax.set_xlabel("median ms per decision (log)")
-    ax.set_ylabel("search travel / Bayes-optimal")
+    ax.set_ylabel("search travel / Bayes-optimal" if with_ref else "SPL (clairvoyant route)")
     ax.set_title("Planner quality-cost frontier")
     fig.tight_layout()
     fig.savefig(out / "frontier.png", dpi=120)

@@ -4,12 +4,15 @@ This module answers the planning question of docs/design.md §6 by looking ahead
 one-step score. It is the expectimin tree of docs/design.md §6.6:
 
 - **Belief.** The hidden truth is the sites L_U = (L_u)_{u in U} of the required objects U =
-  `objects`, distributed as the current belief P(L_U): the exact joint marginal of U
-  (``belief.location_joint()``) for correlated beliefs, the product of marginals otherwise, held
-  as a table of T = K^|U| truths (truths that put an object on an excluded site are conditioned
-  away, as in the Bayes-optimal planner, unless that leaves nothing). Every hypothetical outcome
-  is conditioned on this table exactly (Bayes' rule, eq. 37 for one object), so a chain of
-  hypothetical looks needs no inference call.
+  `objects`, distributed as the current belief P(L_U) over the open sites (truths that put an
+  object on an excluded site are conditioned away, as in the Bayes-optimal planner, unless that
+  leaves nothing). It is held exactly in one of two forms. A correlated belief: the dense joint
+  of U (from ``belief.location_joint()``), a table of K'^|U| truths, at most
+  :data:`MAX_TRUTHS`; a larger one is refused before the episode starts (:func:`size_fault`).
+  A factorised belief: the |U| per-object marginals, whose product *is* the joint, so every
+  operation below is a product or sum of per-object terms, O(|U| K') however many truths the
+  product has, with no limit. Every hypothetical outcome is conditioned exactly (Bayes' rule,
+  eq. 37 for one object), so a chain of hypothetical looks needs no inference call.
 - **Looks and outcomes.** A look from viewpoint v shows each unfound object u standing at an
   in-view site a with probability p_{u,a}(v) (1 - mu for a threshold close look; the visibility
   curve otherwise), independently given the truth; false positives are not branched on (their
@@ -32,11 +35,13 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
   the tree it is eqs. 39-41 on the tree's marginals.
 - **Rollout** (``rollout = "mppm"``, most probable per metre): from the leaf, repeatedly go to the
   viewpoint with the largest expected number of newly found objects per metre of cost, following
-  the all-miss branch, until the search would be over with probability 1 - 1e-4 or 2 x the
-  number of viewpoints looks were made (the give-up bound). Its value is the *exact* expected cost
-  of that fixed sequence of looks stopped when every object is found, sum_s c_s P(search not over
-  before look s), so it is the value of a real policy and an upper bound of the optimal
-  cost-to-go. All leaves of one decision are rolled out together in one batched product.
+  the all-miss branch, until the search would be over with probability 1 - 1e-3
+  (:data:`STOP_PROBABILITY`) or 2 x the number of viewpoints looks were made (the give-up bound).
+  Its value is the *exact* expected cost of that fixed sequence of looks stopped when every
+  object is found, sum_s c_s P(search not over before look s), so it is the value of a real
+  policy and an upper bound of the optimal cost-to-go. P(search not over) is a product of
+  per-object sums for a factorised belief and the joint contracted with one vector per object
+  otherwise. All leaves of one decision are rolled out together, one batched step per look.
 - **Budget.** At most ``nodes`` belief nodes per decision; once spent, further nodes are valued
   by their rollout instead of being expanded. Expansion order is fixed (EFE rank, then outcome
   order), so the same budget gives the same choice.
@@ -248,19 +253,23 @@ def marginals(problem: SearchProblem, belief: np.ndarray) -> np.ndarray:
     return np.stack([belief.sum(axis=axes[:u] + axes[u + 1:]) for u in range(n)])
 
 
-def _expectation(beliefs: np.ndarray, factors: np.ndarray, independent: bool) -> np.ndarray:
-    """E_t[prod_u f_u(L_u(t))] for a batch: beliefs (L, ...) in the problem's form, factors (L, n, K').
+def _expectation_steps(joint: np.ndarray, factors: np.ndarray) -> np.ndarray:
+    """E_t[prod_u f_{s,u}(L_u(t))] for a batch of joints and S factor sets each.
 
-    For a product belief this is prod_u sum_k q_u(k) f_u(k); for a dense joint it is the joint
-    contracted with one vector per axis, last axis first (a batched matrix-vector product each).
+    Args:
+        joint: shape (L,) + (K',) * n, one joint per node.
+        factors: shape (L, S, n, K'), per node and step one vector per object.
+
+    Returns:
+        shape (L, S): the joint contracted with each step's vectors, last object first; the
+        first product serves every step at once (the joint is not copied per step).
     """
-    if independent:
-        return np.prod((beliefs * factors).sum(axis=2), axis=1)
-    count, n, k = factors.shape
-    x = beliefs.reshape(count, -1)
-    for u in range(n - 1, -1, -1):
-        x = np.matmul(x.reshape(count, -1, k), factors[:, u, :, None])[..., 0]
-    return x[:, 0]
+    count, steps, n, k = factors.shape
+    x = np.matmul(joint.reshape(count, -1, k), np.swapaxes(factors[:, :, n - 1, :], 1, 2))
+    x = np.swapaxes(x, 1, 2)                              # (L, S, K'^(n-1))
+    for u in range(n - 2, -1, -1):
+        x = np.matmul(x.reshape(count, steps, -1, k), factors[:, :, u, :, None])[..., 0]
+    return x.reshape(count, steps)
 
 
 def size_fault(n_sites: int, n_objects: int, correlated: bool, limit: int | None = None) -> str | None:
@@ -371,16 +380,16 @@ def _step_costs(problem: SearchProblem) -> tuple[np.ndarray, np.ndarray]:
     return cached
 
 
-def _mppm_choice(problem: SearchProblem, gain: np.ndarray, cont: np.ndarray, here: np.ndarray,
+def _mppm_choice(problem: SearchProblem, gain: np.ndarray, here: np.ndarray,
                  looked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """One step of the most-probable-per-metre policy for a batch: (best look, its cost).
 
     Sweeps: only the viewpoints looked from least often (among those that can still find
-    something) compete, so a cheap re-look never beats a first look elsewhere; ties go to the
-    first viewpoint in order.
+    something, more than 1e-12 expected new finds) compete, so a cheap re-look never beats a
+    first look elsewhere; ties go to the first viewpoint in order.
     """
     cost, inverse = _step_costs(problem)
-    seen_count = np.where(gain > 1e-12 * cont[:, None], looked, np.inf)
+    seen_count = np.where(gain > 1e-12, looked, np.inf)
     fresh = seen_count <= seen_count.min(axis=1, keepdims=True)
     best = np.argmax(np.where(fresh, gain * inverse[here], -np.inf), axis=1)
     return best, cost[here, best]
@@ -442,34 +451,50 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray,
     cur = np.asarray(pos, dtype=np.int64).copy()
     looked = np.zeros((count, a_count)) if looked is None else looked.astype(float)
     rows = np.arange(count)
-    active = np.ones(count, dtype=bool)
-    taken = np.zeros(count, dtype=np.int64)
     if first is not None:
         first[:] = -1
+    # The policy's looks depend only on the marginals, so a correlated belief's P(not over) is
+    # computed after the loop for every step at once (n batched products instead of n per step);
+    # the loop ends once sum_u P(u unseen) (>= P(not over)) is at most `stop` for every node.
+    history, costs, firsts = [], [], None
     for step in range(max_looks + 1):
         both = (q * rem) @ flat                            # (L, A + n)
+        unseen = both[:, a_count:]                         # P(u unseen), (L, n)
         if independent:                                    # P(not over) = 1 - prod_u P(u seen)
-            cont = 1.0 - np.multiply.reduce(1.0 - both[:, a_count:], axis=1, keepdims=True)
+            cont = 1.0 - np.multiply.reduce(1.0 - unseen, axis=1)
+            going = cont > stop
         else:
-            cont = 1.0 - _expectation(beliefs, (1.0 - rem).reshape(count, n, k),
-                                      independent)[:, None]
-        active &= cont[:, 0] > stop
-        if step == max_looks or not active.any():
+            history.append(rem.copy())
+            going = unseen.sum(axis=1) > stop
+        if step == max_looks or not going.any():
             break
+        if independent:
+            history.append(cont)
         gain = both[:, :a_count]
         # The most-probable-per-metre step (as _mppm_choice), inlined: sweeps, then gain/cost.
-        seen_count = np.where(gain > 1e-12 * cont, looked, np.inf)
+        seen_count = np.where(gain > 1e-12, looked, np.inf)
         score = np.where(seen_count <= seen_count.min(axis=1, keepdims=True),
                          gain * inverse[cur], -np.inf)
         best = score.argmax(axis=1)
-        if first is not None and step == 0:
-            first[active] = best[active]
-        value += np.where(active, cost_table[cur, best] * cont[:, 0], 0.0)
-        taken += active
+        if step == 0:
+            firsts = best
+        costs.append(cost_table[cur, best])
         looked[rows, best] += 1.0
         rem *= miss[best]
         cur = best
-    steps = int(taken.sum())
+    taken = len(costs)
+    if not taken:
+        return np.zeros(count), 0
+    if independent:
+        cont = np.stack(history[:taken], axis=1)           # (L, S)
+    else:
+        done = 1.0 - np.stack(history[:taken], axis=1).reshape(count, taken, n, k)
+        cont = 1.0 - _expectation_steps(beliefs, done)    # (L, S)
+    active = np.logical_and.accumulate(cont > stop, axis=1)
+    value = (np.stack(costs, axis=1) * cont * active).sum(axis=1)
+    if first is not None:
+        first[active[:, 0]] = firsts[active[:, 0]]
+    steps = int(active.sum())
     return value, steps
 
 
@@ -669,7 +694,7 @@ class LookaheadPlanner:
             return -1
         q = _node_marginals(problem, node) * node.unfound[:, None]
         gain = np.einsum("nk,ank->a", q, problem.prob)[None, :]
-        best, _ = _mppm_choice(problem, gain, np.ones(1), np.array([node.pos]),
+        best, _ = _mppm_choice(problem, gain, np.array([node.pos]),
                                node.looked[None, :].astype(float))
         return int(best[0])
 
