@@ -14,8 +14,12 @@ One JSON file per episode under ``<out>/episodes/``; a re-run skips episodes alr
 interrupted run resumes. Times are wall-clock on whatever else the machine is running, so they
 stay out of the episode logs (which remain deterministic) and are measured serially.
 
-    python experiments/planner_frontier.py                      # the headline run (default apartment)
+    python experiments/planner_frontier.py                      # every default planner (long)
     python experiments/planner_frontier.py --worlds 20 --planners optimal efe lookahead pouct:1000
+    # the committed headline (experiments/results/planner_frontier/), about 15 minutes on 2 cores:
+    python experiments/planner_frontier.py --worlds 100 --models factorised_close joint_close \
+        --planners optimal efe lookahead lookahead:nodes=20 pouct:1000 \
+        --out experiments/results/planner_frontier
 
 The default environment is the fake house (straight-line travel, oracle pixel counts) with an
 injected detector miss rate equal to the model's mu (0.05), so the detector misses as often as
@@ -109,7 +113,7 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
     if with_spl:
         lines[-1:-1] = ["SPL: success weighted by the clairvoyant route's search travel over the "
                         "agent's (docs/design.md eq. 48), mean over worlds with a 95 % bootstrap "
-                        "interval.", ""]
+                        "interval (episodes recorded before SPL was logged have none).", ""]
     for model in sorted({r["model"] for r in rows}):
         by = {}
         for r in rows:
@@ -147,7 +151,8 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
                 if len(spl):
                     draws = spl[np.random.default_rng(0).integers(0, len(spl), (4000, len(spl)))]
                     lo, hi = np.percentile(draws.mean(axis=1), [2.5, 97.5])
-                    spl_txt = f" {spl_mean:.3f} [{lo:.3f}, {hi:.3f}] |"
+                    part = f" (of {len(spl)} worlds)" if len(spl) < len(seeds) else ""
+                    spl_txt = f" {spl_mean:.3f} [{lo:.3f}, {hi:.3f}]{part} |"
             lines.append(f"| {planner} | {len(seeds)} | {travel.mean():.2f} | {ratio_txt} | "
                          f"{med:.2f} | {p95:.2f} | {cpu_txt} | {ins:.2f} | {succ:.2f} |{spl_txt}")
             points.append((planner, med, ratio if with_ref else spl_mean))
