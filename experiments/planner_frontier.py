@@ -14,8 +14,12 @@ One JSON file per episode under ``<out>/episodes/``; a re-run skips episodes alr
 interrupted run resumes. Times are wall-clock on whatever else the machine is running, so they
 stay out of the episode logs (which remain deterministic) and are measured serially.
 
-    python experiments/planner_frontier.py                      # the headline run (default apartment)
+    python experiments/planner_frontier.py                      # every default planner (long)
     python experiments/planner_frontier.py --worlds 20 --planners optimal efe lookahead pouct:1000
+    # the committed headline (experiments/results/planner_frontier/), about 15 minutes on 2 cores:
+    python experiments/planner_frontier.py --worlds 100 --models factorised_close joint_close \
+        --planners optimal efe lookahead lookahead:nodes=20 pouct:1000 \
+        --out experiments/results/planner_frontier
 
 The default environment is the fake house (straight-line travel, oracle pixel counts) with an
 injected detector miss rate equal to the model's mu (0.05), so the detector misses as often as
@@ -53,19 +57,21 @@ def _safe(name: str) -> str:
 
 def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: str,
                 miss_rate: float | None) -> dict:
-    """One episode; returns its metrics and the wall time of every decision (seconds)."""
+    """One episode; returns its metrics and the wall and CPU time of every decision (seconds)."""
     model = load_model(model_path(model_name))
     scenario = load_world(world_path(world)).sample(seed)
     rate = model.miss_likelihood if miss_rate is None else miss_rate
     env = _make_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate))
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
     times: list[float] = []
+    cpu: list[float] = []
     choose = runner.planner.choose
 
     def timed(*args, **kwargs):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         decision = choose(*args, **kwargs)
         times.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
         return decision
 
     runner.planner.choose = timed
@@ -78,7 +84,8 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: 
     return {"world": world, "seed": seed, "model": model_name, "planner": planner,
             "env": env_kind, "miss_rate": rate, "search_distance": m["search_distance"],
             "inspections": m["inspections"], "success": bool(m["success"]) and runner.done,
-            "reason": runner.reason, "decision_seconds": times}
+            "spl": m.get("spl"),
+            "reason": runner.reason, "decision_seconds": times, "decision_cpu_seconds": cpu}
 
 
 def bootstrap_ratio(x: np.ndarray, y: np.ndarray, n: int = 4000, seed: int = 0) -> tuple[float, float]:
@@ -97,8 +104,16 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
     lines = ["# Planner frontier", "",
              "Search travel relative to the Bayes-optimal planner (`optimal`, the perfect-detection "
              "limit) on paired worlds; 95 % paired bootstrap intervals; decision times are wall "
-             "clock, serial, on a shared machine.", ""]
+             "clock, serial, on a shared machine (CPU: the process's CPU time for the same "
+             "decisions, less sensitive to what else the machine runs).", ""]
     fig, ax = plt.subplots(figsize=(7, 4.5))
+    with_spl = any(r.get("spl") is not None for r in rows)
+    with_ref = any(r["planner"] == reference for r in rows)
+    plotted = False
+    if with_spl:
+        lines[-1:-1] = ["SPL: success weighted by the clairvoyant route's search travel over the "
+                        "agent's (docs/design.md eq. 48), mean over worlds with a 95 % bootstrap "
+                        "interval (episodes recorded before SPL was logged have none).", ""]
     for model in sorted({r["model"] for r in rows}):
         by = {}
         for r in rows:
@@ -108,13 +123,16 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
         lines += [f"## model `{model}`, world `{rows[0]['world']}`, env `{rows[0]['env']}`, "
                   f"detector miss rate {rows[0]['miss_rate']}", "",
                   "| planner | worlds | search travel (m) | ratio to optimal [95 %] | "
-                  "ms/decision median | p95 | inspections | success |",
-                  "|---|---|---|---|---|---|---|---|"]
+                  "ms/decision median | p95 | CPU ms median | inspections | success |"
+                  + (" SPL [95 %] |" if with_spl else ""),
+                  "|---|---|---|---|---|---|---|---|---|" + ("---|" if with_spl else "")]
         points = []
         for planner, eps in by.items():
             seeds = sorted(set(eps) & set(ref)) if ref else sorted(eps)
             travel = np.array([eps[s]["search_distance"] for s in seeds])
             times = np.concatenate([eps[s]["decision_seconds"] for s in seeds]) * 1000
+            cpu = [t for s in seeds for t in eps[s].get("decision_cpu_seconds", [])]
+            cpu_txt = f"{np.median(cpu) * 1000:.2f}" if cpu else "n/a"
             ins = np.mean([eps[s]["inspections"] for s in seeds])
             succ = np.mean([eps[s]["success"] for s in seeds])
             if ref:
@@ -125,17 +143,31 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
             else:
                 ratio, ratio_txt = float("nan"), "n/a"
             med, p95 = float(np.median(times)), float(np.percentile(times, 95))
+            spl = np.array([eps[s]["spl"] for s in seeds if eps[s].get("spl") is not None])
+            spl_mean = float(spl.mean()) if len(spl) else float("nan")
+            spl_txt = ""
+            if with_spl:
+                spl_txt = " n/a |"
+                if len(spl):
+                    draws = spl[np.random.default_rng(0).integers(0, len(spl), (4000, len(spl)))]
+                    lo, hi = np.percentile(draws.mean(axis=1), [2.5, 97.5])
+                    part = f" (of {len(spl)} worlds)" if len(spl) < len(seeds) else ""
+                    spl_txt = f" {spl_mean:.3f} [{lo:.3f}, {hi:.3f}]{part} |"
             lines.append(f"| {planner} | {len(seeds)} | {travel.mean():.2f} | {ratio_txt} | "
-                         f"{med:.2f} | {p95:.2f} | {ins:.2f} | {succ:.2f} |")
-            points.append((planner, med, ratio))
+                         f"{med:.2f} | {p95:.2f} | {cpu_txt} | {ins:.2f} | {succ:.2f} |{spl_txt}")
+            points.append((planner, med, ratio if with_ref else spl_mean))
         lines.append("")
         for planner, med, ratio in points:
+            if not (np.isfinite(ratio) and med > 0):  # no reference (and no SPL): nothing to plot
+                continue
+            plotted = True
             ax.scatter(med, ratio)
             ax.annotate(f"{planner} ({model})", (med, ratio), fontsize=7)
-    ax.set_xscale("log")
+    if plotted:
+        ax.set_xscale("log")
     ax.axhline(1.0, color="grey", lw=0.8)
     ax.set_xlabel("median ms per decision (log)")
-    ax.set_ylabel("search travel / Bayes-optimal")
+    ax.set_ylabel("search travel / Bayes-optimal" if with_ref else "SPL (clairvoyant route)")
     ax.set_title("Planner quality-cost frontier")
     fig.tight_layout()
     fig.savefig(out / "frontier.png", dpi=120)
@@ -156,6 +188,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="injected detector miss rate (default: the model's mu)")
     p.add_argument("--out", default="runs/experiments/planner_frontier",
                    help="output folder (default: %(default)s)")
+    p.add_argument("--summary-only", action="store_true",
+                   help="run nothing: summarise the episodes already in OUT/episodes (missing "
+                        "ones are left out, so a planner may cover fewer worlds)")
     args = p.parse_args(argv)
     planners = args.planners or list(DEFAULT_PLANNERS)
     try:
@@ -177,6 +212,8 @@ def main(argv: list[str] | None = None) -> int:
                 path = episodes / f"{args.world}__{model}__{_safe(planner)}__{seed:05d}.json"
                 if path.exists():
                     rows.append(json.loads(path.read_text()))
+                    continue
+                if args.summary_only:
                     continue
                 row = run_episode(args.world, seed, model, planner, args.env, args.miss_rate)
                 tmp = path.with_suffix(".tmp")

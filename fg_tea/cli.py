@@ -417,20 +417,30 @@ def summary(events: list[dict]) -> str:
             f"{m['actions_skipped']} skipped, in {m['frames']} frames.")
 
 
-def planner_size_fault(planner: str, scenario, graph) -> str | None:
+def planner_size_fault(planner: str, scenario, graph, model=None) -> str | None:
     """Why `planner` cannot plan in this house for this task graph (too large), or None.
 
-    Only the Bayes-optimal planner has a size limit (docs/design.md §6.5): its first decision
-    plans over every site for every object the task searches for.
+    The Bayes-optimal planner has a size limit (docs/design.md §6.5): its first decision plans
+    over every site for every object the task searches for. The lookahead planner has one for
+    correlated beliefs only (§6.6: it holds their exact joint), so it is checked when `model` is
+    given.
     """
-    if planner != "optimal":
-        return None
-    from fg_tea.planning.optimal import size_fault
-
     objects = {graph.action(n).object for n in graph.search_nodes()}
-    fault = size_fault(len(scenario.sites), len(objects))
-    return None if fault is None else (f"the Bayes-optimal planner refuses this house: {fault}; "
-                                       "use another planner")
+    if planner == "optimal":
+        from fg_tea.planning.optimal import size_fault
+
+        fault = size_fault(len(scenario.sites), len(objects))
+        return None if fault is None else (f"the Bayes-optimal planner refuses this house: {fault}; "
+                                           "use another planner")
+    if model is not None and (planner == "lookahead" or planner.startswith("lookahead:")):
+        from fg_tea.beliefs.engine import BeliefEngine
+        from fg_tea.planning.lookahead import size_fault as lookahead_fault
+
+        fault = lookahead_fault(len(scenario.sites), len(objects),
+                                BeliefEngine(scenario, model).correlated)
+        return None if fault is None else (f"the lookahead planner refuses this house: {fault}; "
+                                           "use a factorised model or another planner")
+    return None
 
 
 #: Every file `fg-tea run` writes into its output folder (stale ones are removed first).
@@ -464,7 +474,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     check_scenario(scenario, model)
     graph = load_task(args.task, model, scenario, args.preparation_site)
-    fault = planner_size_fault(args.planner, scenario, graph)
+    fault = planner_size_fault(args.planner, scenario, graph, model)
     if fault is not None:  # refused before any log is written
         raise InputError(scenario.source or scenario.name, f"--planner {args.planner}", fault)
     out = Path(args.out) if args.out else \

@@ -12,7 +12,8 @@ turns the rows into tables and plots.
 - :func:`run_job` runs one headless episode and returns its row: every scalar metric of the log
   (:func:`fg_tea.episode.metrics.score`) flattened, plus the configuration, the world's parameters
   and its hidden truth. Rows never hold wall-clock time, so a sweep's CSV is a pure function of
-  its jobs. Episodes refused by the optimal planner's site limit are recorded with reason
+  its jobs. Episodes refused by a planner's size limit (the optimal planner's sites and truths,
+  the lookahead planner's correlated joint) are recorded with reason
   ``"refused: ..."`` instead of stopping the sweep, and episodes still running after
   ``Job.max_steps`` runner steps (a planner that re-inspects, in place, a site it has already
   ruled out never reaches the frame limit) with reason ``"step_limit: ..."``.
@@ -56,6 +57,8 @@ ENVIRONMENTS = ("pybullet", "fake")
 WORLD_KNOBS = ("prior_violation", "same_site", "same_room")
 #: Reason prefix of episodes the optimal planner declined (too many open sites for its DP).
 REFUSED = "refused: "
+#: How the planners that state a size limit begin their refusals (docs/design.md §6.5, §6.6).
+REFUSING = ("optimal planner:", "lookahead planner:")
 #: Reason prefix of episodes stopped by the sweep's step limit (see :class:`Job`).
 STEP_LIMIT = "step_limit: "
 #: Columns of a row that describe the configuration (everything else is an outcome).
@@ -378,7 +381,7 @@ def run_job(job: Job) -> dict[str, Any]:
 
     Raises:
         InputError: the job names an unknown world or model.
-        ValueError: a fault other than the optimal planner's site limit (a bug, not a result).
+        ValueError: a fault other than a planner's size limit (a bug, not a result).
     """
     from fg_tea.episode.metrics import score
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
@@ -405,7 +408,7 @@ def run_job(job: Job) -> dict[str, Any]:
             stopped = (f"{STEP_LIMIT}not finished after {job.max_steps} steps "
                        f"(frame {runner.state.frame})")
     except ValueError as exc:
-        if not str(exc).startswith("optimal planner:"):
+        if not str(exc).startswith(REFUSING):
             raise
         stopped = REFUSED + " ".join(str(exc).split())
     finally:
@@ -812,7 +815,7 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
     return [r for r in read_rows(csv_path) if r["key"] in planned]
 
 
-__all__ = ["add_execution_arguments", "BACKENDS", "ENVIRONMENTS", "WORLD_KNOBS", "REFUSED", "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "CsvSink",
+__all__ = ["add_execution_arguments", "BACKENDS", "ENVIRONMENTS", "WORLD_KNOBS", "REFUSED", "REFUSING", "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "CsvSink",
            "Progress", "SweepError", "ablation_names", "model_names", "world_names", "model_path",
            "world_path", "check_jobs", "plan_sweep",
            "entropy_trace", "flatten_metrics", "run_job", "run_sweep", "read_rows", "parse_cell",

@@ -150,7 +150,7 @@ def test_rollout_value_is_the_exact_cost_of_its_sequence():
     distances = _at_near(scenario)
     problem = build_problem(belief, ["mug"], distances, frozenset(), None, 0.5)
     first = np.full(1, -1)
-    value, _ = rollout_values(problem, np.array([-1]), problem.p[None], np.ones((1, 1), bool),
+    value, _ = rollout_values(problem, np.array([-1]), problem.root()[None], np.ones((1, 1), bool),
                               first=first, max_looks=3)
     q = belief.location("mug")
     # The sweep: near (0 m), then the better per metre of far / farther, then the last.
@@ -189,3 +189,74 @@ def test_specs_and_registry():
             check_planner_name(bad)
     planner = make_planner("lookahead:depth=3", load_model("factorised"))
     assert isinstance(planner, LookaheadPlanner) and planner.settings.depth == 3
+
+
+# ------------------------------------------------------------------ size: per-object form, refusals
+def test_factorised_belief_is_held_per_object_beyond_the_truth_limit(monkeypatch):
+    """A factorised belief is planned on its per-object marginals, so the truth limit (which
+    bounds only a correlated belief's joint) does not apply; the choice does not change."""
+    from fg_tea.planning import lookahead
+
+    scenario = _world("correlated").sample(5)
+    model = load_model("factorised_close")
+    before, _ = _decisions(scenario, model, "lookahead", 5)
+    monkeypatch.setattr(lookahead, "MAX_TRUTHS", 10)  # 8 sites ^ 3 objects = 512 truths > 10
+    after, runner = _decisions(scenario, model, "lookahead", 5)
+    assert after == before and runner.metrics()["success"]
+    with pytest.raises(ValueError, match="^lookahead planner: 3 objects over 8 sites give 512 joint"):
+        _decisions(scenario, load_model("joint_close"), "lookahead", 5)
+
+
+def test_refusal_is_a_row_in_a_sweep_and_one_line_in_run(monkeypatch, capsys, tmp_path):
+    from fg_tea import cli
+    from fg_tea.planning import lookahead
+    from fg_tea.sweep import Job, run_job
+
+    monkeypatch.setattr(lookahead, "MAX_TRUTHS", 100)
+    row = run_job(Job("correlated", 0, model="joint_close", planner="lookahead", env="fake"))
+    assert row["reason"].startswith("refused: lookahead planner: 3 objects over 8 sites give 512 joint")
+    assert row["success"] is False
+    row = run_job(Job("correlated", 0, model="factorised_close", planner="lookahead", env="fake"))
+    assert row["reason"] == "complete"
+    out = tmp_path / "run"
+    status = cli.main(["run", "default_apartment", "--model", "joint_close", "--planner",
+                       "lookahead:nodes=20", "--no-video", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and len(err) == 1 and "lookahead planner refuses this house" in err[0]
+    assert not (out / "episode.jsonl").exists()
+
+
+def test_product_and_joint_forms_agree_on_an_independent_belief():
+    """The same product belief held as factors and as a dense joint gives the same children
+    (probabilities and marginals) and the same rollout values."""
+    from fg_tea.planning.lookahead import _Node, _outer, marginals
+    from dataclasses import replace as dc_replace
+
+    scenario = _world("correlated").sample(2)
+    model = load_model("factorised_close").with_overrides(miss_likelihood=0.3)
+    belief = BeliefEngine(scenario, model)
+    objects = list(belief.objects)
+    distances = _at_near_of(scenario)
+    product = build_problem(belief, objects, distances, frozenset(), None, 0.144)
+    joint = dc_replace(product, joint=_outer(product.factors), factors=None)
+    planner = LookaheadPlanner(model.planning)
+    n, a_count = len(objects), len(product.names)
+    for a in range(a_count):
+        kids = [planner._outcomes(pr, _Node(-1, pr.root(), np.ones(n, bool), 2, np.zeros(a_count)), a)
+                for pr in (product, joint)]
+        assert len(kids[0]) == len(kids[1]) >= 2
+        for (p0, c0), (p1, c1) in zip(*kids):
+            assert p0 == pytest.approx(p1, abs=1e-12)
+            np.testing.assert_allclose(marginals(product, c0.b), marginals(joint, c1.b), atol=1e-12)
+            assert (c0.unfound == c1.unfound).all()
+    unfound = np.array([[True] * n, [False] + [True] * (n - 1)])
+    values = [rollout_values(pr, np.array([-1, 2]), np.stack([pr.root()] * 2), unfound)[0]
+              for pr in (product, joint)]
+    np.testing.assert_allclose(values[0], values[1], rtol=1e-12)
+
+
+def _at_near_of(scenario):
+    names = [s.name for s in scenario.sites]
+    pts = np.array([s.vantage for s in scenario.sites])
+    matrix = np.linalg.norm(pts[:, None] - pts[None], axis=2)
+    return DistanceTable(tuple(names), tuple(matrix[0]), tuple(map(tuple, matrix)))

@@ -146,6 +146,9 @@ class EpisodeRunner:
         check_size = getattr(self.planner, "check_size", None)
         if check_size is not None:  # the optimal planner refuses too large a house up front
             check_size(len(scenario.sites), len(self.executor.pending_search_objects()))
+        check_belief = getattr(self.planner, "check_belief", None)
+        if check_belief is not None:  # the lookahead planner refuses a correlated joint too large
+            check_belief(self.belief, self.executor.pending_search_objects())
         self.state = EpisodeState()
         self.views: ViewModel | None = None  # built at start, from the environment's geometry
         self.last_decision: Decision | None = None

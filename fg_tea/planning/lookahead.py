@@ -4,12 +4,15 @@ This module answers the planning question of docs/design.md §6 by looking ahead
 one-step score. It is the expectimin tree of docs/design.md §6.6:
 
 - **Belief.** The hidden truth is the sites L_U = (L_u)_{u in U} of the required objects U =
-  `objects`, distributed as the current belief P(L_U): the exact joint marginal of U
-  (``belief.location_joint()``) for correlated beliefs, the product of marginals otherwise, held
-  as a table of T = K^|U| truths (truths that put an object on an excluded site are conditioned
-  away, as in the Bayes-optimal planner, unless that leaves nothing). Every hypothetical outcome
-  is conditioned on this table exactly (Bayes' rule, eq. 37 for one object), so a chain of
-  hypothetical looks needs no inference call.
+  `objects`, distributed as the current belief P(L_U) over the open sites (truths that put an
+  object on an excluded site are conditioned away, as in the Bayes-optimal planner, unless that
+  leaves nothing). It is held exactly in one of two forms. A correlated belief: the dense joint
+  of U (from ``belief.location_joint()``), a table of K'^|U| truths, at most
+  :data:`MAX_TRUTHS`; a larger one is refused before the episode starts (:func:`size_fault`).
+  A factorised belief: the |U| per-object marginals, whose product *is* the joint, so every
+  operation below is a product or sum of per-object terms, O(|U| K') however many truths the
+  product has, with no limit. Every hypothetical outcome is conditioned exactly (Bayes' rule,
+  eq. 37 for one object), so a chain of hypothetical looks needs no inference call.
 - **Looks and outcomes.** A look from viewpoint v shows each unfound object u standing at an
   in-view site a with probability p_{u,a}(v) (1 - mu for a threshold close look; the visibility
   curve otherwise), independently given the truth; false positives are not branched on (their
@@ -32,11 +35,13 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
   the tree it is eqs. 39-41 on the tree's marginals.
 - **Rollout** (``rollout = "mppm"``, most probable per metre): from the leaf, repeatedly go to the
   viewpoint with the largest expected number of newly found objects per metre of cost, following
-  the all-miss branch, until the search would be over with probability 1 - 1e-4 or 2 x the
-  number of viewpoints looks were made (the give-up bound). Its value is the *exact* expected cost
-  of that fixed sequence of looks stopped when every object is found, sum_s c_s P(search not over
-  before look s), so it is the value of a real policy and an upper bound of the optimal
-  cost-to-go. All leaves of one decision are rolled out together in one batched product.
+  the all-miss branch, until the search would be over with probability 1 - 1e-3
+  (:data:`STOP_PROBABILITY`) or 2 x the number of viewpoints looks were made (the give-up bound).
+  Its value is the *exact* expected cost of that fixed sequence of looks stopped when every
+  object is found, sum_s c_s P(search not over before look s), so it is the value of a real
+  policy and an upper bound of the optimal cost-to-go. P(search not over) is a product of
+  per-object sums for a factorised belief and the joint contracted with one vector per object
+  otherwise. All leaves of one decision are rolled out together, one batched step per look.
 - **Budget.** At most ``nodes`` belief nodes per decision; once spent, further nodes are valued
   by their rollout instead of being expanded. Expansion order is fixed (EFE rank, then outcome
   order), so the same budget gives the same choice.
@@ -125,6 +130,11 @@ class LookaheadSettings:
 class SearchProblem:
     """The search problem one decision solves, derived from the belief, distances and views.
 
+    The belief over the truths L_U is held in one of two exact forms: ``joint``, the dense table
+    of shape (K',) * |U| (correlated beliefs), or ``factors``, the per-object marginals of shape
+    (|U|, K') whose outer product is the table (factorised beliefs; O(|U| K') however many
+    truths). K' = ``len(allowed)``, the open sites.
+
     Attributes:
         objects: the required objects U (caller's order).
         names: viewpoint names (actions), kinds and ``probability[a]`` of shape (|U|, K): the
@@ -132,8 +142,11 @@ class SearchProblem:
         start: shape (A,), metres from the agent to each viewpoint.
         between: shape (A, A), metres between viewpoints.
         look: shape (A,), metres-equivalent look cost of each viewpoint.
-        loc: shape (T, |U|), each truth's site per object; p: shape (T,), probabilities.
         p_max: the detector's best detection probability (for eq. 40's normalisation).
+        n_sites: K, the belief's sites.
+        allowed: shape (K',), the open sites (indices into the belief's sites) the truths range over.
+        joint: the dense P(L_U) over ``allowed`` (correlated beliefs), or None.
+        factors: shape (|U|, K'), P(L_u) over ``allowed`` when P(L_U) is their product, or None.
     """
 
     objects: tuple[str, ...]
@@ -143,10 +156,71 @@ class SearchProblem:
     start: np.ndarray
     between: np.ndarray
     look: np.ndarray
-    loc: np.ndarray
-    p: np.ndarray
     p_max: float
     n_sites: int
+    allowed: np.ndarray
+    joint: np.ndarray | None = None
+    factors: np.ndarray | None = None
+
+    @property
+    def independent(self) -> bool:
+        """True when the truths' distribution is held as a product over objects."""
+        return self.joint is None
+
+    @property
+    def prob(self) -> np.ndarray:
+        """``probability`` restricted to the open sites, shape (A, |U|, K') (cached)."""
+        cached = self.__dict__.get("_prob")
+        if cached is None:
+            cached = np.ascontiguousarray(self.probability[:, :, self.allowed])
+            self.__dict__["_prob"] = cached
+        return cached
+
+    def _held(self) -> np.ndarray:
+        """``joint`` if the problem holds one, else ``factors`` (one of the two is always set)."""
+        held = self.factors if self.joint is None else self.joint
+        assert held is not None, "a search problem holds a joint or factors"
+        return held
+
+    def root(self) -> np.ndarray:
+        """The root belief in the problem's form: a copy of ``joint`` or of ``factors``."""
+        return self._held().copy()
+
+    def truth_count(self) -> int:
+        """Truths of nonzero probability (a product of per-object counts for factors)."""
+        if self.joint is not None:
+            return int(np.count_nonzero(self.joint))
+        return math.prod(int(np.count_nonzero(f)) for f in self._held())
+
+    def _table(self) -> tuple[np.ndarray, np.ndarray]:
+        cached = self.__dict__.get("_truths")
+        if cached is None:
+            n, k = len(self.objects), len(self.allowed)
+            if k ** n > MAX_TRUTHS:
+                raise ValueError(f"search problem: {n} objects over {k} sites give {k ** n:,} "
+                                 f"truths, more than {MAX_TRUTHS:,}")
+            table = self.joint if self.joint is not None else _outer(self._held())
+            loc = self.allowed[np.array(list(itertools.product(range(k), repeat=n)),
+                                        dtype=np.int64).reshape(-1, n)]
+            p = table.reshape(-1)
+            keep = p > 0
+            cached = (loc[keep], p[keep])
+            self.__dict__["_truths"] = cached
+        return cached
+
+    @property
+    def loc(self) -> np.ndarray:
+        """Shape (T, |U|): each truth of nonzero probability's site per object (belief indices).
+
+        Raises:
+            ValueError: the table would exceed :data:`MAX_TRUTHS` entries.
+        """
+        return self._table()[0]
+
+    @property
+    def p(self) -> np.ndarray:
+        """Shape (T,): the probabilities of the truths of :attr:`loc` (sum 1)."""
+        return self._table()[1]
 
     def onehot(self, u: int) -> np.ndarray:
         """E[t, k] = [L_u(t) = k], shape (T, K) (cached)."""
@@ -160,50 +234,106 @@ class SearchProblem:
     @property
     def seen(self) -> np.ndarray:
         """G[a, t, u] = P(look a shows u | truth t), shape (A, T, |U|)."""
-        cached = getattr(self, "_seen", None)
+        cached = self.__dict__.get("_seen")
         if cached is None:
             u = np.arange(len(self.objects))
             cached = self.probability[:, u[None, :], self.loc]  # (A, T, n)
-            self._seen = cached
+            self.__dict__["_seen"] = cached
         return cached
 
 
-def truth_table(belief, objects: Sequence[str], allowed: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
-    """P(L_U) over the `allowed` sites as (loc (T, |U|) site indices into the belief, p (T,)).
+def _outer(factors: np.ndarray) -> np.ndarray:
+    """The product table of shape (K,) * n of per-object vectors ``factors`` (n, K)."""
+    table = factors[0]
+    for row in factors[1:]:
+        table = np.multiply.outer(table, row)
+    return table
+
+
+def marginals(problem: SearchProblem, belief: np.ndarray) -> np.ndarray:
+    """Per-object marginals, shape (|U|, K'), of one belief in the problem's form."""
+    if problem.joint is None:
+        return belief
+    n = belief.ndim
+    axes = tuple(range(n))
+    return np.stack([belief.sum(axis=axes[:u] + axes[u + 1:]) for u in range(n)])
+
+
+def _expectation_steps(joint: np.ndarray, factors: np.ndarray) -> np.ndarray:
+    """E_t[prod_u f_{s,u}(L_u(t))] for a batch of joints and S factor sets each.
+
+    Args:
+        joint: shape (L,) + (K',) * n, one joint per node.
+        factors: shape (L, S, n, K'), per node and step one vector per object.
+
+    Returns:
+        shape (L, S): the joint contracted with each step's vectors, last object first; the
+        first product serves every step at once (the joint is not copied per step).
+    """
+    count, steps, n, k = factors.shape
+    x = np.matmul(joint.reshape(count, -1, k), np.swapaxes(factors[:, :, n - 1, :], 1, 2))
+    x = np.swapaxes(x, 1, 2)                              # (L, S, K'^(n-1))
+    for u in range(n - 2, -1, -1):
+        x = np.matmul(x.reshape(count, steps, -1, k), factors[:, :, u, :, None])[..., 0]
+    return x.reshape(count, steps)
+
+
+def size_fault(n_sites: int, n_objects: int, correlated: bool, limit: int | None = None) -> str | None:
+    """Why the lookahead planner cannot hold this search problem, or None.
+
+    A correlated belief is planned on its exact joint over the required objects, a table of
+    ``n_sites ** n_objects`` truths; a factorised belief is held per object (``n_objects x
+    n_sites`` numbers) and has no limit. The first decision of an episode plans over every site
+    for every object still to find, the largest problem the planner will be asked. `limit`
+    defaults to :data:`MAX_TRUTHS`.
+    """
+    limit = MAX_TRUTHS if limit is None else limit
+    if correlated and n_sites ** n_objects > limit:
+        return (f"{n_objects} objects over {n_sites} sites give {n_sites ** n_objects:,} joint "
+                f"truths, more than the limit of {limit:,} (a correlated belief is planned on its "
+                "exact joint; a factorised one has no limit)")
+    return None
+
+
+def truth_table(belief, objects: Sequence[str], allowed: Sequence[int]) -> np.ndarray:
+    """P(L_U) over the `allowed` sites, normalised: the dense joint of shape (K',) * |U| for a
+    correlated belief, the per-object marginals of shape (|U|, K') for a factorised one.
 
     Raises:
-        ValueError: K'^|U| exceeds :data:`MAX_TRUTHS`, or the belief puts no mass on `allowed`.
+        ValueError: a correlated belief's K'^|U| exceeds :data:`MAX_TRUTHS`, or the belief puts no mass on
+            `allowed`.
     """
     idx = [belief.objects.index(o) for o in objects]
     n, k = len(idx), len(allowed)
-    if k ** n > MAX_TRUTHS:
-        raise ValueError(f"lookahead planner: {n} objects over {k} sites give {k ** n:,} truths, "
-                         f"more than {MAX_TRUTHS:,}")
     if belief.correlated:
+        fault = size_fault(k, n, True)
+        if fault is not None:
+            raise ValueError(f"lookahead planner: {fault}; use a factorised model or another planner")
         joint = belief.location_joint()
         others = tuple(a for a in range(joint.ndim) if a not in idx)
         p_u = joint.sum(axis=others) if others else joint
         order = sorted(idx)
         p_u = np.transpose(p_u, [order.index(i) for i in idx])
         p_u = p_u[np.ix_(*([list(allowed)] * n))]
-    else:
-        q = belief.location_matrix()[np.ix_(idx, list(allowed))]
-        p_u = q[0]
-        for row in q[1:]:
-            p_u = np.multiply.outer(p_u, row)
-    total = float(p_u.sum())
-    if not total > 0:
-        raise ValueError("lookahead planner: the belief puts no mass on the open sites")
-    sites = np.asarray(allowed, dtype=np.int64)
-    loc = sites[np.array(list(itertools.product(range(k), repeat=n)), dtype=np.int64).reshape(-1, n)]
-    p = (p_u / total).reshape(-1)
-    keep = p > 0
-    return loc[keep], p[keep]
+        total = float(p_u.sum())
+        if not total > 0:
+            raise ValueError("lookahead: the belief puts no mass on the open sites")
+        return p_u / total
+    q = belief.location_matrix()[np.ix_(idx, list(allowed))]
+    totals = q.sum(axis=1, keepdims=True)
+    if not np.all(totals > 0):
+        raise ValueError("lookahead: the belief puts no mass on the open sites")
+    return q / totals
 
 
 def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
                   excluded: frozenset[str], views, look: float) -> SearchProblem:
-    """Derive the :class:`SearchProblem` of one decision (see the module docstring)."""
+    """Derive the :class:`SearchProblem` of one decision (see the module docstring).
+
+    Raises:
+        ValueError: every viewpoint is excluded, or a correlated belief's joint over the open
+            sites has more than :data:`MAX_TRUTHS` truths (``"lookahead planner: ..."``).
+    """
     sites = list(belief.sites)
     k = len(sites)
     idx = [belief.objects.index(o) for o in objects]
@@ -233,22 +363,51 @@ def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
         raise ValueError("planner: every viewpoint is excluded")
     open_sites = [j for j, s in enumerate(sites) if s not in excluded]
     try:
-        loc, p = truth_table(belief, objects, open_sites)
+        table = truth_table(belief, objects, open_sites)
     except ValueError as exc:
         if "no mass" not in str(exc) or len(open_sites) == k:
             raise
-        loc, p = truth_table(belief, objects, list(range(k)))
+        open_sites = list(range(k))
+        table = truth_table(belief, objects, open_sites)
     start = np.array([float(distances.from_agent(s)) for s in names])
     between = np.array([[float(distances.between(a, b)) if a != b else 0.0 for b in names]
                         for a in names])
+    joint, factors = (table, None) if belief.correlated else (None, table)
     return SearchProblem(tuple(objects), tuple(names), tuple(kinds), np.stack(probs), start,
-                         between, np.array(looks), loc, p, p_max, k)
+                         between, np.array(looks), p_max, k, np.asarray(open_sites, dtype=np.int64),
+                         joint, factors)
 
 
 # ---------------------------------------------------------------------------- rollouts
-def rollout_values(problem: SearchProblem, pos: np.ndarray, w: np.ndarray, unfound: np.ndarray,
-                   looked: np.ndarray | None = None, independent: bool = False,
-                   stop: float = STOP_PROBABILITY, max_looks: int | None = None,
+def _step_costs(problem: SearchProblem) -> tuple[np.ndarray, np.ndarray]:
+    """c(v) from each viewpoint (rows 0..A-1) and from the start (row A, so row -1), shape
+    (A+1, A), and its reciprocal (cost floored at 1e-9 m) (cached)."""
+    cached = problem.__dict__.get("_costs")
+    if cached is None:
+        cost = np.vstack([problem.between, problem.start[None, :]]) + problem.look[None, :]
+        cached = (cost, 1.0 / np.maximum(cost, 1e-9))
+        problem.__dict__["_costs"] = cached
+    return cached
+
+
+def _mppm_choice(problem: SearchProblem, gain: np.ndarray, here: np.ndarray,
+                 looked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One step of the most-probable-per-metre policy for a batch: (best look, its cost).
+
+    Sweeps: only the viewpoints looked from least often (among those that can still find
+    something, more than 1e-12 expected new finds) compete, so a cheap re-look never beats a
+    first look elsewhere; ties go to the first viewpoint in order.
+    """
+    cost, inverse = _step_costs(problem)
+    seen_count = np.where(gain > 1e-12, looked, np.inf)
+    fresh = seen_count <= seen_count.min(axis=1, keepdims=True)
+    best = np.argmax(np.where(fresh, gain * inverse[here], -np.inf), axis=1)
+    return best, cost[here, best]
+
+
+def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray, unfound: np.ndarray,
+                   looked: np.ndarray | None = None, stop: float = STOP_PROBABILITY,
+                   max_looks: int | None = None,
                    first: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Expected cost of the most-probable-per-metre rollout from a batch of belief nodes.
 
@@ -256,18 +415,19 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, w: np.ndarray, unfou
     given that it stands at site k is rem_u(k) = prod_s (1 - p_{u,k}(a_s)): it depends on the
     truth only through u's own site. So the expected number of new finds of a look a is
     sum_u sum_k q_u(k) rem_u(k) p_{u,k}(a) (marginals only), and the chance the search is not over
-    is 1 - E_t[prod_u (1 - rem_u(L_u(t)))] (the joint; a product of per-object sums when the
-    belief is `independent`).
+    is 1 - E_t[prod_u (1 - rem_u(L_u(t)))] (eq. 47): a product of per-object sums for a product
+    belief, the joint contracted with one vector per object otherwise. The whole batch steps
+    together; a node whose search is over (or nearly) stops adding cost.
 
     Args:
         problem: the search problem.
         pos: shape (L,), each node's current viewpoint (-1: the agent's start position).
-        w: shape (L, T), each node's posterior over truths (rows sum to 1).
+        beliefs: each node's posterior in the problem's form, stacked: shape (L, |U|, K')
+            (factors) or (L,) + (K',) * |U| (joint).
         unfound: shape (L, |U|) booleans, the objects still to find at each node.
         looked: shape (L, A), looks from each viewpoint so far (default 0); the rollout sweeps:
             only the viewpoints looked from least often compete.
-        independent: the truths' distribution is a product over objects at every node.
-        stop: the rollout ends once P(search not over) falls below this.
+        stop: the rollout ends once P(search not over) falls to this or below.
         max_looks: the give-up bound (default 2 x the number of viewpoints).
         first: if given, shape (L,) ints, filled with each node's first rollout look (-1: none).
 
@@ -275,52 +435,77 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, w: np.ndarray, unfou
         (values, looks): values of shape (L,), metres-equivalent; looks, the rollout steps taken
         summed over nodes (for the log).
     """
-    prob = problem.probability                             # (A, n, K)
+    prob = problem.prob                                    # (A, n, K')
     a_count, n, k = prob.shape
-    count = len(w)
+    count = len(beliefs)
+    independent = problem.independent
     max_looks = 2 * a_count if max_looks is None else max_looks
-    q = np.stack([w @ problem.onehot(u) for u in range(n)], axis=1)   # (L, n, K) marginals
-    rem = np.broadcast_to(unfound[:, :, None], q.shape).astype(float)  # P(u unseen | L_u = k)
+    if independent:
+        q = beliefs
+    else:
+        axes = tuple(range(1, n + 1))
+        q = np.stack([beliefs.sum(axis=axes[:u] + axes[u + 1:]) for u in range(n)], axis=1)
+    # One product gives both E[new finds] of every look (A columns) and, for a product belief,
+    # P(u unseen) of every object (n columns of ones over its own sites). Per-object arrays are
+    # held flat, (L, n K').
+    flat = problem.__dict__.get("_rollout_flat")
+    if flat is None:
+        flat = (np.hstack([prob.reshape(a_count, n * k).T, np.kron(np.eye(n), np.ones((k, 1)))]),
+                (1.0 - prob).reshape(a_count, n * k))
+        problem.__dict__["_rollout_flat"] = flat
+    flat, miss = flat
+    cost_table, inverse = _step_costs(problem)
+    q = q.reshape(count, n * k)
+    rem = np.repeat(unfound.astype(float), k, axis=1)      # P(u unseen | L_u = k), (L, n K')
     value = np.zeros(count)
-    cur = pos.copy()
-    looked = np.zeros((count, a_count)) if looked is None else looked.astype(float).copy()
-    u_idx = np.arange(n)
-
-    def continuing(rows: np.ndarray) -> np.ndarray:
-        done = 1.0 - rem[rows]                                         # (L', n, K)
-        if independent:
-            return 1.0 - np.prod((q[rows] * done).sum(axis=2), axis=1)
-        per_truth = done[:, u_idx[None, :], problem.loc]               # (L', T, n)
-        return 1.0 - (w[rows] * np.prod(per_truth, axis=2)).sum(axis=1)
-
+    cur = np.asarray(pos, dtype=np.int64).copy()
+    looked = np.zeros((count, a_count)) if looked is None else looked.astype(float)
     rows = np.arange(count)
-    cont = continuing(rows)
-    steps = 0
-    for _ in range(max_looks):
-        keep = cont > stop
-        rows, cont = rows[keep], cont[keep]
-        if not len(rows):
+    if first is not None:
+        first[:] = -1
+    # The policy's looks depend only on the marginals, so a correlated belief's P(not over) is
+    # computed after the loop for every step at once (n batched products instead of n per step);
+    # the loop ends once sum_u P(u unseen) (>= P(not over)) is at most `stop` for every node.
+    history, costs, firsts = [], [], None
+    for step in range(max_looks + 1):
+        both = (q * rem) @ flat                            # (L, A + n)
+        unseen = both[:, a_count:]                         # P(u unseen), (L, n)
+        if independent:                                    # P(not over) = 1 - prod_u P(u seen)
+            cont = 1.0 - np.multiply.reduce(1.0 - unseen, axis=1)
+            going = cont > stop
+        else:
+            history.append(rem.copy())
+            going = unseen.sum(axis=1) > stop
+        if step == max_looks or not going.any():
             break
-        gain = np.einsum("lnk,ank->la", q[rows] * rem[rows], prob)     # (L', A): E[new finds]
-        here = cur[rows]
-        cost = np.where(here[:, None] < 0, problem.start[None, :],
-                        problem.between[np.maximum(here, 0)]) + problem.look[None, :]
-        # Sweeps: only the viewpoints looked from least often (among those that can still find
-        # something) compete, so a cheap re-look never beats a first look elsewhere.
-        useful = gain > 1e-12 * cont[:, None]
-        seen_count = np.where(useful, looked[rows], np.inf)
-        fresh = seen_count <= seen_count.min(axis=1, keepdims=True)
-        score = np.where(fresh, gain / np.maximum(cost, 1e-9), -np.inf)
-        best = np.argmax(score, axis=1)                                # first maximum: view order
-        if first is not None and steps == 0:
-            first[:] = -1
-            first[rows] = best
-        value[rows] += cost[np.arange(len(rows)), best] * cont
+        if independent:
+            history.append(cont)
+        gain = both[:, :a_count]
+        # The most-probable-per-metre step (as _mppm_choice), inlined: sweeps, then gain/cost.
+        seen_count = np.where(gain > 1e-12, looked, np.inf)
+        score = np.where(seen_count <= seen_count.min(axis=1, keepdims=True),
+                         gain * inverse[cur], -np.inf)
+        best = score.argmax(axis=1)
+        if step == 0:
+            firsts = best
+        costs.append(cost_table[cur, best])
         looked[rows, best] += 1.0
-        rem[rows] *= 1.0 - prob[best]
-        cur[rows] = best
-        steps += len(rows)
-        cont = continuing(rows)
+        rem *= miss[best]
+        cur = best
+    taken = len(costs)
+    if not taken:
+        return np.zeros(count), 0
+    if independent:
+        cont = np.stack(history[:taken], axis=1)           # (L, S)
+    else:
+        done = 1.0 - np.stack(history[:taken], axis=1).reshape(count, taken, n, k)
+        cont = 1.0 - _expectation_steps(beliefs, done)    # (L, S)
+    active = np.logical_and.accumulate(cont > stop, axis=1)
+    value = (np.stack(costs, axis=1) * cont * active).sum(axis=1)
+    if first is not None:
+        assert firsts is not None  # set by the first step taken
+        first[active[:, 0]] = firsts[active[:, 0]]
+    steps = int(active.sum())
     return value, steps
 
 
@@ -328,7 +513,7 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, w: np.ndarray, unfou
 @dataclass
 class _Node:
     pos: int
-    w: np.ndarray          # (T,) posterior over truths
+    b: np.ndarray          # posterior over truths in the problem's form (joint table or factors)
     unfound: np.ndarray    # (n,) bool
     depth: int             # looks still to expand
     looked: np.ndarray     # (A,) looks from each viewpoint so far (history + path; rollout sweeps)
@@ -338,6 +523,67 @@ class _Node:
     leaf: bool = False
     base: int = -1                   # the rollout policy's first look from here (-1: none)
     rollout: float = math.inf        # the rollout's value from here (fortification)
+    q: np.ndarray | None = None      # (n, K') marginals (cached)
+
+
+def _node_marginals(problem: SearchProblem, node: _Node) -> np.ndarray:
+    if node.q is None:
+        node.q = marginals(problem, node.b)
+    return node.q
+
+
+def _options(problem: SearchProblem, a: int) -> np.ndarray:
+    """Per-object likelihood vectors of look `a`'s outcomes, shape (|U|, M, K') (cached).
+
+    Row 0 is "not seen", 1 - p_{u,.}(a). A close look has one "seen" row, p_{u,.}(a); a glance
+    one per in-view site k, p_{u,k}(a) at k and 0 elsewhere (the site it was seen at), in site
+    order. Objects with fewer rows are padded with zero rows: their outcomes have probability 0
+    and are dropped, so the order of the others is unchanged.
+    """
+    cache = problem.__dict__.setdefault("_options", {})
+    cached = cache.get(a)
+    if cached is None:
+        s_all = problem.prob[a]                                    # (n, K')
+        n, k = s_all.shape
+        if problem.kinds[a] == "site":
+            cached = np.stack([1.0 - s_all, s_all], axis=1)
+        else:
+            width = 1 + max(int(np.count_nonzero(s > 0)) for s in s_all)
+            cached = np.zeros((n, width, k))
+            cached[:, 0] = 1.0 - s_all
+            for u, s in enumerate(s_all):
+                ks = np.flatnonzero(s > 0)
+                cached[u, np.arange(1, 1 + len(ks)), ks] = s[ks]
+        cache[a] = cached
+    return cached
+
+
+def _outcome_codes(options: Sequence[int]) -> np.ndarray:
+    """Outcome codes of a look, shape (C, len(options)), in the fixed expansion order (cached).
+
+    ``options[i]`` is 1 + the seen options of the i-th unfound object; a code names one option
+    per object (0 = not seen). Outcomes come by the set of objects seen (by size, then in
+    combination order), then by the seen options of those objects in lexicographic order (for
+    a glance, the sites they stood at).
+    """
+    key = tuple(options)
+    cached = _CODE_CACHE.get(key)
+    if cached is None:
+        codes = []
+        m = len(options)
+        for size in range(m + 1):
+            for subset in itertools.combinations(range(m), size):
+                for choice in itertools.product(*[range(1, options[i]) for i in subset]):
+                    code = [0] * m
+                    for i, c in zip(subset, choice):
+                        code[i] = c
+                    codes.append(code)
+        cached = np.array(codes, dtype=np.int64).reshape(len(codes), m)
+        _CODE_CACHE[key] = cached
+    return cached
+
+
+_CODE_CACHE: dict[tuple[int, ...], np.ndarray] = {}
 
 
 class LookaheadPlanner:
@@ -363,11 +609,8 @@ class LookaheadPlanner:
         """Eqs. 39-41 (no repeat term) per viewpoint, min over unfound objects, shape (A,)."""
         w = self.weights
         us = np.flatnonzero(node.unfound)
-        k = problem.n_sites
-        q = np.zeros((len(us), k))
-        for i, u in enumerate(us):
-            q[i] = np.bincount(problem.loc[:, u], weights=node.w, minlength=k)
-        prob = problem.probability[:, us, :]                     # (A, n', K)
+        q = _node_marginals(problem, node)[us]                   # (n', K')
+        prob = problem.prob[:, us, :]                            # (A, n', K')
         find = (q[None] * prob).sum(axis=2) / problem.p_max      # (A, n')
         post = q[None] * (1.0 - prob)
         post = post / np.maximum(post.sum(axis=2, keepdims=True), 1e-300)
@@ -378,45 +621,47 @@ class LookaheadPlanner:
         return g.min(axis=1)
 
     def _outcomes(self, problem: SearchProblem, node: _Node, a: int) -> list[tuple[float, _Node]]:
-        """The children of looking from viewpoint `a`: (probability, node), in a fixed order."""
+        """The children of looking from viewpoint `a`: (probability, node), in a fixed order.
+
+        Given the truth, each unfound object is seen or not independently, so an outcome's
+        likelihood is a product of one vector per object over its own site: 1 - p_{u,.}(a) if
+        u was not seen, p_{u,.}(a) if it was (for a glance, restricted to the site it was seen
+        at). Conditioning multiplies each object's factor by its vector (factors), or the joint
+        by their outer product (joint table); the outcome's probability is the product of the
+        per-object masses, or the joint contracted with the vectors.
+        """
         us = np.flatnonzero(node.unfound)
-        s = problem.seen[a][:, us]                                 # (T, n') P(seen u | t)
+        options = _options(problem, a)[us]                         # (n', M, K')
+        m_count = options.shape[1]
+        codes = _outcome_codes((m_count,) * len(us))               # (C, n')
+        b = node.b
+        if problem.independent:
+            masses = np.einsum("imk,ik->im", options, b[us])       # (n', M)
+            mass = np.prod(masses[np.arange(len(us)), codes], axis=1)
+            keep = np.flatnonzero(mass >= OUTCOME_FLOOR)
+            mass = mass[keep]
+            per_option = options * (b[us][:, None, :] / np.where(masses > 0, masses, 1.0)[:, :, None])
+            post = np.repeat(b[None], len(keep), axis=0)
+            post[:, us] = per_option[np.arange(len(us)), codes[keep]]
+        else:
+            n = b.ndim
+            lik = b[None]
+            for i, u in enumerate(us):
+                shape = [len(codes)] + [1] * n
+                shape[u + 1] = b.shape[u]
+                lik = lik * options[i][codes[:, i]].reshape(shape)
+            mass = lik.reshape(len(codes), -1).sum(axis=1)
+            keep = np.flatnonzero(mass >= OUTCOME_FLOOR)
+            mass = mass[keep]
+            post = lik[keep] / mass.reshape([-1] + [1] * n)
+        unfound = np.repeat(node.unfound[None], len(keep), axis=0)
+        unfound[:, us] = codes[keep] == 0
         looked = node.looked.copy()
         looked[a] += 1
-        subsets = list(itertools.chain.from_iterable(
-            itertools.combinations(range(len(us)), size) for size in range(len(us) + 1)))
-        bits = np.zeros((len(us), len(subsets)), dtype=bool)
-        for col, members in enumerate(subsets):
-            bits[list(members), col] = True
-        lik = np.prod(np.where(bits[None, :, :], s[:, :, None], 1.0 - s[:, :, None]), axis=1)
-        weights = node.w[:, None] * lik                            # (T, subsets)
-        masses = weights.sum(axis=0)
-        out = []
-        for c in np.flatnonzero(masses >= OUTCOME_FLOOR):
-            subset = us[list(subsets[c])]
-            wt = weights[:, c]
-            unfound = node.unfound.copy()
-            unfound[subset] = False
-            if len(subset) == 0 or problem.kinds[a] == "site":
-                groups = [wt]
-            else:  # a glance: which in-view site each seen object stood at
-                code = np.zeros(len(wt), dtype=np.int64)
-                for u in subset:
-                    code = code * problem.n_sites + problem.loc[:, u]
-                nz = np.flatnonzero(wt > 0)
-                keys, inverse = np.unique(code[nz], return_inverse=True)
-                groups = []
-                for g in range(len(keys)):
-                    part = np.zeros_like(wt)
-                    part[nz[inverse == g]] = wt[nz[inverse == g]]
-                    groups.append(part)
-            for part in groups:
-                mass = float(part.sum())
-                if mass < OUTCOME_FLOOR:
-                    continue
-                out.append((mass, _Node(a, part / mass, unfound, node.depth - 1, looked)))
-        total = sum(m for m, _ in out)
-        return [(m / total, c) for m, c in out]
+        depth = node.depth - 1
+        total = float(mass.sum())
+        return [(float(m) / total, _Node(a, p, f, depth, looked))
+                for m, p, f in zip(mass, post, unfound)]
 
     def _expand(self, problem: SearchProblem, node: _Node, relevance: np.ndarray,
                 budget: list[int], leaves: list[_Node], fortify: list[_Node],
@@ -452,14 +697,18 @@ class LookaheadPlanner:
                 self._expand(problem, child, relevance, budget, leaves, fortify)
 
     def _base_action(self, problem: SearchProblem, node: _Node) -> int:
-        """The rollout policy's first look from `node` (-1 without a rollout or if none helps)."""
-        if self.settings.rollout == "none":
+        """The rollout policy's first look from `node` (-1 without a rollout or if none helps).
+
+        The first step of :func:`rollout_values` from a node with something unfound (so the
+        search is not over with probability 1), on the node's marginals.
+        """
+        if self.settings.rollout == "none" or not node.unfound.any():
             return -1
-        first = np.full(1, -1)
-        rollout_values(problem, np.array([node.pos]), node.w[None, :], node.unfound[None, :],
-                       node.looked[None, :], independent=self._independent, max_looks=1,
-                       first=first)
-        return int(first[0])
+        q = _node_marginals(problem, node) * node.unfound[:, None]
+        gain = np.einsum("nk,ank->a", q, problem.prob)[None, :]
+        best, _ = _mppm_choice(problem, gain, np.array([node.pos]),
+                               node.looked[None, :].astype(float))
+        return int(best[0])
 
     @staticmethod
     def _backup(node: _Node) -> float:
@@ -476,6 +725,16 @@ class LookaheadPlanner:
         (a fortified rollout: following the base policy from here is a plan whose value is known)."""
         q = cost + sum(p * LookaheadPlanner._backup(c) for p, c in kids)
         return min(q, node.rollout) if a == node.base else q
+
+    def check_belief(self, belief, objects: Sequence[str]) -> None:
+        """Refuse, before an episode starts, a correlated belief whose joint is too large to hold.
+
+        Raises:
+            ValueError: ``"lookahead planner: ..."`` with :func:`size_fault`'s reason.
+        """
+        fault = size_fault(len(belief.sites), len(objects), belief.correlated)
+        if fault is not None:
+            raise ValueError(f"lookahead planner: {fault}; use a factorised model or another planner")
 
     # ------------------------------------------------------------------ the decision
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
@@ -503,10 +762,9 @@ class LookaheadPlanner:
         index = {name: a for a, name in enumerate(problem.names)}
         order = sorted(best_by_view.values(), key=lambda c: (c.total, index[c.site]))
         root_actions = [index[c.site] for c in order[:st.width]]
-        self._independent = not belief.correlated
         r = np.array([float(relevance[o]) for o in objects])
         history = np.array([float(inspected.get(name, 0)) for name in problem.names])
-        root = _Node(-1, problem.p.copy(), np.ones(len(objects), dtype=bool), st.depth, history)
+        root = _Node(-1, problem.root(), np.ones(len(objects), dtype=bool), st.depth, history)
         budget = [st.nodes]
         leaves: list[_Node] = []
         base = self._base_action(problem, root)
@@ -522,10 +780,9 @@ class LookaheadPlanner:
         batch = leaves + fortify
         if batch and st.rollout == "mppm":
             values, steps = rollout_values(problem, np.array([n.pos for n in batch]),
-                                           np.stack([n.w for n in batch]),
+                                           np.stack([n.b for n in batch]),
                                            np.stack([n.unfound for n in batch]),
-                                           np.stack([n.looked for n in batch]),
-                                           independent=self._independent)
+                                           np.stack([n.looked for n in batch]))
             for n, v in zip(leaves, values):
                 n.value = float(v)
             for n, v in zip(fortify, values[len(leaves):]):
@@ -539,15 +796,14 @@ class LookaheadPlanner:
                                         c.information_gain, c.repeat, c.relevance, c.total,
                                         float(q), c.kind))
         sorted_q = np.sort(q_values)
-        info: dict[str, float | str] = {
-            "lookahead": st.spec(), "nodes": int(st.nodes - budget[0]),
-            "leaves": len(leaves), "rollout_looks": int(steps), "truths": int(len(problem.p)),
-            "viewpoints": len(problem.names), "best_value": float(sorted_q[0]),
-            "second_value": float(sorted_q[1]) if len(sorted_q) > 1 else float(sorted_q[0]),
-            "look_cost": st.look}
+        info: dict[str, float | str] = {"lookahead": st.spec(), "nodes": int(st.nodes - budget[0]),
+                "leaves": len(leaves), "rollout_looks": int(steps), "truths": problem.truth_count(),
+                "viewpoints": len(problem.names), "best_value": float(sorted_q[0]),
+                "second_value": float(sorted_q[1]) if len(sorted_q) > 1 else float(sorted_q[0]),
+                "look_cost": st.look}
         chosen = candidates[best]
         return Decision(chosen.object, chosen.site, chosen.total, tuple(candidates), self.name, info)
 
 
 __all__ = ["LookaheadPlanner", "LookaheadSettings", "SearchProblem", "build_problem",
-           "rollout_values", "truth_table", "LOOK_COST"]
+           "rollout_values", "truth_table", "size_fault", "LOOK_COST", "MAX_TRUTHS"]

@@ -1,0 +1,38 @@
+"""experiments/planner_frontier.py: writes the table and plot, resumes without re-running, and
+summarises what is on disk with --summary-only."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("planner_frontier", ROOT / "experiments" / "planner_frontier.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_frontier_runs_resumes_and_summarises(tmp_path, capsys):
+    frontier = _script()
+    args = ["--worlds", "2", "--models", "factorised_close", "--planners", "optimal", "efe",
+            "lookahead:nodes=5", "--out", str(tmp_path)]
+    assert frontier.main(args) == 0
+    episodes = sorted((tmp_path / "episodes").glob("*.json"))
+    assert len(episodes) == 6
+    row = json.loads(episodes[0].read_text())
+    assert len(row["decision_seconds"]) == len(row["decision_cpu_seconds"]) >= 1
+    table = (tmp_path / "frontier.md").read_text()
+    assert "| lookahead:nodes=5 | 2 |" in table and "| optimal | 2 | " in table
+    assert (tmp_path / "frontier.png").stat().st_size > 0
+    stamps = [p.stat().st_mtime_ns for p in episodes]
+    assert frontier.main(args) == 0  # resumes: nothing is run again
+    assert [p.stat().st_mtime_ns for p in episodes] == stamps
+    episodes[-1].unlink()
+    assert frontier.main(args[:-2] + ["--out", str(tmp_path), "--summary-only"]) == 0
+    assert not episodes[-1].exists()  # --summary-only runs nothing
+    capsys.readouterr()
