@@ -152,7 +152,12 @@ def test_optimal_is_never_worse_over_all_hidden_truths(seed, n_sites, joint):
     dist = euclidean_distances(scenario, scenario.start_position)
     joint_table = belief.location_joint()
     expected = {}
-    for name in planner_names():
+    # Every registered planner; the tree-search peers at their smallest budget (pouct:1000 and
+    # pomcp:1000 follow the same code at ten times the cost).
+    names = [n for n in planner_names() if not n.startswith(("pouct:", "pomcp:"))]
+    if any(n.startswith("pouct:") for n in planner_names()):
+        names.append("pouct:100")
+    for name in names:
         total = 0.0
         for a, b in itertools.product(range(n_sites), repeat=2):
             # A fresh planner with the same seed for every truth: a stochastic planner (random,
