@@ -81,20 +81,31 @@ EXACT_CHECK_LIMIT = 1 << 26       # table entries (~0.5 GB) above which the exac
 BENCH_PLANNERS = ("efe", "factorised_efe", "mi_efe", "nearest", "greedy", "random", "optimal",
                   "lookahead")
 
+def _site(i: int, room: str, x: float, y: float, objects, rng: np.random.Generator) -> dict:
+    """Site i at (x, y) in `room`: random affordances for `objects`, capacity 1-2 a quarter of
+    the time (draws in this order, so seeded houses stay as they were)."""
+    site = {"name": f"site_{i:02d}", "room": room, "position": [float(x), float(y), 0.8],
+            "vantage_position": [float(x), float(y) - 0.5, 0.0],
+            "affordances": {o: float(rng.uniform(0.01, 1.0)) for o in objects}}
+    if rng.random() < 0.25:
+        site["capacity"] = int(rng.integers(1, 3))
+    return site
+
+
+def _objects(objects, sites: list[dict], rng: np.random.Generator) -> list[dict]:
+    """One object per name, each on a uniformly drawn site."""
+    return [{"name": o, "category": o, "true_site": sites[int(rng.integers(len(sites)))]["name"],
+             "semantic_id": 100 + i} for i, o in enumerate(objects)]
+
+
 def synthetic_scenario(n_sites: int, rng: np.random.Generator):
     """A seeded random house with `n_sites` sites and the three tea objects."""
     sites = []
     for i in range(n_sites):
         room, lo, hi = ROOMS[i % len(ROOMS)]
         x, y = rng.uniform(np.add(lo, 0.6), np.subtract(hi, 0.6))
-        site = {"name": f"site_{i:02d}", "room": room, "position": [float(x), float(y), 0.8],
-                "vantage_position": [float(x), float(y) - 0.5, 0.0],
-                "affordances": {o: float(rng.uniform(0.01, 1.0)) for o in OBJECTS}}
-        if rng.random() < 0.25:
-            site["capacity"] = int(rng.integers(1, 3))
-        sites.append(site)
-    objects = [{"name": o, "category": o, "true_site": sites[int(rng.integers(n_sites))]["name"],
-                "semantic_id": 100 + i} for i, o in enumerate(OBJECTS)]
+        sites.append(_site(i, room, x, y, OBJECTS, rng))
+    objects = _objects(OBJECTS, sites, rng)
     return parse_scenario({
         "schema_version": 2, "name": f"synthetic_{n_sites}", "start_pose": {"position": [5.0, 4.0]},
         "house": {"floor": {"min": [0, 0], "max": [10, 8]}, "walls": [], "furniture": []},
@@ -117,14 +128,8 @@ def glance_scenario(n_objects: int, n_sites: int, rng: np.random.Generator):
         r = i % n_rooms
         lo = np.array([5.0 * (r % cols), 4.0 * (r // cols)])
         x, y = rng.uniform(lo + 0.6, lo + [4.4, 3.4])
-        site = {"name": f"site_{i:02d}", "room": ROOM_NAMES[r], "position": [float(x), float(y), 0.8],
-                "vantage_position": [float(x), float(y) - 0.5, 0.0],
-                "affordances": {o: float(rng.uniform(0.01, 1.0)) for o in objects}}
-        if rng.random() < 0.25:
-            site["capacity"] = int(rng.integers(1, 3))
-        sites.append(site)
-    objs = [{"name": o, "category": o, "true_site": sites[int(rng.integers(n_sites))]["name"],
-             "semantic_id": 100 + i} for i, o in enumerate(objects)]
+        sites.append(_site(i, ROOM_NAMES[r], x, y, objects, rng))
+    objs = _objects(objects, sites, rng)
     size = [5.0 * cols, 4.0 * int(np.ceil(n_rooms / cols))]
     return parse_scenario({
         "schema_version": 2, "name": f"synthetic_{n_objects}x{n_sites}",
