@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, NoReturn, Sequence
 
+from fg_tea.options import DeprecatedAlias
 from fg_tea.errors import InputError
 from fg_tea.files import atomic_path, atomic_write_text
 from fg_tea.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
@@ -31,38 +32,12 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports usage faults in one line with exit status 2, and keeps the notes on
     deprecated option names for :func:`main` to write after the command (one line each)."""
 
+    defer_notes = True  # DeprecatedAlias leaves its notes on the namespace for main()
+
     def error(self, message: str) -> NoReturn:  # noqa: D401 - argparse API
         sys.stderr.write(f"fg-tea: error: {message}\n")
         raise SystemExit(2)
 
-
-
-class DeprecatedAlias(argparse.Action):
-    """An old option name kept for one release: stores into the new option's destination and
-    leaves a one-line deprecation note (printed by the fg-tea parser after parsing succeeds, or at
-    once by any other parser).
-
-    Add it with ``default=argparse.SUPPRESS`` so that the new option's default stands.
-    """
-
-    NOTES = "_deprecation_notes"
-
-    def __init__(self, option_strings: Sequence[str], dest: str, new: str = "", **kwargs: Any) -> None:
-        self.new = new
-        kwargs.setdefault("help", f"deprecated alias of {new}")
-        kwargs.setdefault("default", argparse.SUPPRESS)
-        super().__init__(option_strings, dest, **kwargs)
-
-    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
-                 values: Any, option_string: str | None = None) -> None:
-        setattr(namespace, self.dest, values)
-        note = f"{option_string} is deprecated; use {self.new}"
-        if isinstance(parser, _Parser):
-            notes = getattr(namespace, self.NOTES, [])
-            if note not in notes:
-                setattr(namespace, self.NOTES, notes + [note])
-        else:
-            sys.stderr.write(f"note: {note}\n")
 
 
 def _integer(lo: int, hi: int | None = None):

@@ -25,6 +25,9 @@ SCHEMA_VERSIONS = (1, 2)
 #: agent inspects a surface from where it can see objects a few centimetres across, so a vantage
 #: farther than a room's width away is a typo, not a choice.
 MAX_VANTAGE_DISTANCE = 4.0
+#: Bernoulli task states the belief engine holds jointly in its state block (a scenario with more
+#: is refused before any belief is built).
+MAX_STATES = 20
 
 
 @dataclass(frozen=True)
@@ -346,7 +349,6 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
         obj_names.add(spec.name)
         ids.add(spec.semantic_id)
         objects.append(spec)
-    from fg_tea.beliefs.engine import MAX_STATES
 
     n_states = sum(len(spec.state_priors) for spec in objects)
     if n_states > MAX_STATES:

@@ -743,7 +743,7 @@ def add_execution_arguments(parser, csv_name: str) -> None:
     """
     import argparse
 
-    from fg_tea.cli import DeprecatedAlias
+    from fg_tea.options import DeprecatedAlias
 
     parser.add_argument("--executor", choices=BACKENDS, default="process",
                         help="job runner: serial, a process pool over every core, or Ray "

@@ -38,9 +38,8 @@ from fg_tea.beliefs.structured import (MAX_OBJECTS, NumericalGuardError, PairWei
                                        StructuredLocationModel)
 from fg_tea.errors import ContradictionError
 from fg_tea.model import Effect, Model, Sensor
-from fg_tea.scenario import Scenario
+from fg_tea.scenario import MAX_STATES, Scenario  # noqa: F401 - MAX_STATES re-exported
 
-MAX_STATES = 20             # Bernoulli states held jointly in the state block
 GTSAM_MAP_LIMIT = 1 << 16   # joint states above which MAP uses the structured max-product chain
 DENSE_PREFERRED = 50_000    # joint states up to which "auto" prefers the dense joint table
 #: Several objects seen in one look (eq. 4 for each, docs/design.md §3.2): the collapses are
