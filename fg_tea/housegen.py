@@ -72,6 +72,9 @@ DOOR_VANTAGE_DEPTH = 0.75
 #: Distance (m) from a site position to its vantage.
 VANTAGE_RANGE = (1.0, 1.3)
 MAX_ROOM_ATTEMPTS = 60
+#: Floor plans tried before a seed is given up on: a plan whose room cannot be furnished or
+#: reached in MAX_ROOM_ATTEMPTS draws is replaced by the next plan of the same seed.
+MAX_PLAN_ATTEMPTS = 20
 
 # Room-type and furniture-type affordance weights per category (mug, kettle, teabag, milk, sugar):
 # kettles on kitchen counters, teabags and sugar on pantry/kitchen shelves, mugs on kitchen and
@@ -572,7 +575,23 @@ def generate_house(rooms: int, seed: int, objects=DEFAULT_OBJECTS, name: str | N
     """
     names = check_arguments(rooms, seed, objects)
     rooms, seed = int(rooms), int(seed)
-    rng = np.random.default_rng([seed, rooms, 0])
+    failures = []
+    for plan in range(MAX_PLAN_ATTEMPTS):
+        doc, why = _attempt_house(rooms, seed, plan, names, name)
+        if doc is not None:
+            return doc
+        failures.append(why)
+    raise RuntimeError(f"house generator: seed {seed} with {rooms} rooms gave no usable floor plan "
+                       f"in {MAX_PLAN_ATTEMPTS} attempts (last: {failures[-1]})")
+
+
+def _attempt_house(rooms: int, seed: int, plan: int, names: tuple[str, ...],
+                   name: str | None) -> tuple[dict | None, str]:
+    """One floor plan of the house: its document, or None and why a room could not be furnished
+    or reached. Plan 0 draws from the streams every earlier house was drawn from (so those houses
+    keep their bytes); plan k > 0 from streams that also carry k."""
+    tail = [plan] if plan else []
+    rng = np.random.default_rng([seed, rooms, 0] + tail)
     rects = _layout(rooms, rng)
     kitchen = int(rng.integers(len(rects)))
     rects = [rects[kitchen]] + rects[:kitchen] + rects[kitchen + 1:]
@@ -586,21 +605,22 @@ def generate_house(rooms: int, seed: int, objects=DEFAULT_OBJECTS, name: str | N
     todo = set(range(rooms))
     while True:
         for i in sorted(todo):
-            while not _furnish(house[i], i, doors, np.random.default_rng([seed, rooms, 1, i, attempts[i]])):
+            while not _furnish(house[i], i, doors,
+                               np.random.default_rng([seed, rooms, 1, i, attempts[i]] + tail)):
                 attempts[i] += 1
                 if attempts[i] >= MAX_ROOM_ATTEMPTS:
-                    raise RuntimeError(f"house generator: room {house[i].name!r} of seed {seed} "
-                                       f"could not be furnished in {MAX_ROOM_ATTEMPTS} attempts")
+                    return None, (f"room {house[i].name!r} could not be furnished in "
+                                  f"{MAX_ROOM_ATTEMPTS} attempts")
         start = house[start_room].vantages[0][1]
         doc = _document(house, rects, doors, names, seed, rooms, name, start, yaw)
         todo = _unreachable_rooms(doc, house)
         if not todo:
-            return doc
+            return doc, ""
         for i in todo:
             attempts[i] += 1
             if attempts[i] >= MAX_ROOM_ATTEMPTS:
-                raise RuntimeError(f"house generator: room {house[i].name!r} of seed {seed} "
-                                   f"has unreachable vantages after {MAX_ROOM_ATTEMPTS} attempts")
+                return None, (f"room {house[i].name!r} has unreachable vantages after "
+                              f"{MAX_ROOM_ATTEMPTS} attempts")
 
 
 def _document(house: list[Room], rects: list[Rect], doors: list[Door], names: tuple[str, ...], seed: int,

@@ -156,6 +156,18 @@ def test_generated_world_draws_a_house_per_world_seed():
     assert 0 < sum(water) < 40  # drawn from its prior
 
 
+def test_a_floor_plan_whose_room_cannot_be_furnished_is_replaced_by_the_next_plan():
+    # 6 rooms, seed 80: the first floor plan's kitchen cannot hold its furniture in any of its
+    # draws, so the generator falls back to the seed's second plan instead of failing the world.
+    from fg_tea import housegen
+
+    first, why = housegen._attempt_house(6, 80, 0, housegen.check_arguments(6, 80, housegen.DEFAULT_OBJECTS), None)
+    assert first is None and "could not be furnished" in why
+    doc = generate_house(6, 80)
+    scenario = parse_scenario(doc, "<x>")
+    assert len(scenario.sites) > 0 and doc == generate_house(6, 80)
+
+
 @pytest.mark.parametrize("edit,path", [
     (lambda d: d.__setitem__("base_scenario", "default_apartment"), "$.generate"),
     (lambda d: d["generate"].__setitem__("rooms", [2, 4]), "$.generate.rooms"),
