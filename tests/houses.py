@@ -23,3 +23,13 @@ def make_scenario(sites, objects, start=(0.0, 0.0)):
         "objects": [{"name": o, "category": c, "true_site": t, "semantic_id": i + 1}
                     for i, (o, c, t) in enumerate(objects)],
     })
+
+
+def set_at(path, value):
+    """An edit of a JSON-like document: set the item at `path` (keys and indices) to `value`."""
+    def edit(data):
+        node = data
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = value
+    return edit

@@ -27,6 +27,7 @@ import pytest
 
 from fg_tea.cli import main
 from fg_tea.errors import InputError
+from houses import set_at
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = json.loads((ROOT / "scenarios" / "default_apartment.json").read_text())
@@ -142,13 +143,6 @@ def _many_states(data):
     data["objects"][2]["state_priors"].update({f"s{i}": 0.5 for i in range(25)})
 
 
-def _set(path, value):
-    def edit(data):
-        node = data
-        for key in path[:-1]:
-            node = node[key]
-        node[path[-1]] = value
-    return edit
 
 
 MODEL_HEAD = 'extends = "factorised"\nname = "m"\n'
@@ -171,49 +165,49 @@ FILE_FAULTS = [
     ("extends chain", _extends_chain, ("$.extends", "longer than")),
     ("lone surrogate", _json(_scenario(lambda d: d["sites"][0].__setitem__("room", "\ud800"))),
      ("$.sites[0].room", "surrogate")),
-    ("nan yaw", _json(_scenario(_set(["start_pose", "yaw_deg"], float("nan")))),
+    ("nan yaw", _json(_scenario(set_at(["start_pose", "yaw_deg"], float("nan")))),
      ("$.start_pose.yaw_deg", "finite")),
-    ("infinite affordance", _json(_scenario(_set(["sites", 0, "affordances", "mug"], float("inf")))),
+    ("infinite affordance", _json(_scenario(set_at(["sites", 0, "affordances", "mug"], float("inf")))),
      ("$.sites[0].affordances.mug", "finite")),
-    ("1e308 affordance", _json(_scenario(_set(["sites", 0, "affordances", "mug"], 1e308))),
+    ("1e308 affordance", _json(_scenario(set_at(["sites", 0, "affordances", "mug"], 1e308))),
      ("$.sites[0].affordances.mug", "out of range")),
-    ("1e308 wall", _json(_scenario(_set(["house", "walls", 0, "to"], [1e308, 0]))),
+    ("1e308 wall", _json(_scenario(set_at(["house", "walls", 0, "to"], [1e308, 0]))),
      ("$.house.walls[0].to[0]", "out of range")),
-    ("1e5 coordinate", _json(_scenario(_set(["start_pose", "position"], [1e5, 3.4]))),
+    ("1e5 coordinate", _json(_scenario(set_at(["start_pose", "position"], [1e5, 3.4]))),
      ("$.start_pose.position[0]", "out of range")),
     ("nan model weight", _text(MODEL_HEAD + "[planning]\ndistance_weight = nan\n"),
      ("$.planning.distance_weight", "finite")),
     ("too many states", _json(_scenario(_many_states)), ("$.objects", "at most 20")),
-    ("no objects", _json(_scenario(_set(["objects"], []))), ("$.objects", "at least one object")),
+    ("no objects", _json(_scenario(set_at(["objects"], []))), ("$.objects", "at least one object")),
     ("misspelt model key", _text(MODEL_HEAD + '[beliefs]\nstrcture = "joint"\n'),
      ("$.beliefs.strcture", "did you mean 'structure'")),
     ("misspelt model table", _text(MODEL_HEAD + "[planing]\ninformation_weight = 0\n"),
      ("$.planing", "did you mean 'planning'")),
-    ("misspelt scenario key", _json(_scenario(_set(["sites", 0, "capacty"], 1))),
+    ("misspelt scenario key", _json(_scenario(set_at(["sites", 0, "capacty"], 1))),
      ("$.sites[0].capacty", "did you mean 'capacity'")),
-    ("misspelt top-level key", _json(_scenario(_set(["preparaton_site"], "sideboard"))),
+    ("misspelt top-level key", _json(_scenario(set_at(["preparaton_site"], "sideboard"))),
      ("$.preparaton_site", "did you mean 'preparation_site'")),
-    ("misspelt world key", _json(_world(_set(["placement", "prior_violaton"], 0.2)), "w.json"),
+    ("misspelt world key", _json(_world(set_at(["placement", "prior_violaton"], 0.2)), "w.json"),
      ("$.placement.prior_violaton", "did you mean 'prior_violation'")),
-    ("vantage in furniture", _json(_scenario(_set(["sites", 0, "vantage_position"], [2.0, 0.35, 0.0]))),
+    ("vantage in furniture", _json(_scenario(set_at(["sites", 0, "vantage_position"], [2.0, 0.35, 0.0]))),
      ("$.sites[0].vantage_position", "not on free floor")),
-    ("vantage in a wall", _json(_scenario(_set(["sites", 1, "vantage_position"], [1.0, 4.0, 0.0]))),
+    ("vantage in a wall", _json(_scenario(set_at(["sites", 1, "vantage_position"], [1.0, 4.0, 0.0]))),
      ("$.sites[1].vantage_position", "not on free floor")),
-    ("vantage off the floor", _json(_scenario(_set(["sites", 1, "vantage_position"], [-3.0, 2.8, 0.0]))),
+    ("vantage off the floor", _json(_scenario(set_at(["sites", 1, "vantage_position"], [-3.0, 2.8, 0.0]))),
      ("$.sites[1].vantage_position",)),
     ("vantage unreachable", _json(_scenario(lambda d: d["house"]["walls"][6].pop("doorways"))),
      ("$.sites[7].vantage_position", "not reachable from the start")),
     ("lone surrogate in a site name", _json(_scenario(lambda d: d["sites"][0].__setitem__("name", "k\ud800"))),
      ("$.sites[0].name", "surrogate")),
-    ("vantage far from site", _json(_scenario(_set(["sites", 0, "vantage_position"], [2.0, 4.8, 0.0]))),
+    ("vantage far from site", _json(_scenario(set_at(["sites", 0, "vantage_position"], [2.0, 4.8, 0.0]))),
      ("$.sites[0].vantage_position", "at most 4 m")),
-    ("surface below floor", _json(_scenario(_set(["sites", 0, "position"], [2.0, 0.35, -1.0]))),
+    ("surface below floor", _json(_scenario(set_at(["sites", 0, "position"], [2.0, 0.35, -1.0]))),
      ("$.sites[0].position", "below the floor")),
-    ("nan size", _json(_scenario(_set(["house", "furniture", 0, "size"], [float("nan"), 1, 1]))),
+    ("nan size", _json(_scenario(set_at(["house", "furniture", 0, "size"], [float("nan"), 1, 1]))),
      ("$.house.furniture[0].size[0]", "finite")),
-    ("zero size", _json(_scenario(_set(["house", "furniture", 0, "size"], [0, 1, 1]))),
+    ("zero size", _json(_scenario(set_at(["house", "furniture", 0, "size"], [0, 1, 1]))),
      ("$.house.furniture[0].size", "positive")),
-    ("duplicate order", _json(_world(_set(["placement", "order"], ["kettle", "kettle", "mug"])), "w.json"),
+    ("duplicate order", _json(_world(set_at(["placement", "order"], ["kettle", "kettle", "mug"])), "w.json"),
      ("$.placement.order[1]", "twice")),
     ("self anchor", _json(_world(lambda d: d["placement"]["co_location"][0].__setitem__("anchor", "teabag")),
                           "w.json"), ("$.placement.co_location[0].anchor", "own anchor")),
@@ -270,7 +264,7 @@ def test_free_form_name_tables_and_new_keys_are_accepted(tmp_path):
     model = tmp_path / "vis.toml"
     model.write_text(VISIBILITY_MODEL)
     scenario = tmp_path / "rv.json"
-    scenario.write_text(json.dumps(_scenario(_set(["room_vantages"], [
+    scenario.write_text(json.dumps(_scenario(set_at(["room_vantages"], [
         {"name": "kitchen_glance", "room": SCENARIO["sites"][0]["room"], "position": [2.0, 1.6]}]))))
     status, out, err = cli(["validate", model, scenario])
     assert status == 0, err
@@ -352,7 +346,7 @@ def test_unwritable_out_is_one_line(command, where, a_file, short_log):
 def test_scenario_name_cannot_escape_the_output_folder(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     path = tmp_path / "s.json"
-    path.write_text(json.dumps(_scenario(_set(["name"], "../../escaped"))))
+    path.write_text(json.dumps(_scenario(set_at(["name"], "../../escaped"))))
     status, _, err = cli(["run", path, "--no-video", "--max-frames", "5"])
     assert status in (0, 1), err
     written = [p for p in tmp_path.rglob("episode.jsonl")]

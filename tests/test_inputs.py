@@ -12,6 +12,7 @@ from fg_tea.cli import main
 from fg_tea.errors import InputError
 from fg_tea.model import load_model
 from fg_tea.scenario import load_scenario
+from houses import set_at
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT = json.loads((ROOT / "scenarios" / "default_apartment.json").read_text())
@@ -23,13 +24,6 @@ def _mutated(edit):
     return data
 
 
-def _set(path, value):
-    def edit(data):
-        node = data
-        for key in path[:-1]:
-            node = node[key]
-        node[path[-1]] = value
-    return edit
 
 
 def _delete(path):
@@ -44,31 +38,31 @@ def _delete(path):
 SCENARIO_FAULTS = [
     # (id, edit, expected JSON path, expected words in the fault)
     ("missing field", _delete(["objects", 0, "semantic_id"]), "$.objects[0].semantic_id", "missing required field"),
-    ("mistyped field", _set(["sites", 1, "room"], 7), "$.sites[1].room", "expected a string"),
-    ("mistyped vector", _set(["sites", 0, "position"], [1.0, 2.0]), "$.sites[0].position", "expected 3 numbers"),
-    ("unknown schema version", _set(["schema_version"], 3), "$.schema_version", "unknown schema version 3"),
-    ("undefined true site", _set(["objects", 0, "true_site"], "attic"), "$.objects[0].true_site",
+    ("mistyped field", set_at(["sites", 1, "room"], 7), "$.sites[1].room", "expected a string"),
+    ("mistyped vector", set_at(["sites", 0, "position"], [1.0, 2.0]), "$.sites[0].position", "expected 3 numbers"),
+    ("unknown schema version", set_at(["schema_version"], 3), "$.schema_version", "unknown schema version 3"),
+    ("undefined true site", set_at(["objects", 0, "true_site"], "attic"), "$.objects[0].true_site",
      "'attic' is referenced but not defined"),
-    ("undefined preparation site", _set(["preparation_site"], "garage"), "$.preparation_site",
+    ("undefined preparation site", set_at(["preparation_site"], "garage"), "$.preparation_site",
      "'garage' is referenced but not defined"),
-    ("undefined furniture", _set(["sites", 2, "furniture"], "piano"), "$.sites[2].furniture",
+    ("undefined furniture", set_at(["sites", 2, "furniture"], "piano"), "$.sites[2].furniture",
      "'piano' is referenced but not defined"),
-    ("duplicate site name", _set(["sites", 1, "name"], "kitchen_counter"), "$.sites[1].name",
+    ("duplicate site name", set_at(["sites", 1, "name"], "kitchen_counter"), "$.sites[1].name",
      "duplicate site name"),
-    ("duplicate object name", _set(["objects", 1, "name"], "mug"), "$.objects[1].name", "duplicate object name"),
-    ("duplicate semantic id", _set(["objects", 2, "semantic_id"], 9001), "$.objects[2].semantic_id",
+    ("duplicate object name", set_at(["objects", 1, "name"], "mug"), "$.objects[1].name", "duplicate object name"),
+    ("duplicate semantic id", set_at(["objects", 2, "semantic_id"], 9001), "$.objects[2].semantic_id",
      "duplicate semantic id 9001"),
-    ("negative affordance", _set(["sites", 3, "affordances", "mug"], -0.2), "$.sites[3].affordances.mug",
+    ("negative affordance", set_at(["sites", 3, "affordances", "mug"], -0.2), "$.sites[3].affordances.mug",
      "negative weight"),
     ("all-zero affordances", lambda d: [s["affordances"].__setitem__("kettle", 0.0) for s in d["sites"]],
      "$.objects[1].category", "zero"),
-    ("probability above 1", _set(["objects", 1, "state_priors", "contains_water"], 1.4),
+    ("probability above 1", set_at(["objects", 1, "state_priors", "contains_water"], 1.4),
      "$.objects[1].state_priors.contains_water", "outside [0, 1]"),
-    ("probability below 0", _set(["objects", 0, "state_priors", "water_hot"], -0.1),
+    ("probability below 0", set_at(["objects", 0, "state_priors", "water_hot"], -0.1),
      "$.objects[0].state_priors.water_hot", "outside [0, 1]"),
-    ("truth without prior", _set(["objects", 2, "hidden_state_truth", "soggy"], True),
+    ("truth without prior", set_at(["objects", 2, "hidden_state_truth", "soggy"], True),
      "$.objects[2].hidden_state_truth.soggy", "no entry in state_priors"),
-    ("doorway off the wall", _set(["house", "walls", 4, "doorways", 0, "at"], 3.9),
+    ("doorway off the wall", set_at(["house", "walls", 4, "doorways", 0, "at"], 3.9),
      "$.house.walls[4].doorways[0]", "outside the wall"),
 ]
 
