@@ -50,6 +50,7 @@ import shlex
 import statistics
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -103,6 +104,10 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="object categories whose curve the detectability table changes")
     p.add_argument("--timing-worlds", type=int, default=2,
                    help="worlds per house size whose decisions are timed in-process (0: none)")
+    p.add_argument("--gtsam-check", action="store_true",
+                   help="cross-check every episode's final belief against gtsam, as `fg-tea run` does "
+                   "(docs/design.md §4.7); off by default here: it changes no row and is most of an "
+                   "episode's cost with five objects")
     add_execution_arguments(p, "episodes.csv")
     p.add_argument("--out", default=DEFAULT_OUT,
                    help="output folder; each table writes into OUT/TABLE (default: %(default)s)")
@@ -196,7 +201,8 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
         try:
             runner = EpisodeRunner(scenario, model, env, RunConfig(seed=job.seed, planner=job.planner,
                                                                     max_frames=job.max_frames,
-                                                                    task=job.task))
+                                                                    task=job.task,
+                                                                    gtsam_check=job.gtsam_check))
             choose, times = runner.planner.choose, samples.setdefault(
                 (job.world, job.task, model.name, model.structure, job.planner), [])
 
@@ -359,6 +365,7 @@ def main(argv=None) -> int:
     out = Path(args.out) / args.table
     out.mkdir(parents=True, exist_ok=True)
     jobs, cells = plan(args, out)
+    jobs = [replace(j, gtsam_check=args.gtsam_check) for j in jobs]
     csv_path = out / "episodes.csv"
     before = 0
     if args.resume and csv_path.exists():

@@ -109,6 +109,8 @@ class Job:
             whose planner re-inspects the site it stands at (zero travel, zero frames) forever;
             such an episode is stopped here and recorded with reason ``"step_limit: ..."``.
         task: the task graph (bundled name or path), ``make_tea`` by default.
+        gtsam_check: cross-check the final belief against gtsam (``RunConfig.gtsam_check``). It
+            changes only the log's ``gtsam_agreement``, never a row, so it is not part of the key.
 
     Mappings are stored as sorted tuples of pairs, so jobs are hashable and keys are stable.
     """
@@ -125,6 +127,7 @@ class Job:
     max_frames: int = 50_000
     max_steps: int = 2_000
     task: str = "make_tea"
+    gtsam_check: bool = True
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -397,7 +400,8 @@ def run_job(job: Job) -> dict[str, Any]:
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=job.planner,
                                                                 max_frames=job.max_frames,
-                                                                task=job.task),
+                                                                task=job.task,
+                                                                gtsam_check=job.gtsam_check),
                                world=job.world)
         runner.start()  # the prior; max_steps counts the steps that carry out actions
         for _ in range(job.max_steps):

@@ -174,6 +174,22 @@ def test_log_is_event_sourced_and_rescorable(tmp_path):
     assert events[-2]["gtsam_agreement"] < 1e-9
 
 
+def test_switching_the_gtsam_check_off_changes_only_its_field(tmp_path):
+    """Sweeps skip the end-of-episode gtsam cross-check; every other event stays byte-identical."""
+    logs = {}
+    for check in (True, False):
+        path = tmp_path / f"check_{check}.jsonl"
+        run_episode("default_apartment", "joint", env_cls=FakeHouse, log_path=path, gtsam_check=check)
+        logs[check] = read_log(path)
+    on, off = logs[True], logs[False]
+    assert on[-2]["gtsam_agreement"] < 1e-9 and off[-2]["gtsam_agreement"] is None
+    assert on[0]["parameters"]["run"]["gtsam_check"] is True
+    assert off[0]["parameters"]["run"]["gtsam_check"] is False  # the log says the check was off
+    off[-2]["gtsam_agreement"] = on[-2]["gtsam_agreement"]
+    off[0]["parameters"]["run"]["gtsam_check"] = True
+    assert on == off
+
+
 def test_crash_leaves_a_valid_log(tmp_path):
     path = tmp_path / "episode.jsonl"
     s, m = load_scenario("default_apartment"), load_model("factorised")

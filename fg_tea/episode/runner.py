@@ -60,6 +60,10 @@ class RunConfig:
     snapshot_every_event: bool = True
     #: Task-level reopenings allowed per episode (``fg_tea.tasks.executor.MAX_REOPENINGS``).
     max_reopenings: int = MAX_REOPENINGS
+    #: Cross-check the final belief against gtsam at the episode's end (docs/design.md §4.7). It
+    #: is the costliest step of a many-object episode; sweeps that keep only metrics may skip it,
+    #: and the log then records ``"gtsam_agreement": null``.
+    gtsam_check: bool = True
 
 
 def env_config_for(model: Model, base: EnvConfig | None = None, **overrides) -> EnvConfig:
@@ -469,9 +473,11 @@ class EpisodeRunner:
         """The end-of-episode disagreement with gtsam, or None where gtsam cannot hold the
         belief: a capacity factor is one dense table over all objects, and above the dense limit
         only the subset dynamic program (with its own numerical guard, docs/design.md §4.4)
-        answers."""
+        answers, or where the run switched the check off (:attr:`RunConfig.gtsam_check`)."""
         from fg_tea.beliefs.graph import DENSE_LIMIT
 
+        if not self.config.gtsam_check:
+            return None
         graph = self.belief.graph
         if graph.capacity_active and graph.joint_size > DENSE_LIMIT:
             return None
