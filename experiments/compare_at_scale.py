@@ -35,10 +35,14 @@ Long sweeps: ``--executor ray --address auto`` (or ``ray://head:10001``) runs th
 tasks on a cluster with fg_tea installed on every node; the CSV is the same bytes as on the
 process pool.
 
-Joint beliefs with exact mutual information need the dense joint K^N today, so on 24-48 sites,
-or with five objects, ``mi_efe`` with a joint model can refuse (dense limit) or be slow until the
-structured mutual information lands; such episodes stop the sweep with the error named. Run
-``--sizes small`` (or ``--looks close``) meanwhile.
+The houses report covers every row of its CSV whose model is one of ``--looks``' pair, not only
+the episodes the last command planned: cells run by separate commands (for example fewer worlds
+for the 45-site houses) share one report, each with its own number of pairs, and
+``commands.txt`` in the table's folder lists every command that added rows. Decision times merge
+the same way (a new measurement of a configuration replaces the old one).
+
+Above 50,000 joint states joint ``efe`` and ``mi_efe`` take the exact gain from the subset dynamic
+program (docs/design.md §6.2), so every house size and both tasks run with every planner.
 """
 
 from __future__ import annotations
@@ -60,8 +64,8 @@ from fg_tea.analysis import (markdown_table, paired_differences, save_figure,  #
                              summary_markdown, summary_table)
 from fg_tea.errors import InputError  # noqa: E402
 from fg_tea.files import atomic_write_text  # noqa: E402
-from fg_tea.sweep import (Job, add_execution_arguments, plan_sweep, run_sweep,  # noqa: E402
-                          write_csv_atomic)
+from fg_tea.sweep import (Job, add_execution_arguments, parse_cell, plan_sweep,  # noqa: E402
+                          read_rows, run_sweep, write_csv_atomic)
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}
@@ -237,6 +241,27 @@ def _natural(value):
     return (2, 0.0, str(value))
 
 
+def house_cell(world: str) -> dict | None:
+    """The houses table's cell (size, task) of a world name, or None for another world."""
+    for size, base in SIZES.items():
+        for task, suffix in TASKS.items():
+            if world == base + suffix:
+                return {"size": size, "task": task}
+    return None
+
+
+def merged_times(path: Path, times: list[dict]) -> list[dict]:
+    """Earlier decision times in `path`, with this run's measurements replacing theirs."""
+    ident = ("world", "task", "model", "structure", "planner")
+    earlier = []
+    if path.exists():
+        with path.open(newline="", encoding="utf-8") as fh:
+            earlier = [{k: parse_cell(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+    merged = {tuple(t[c] for c in ident): t for t in earlier}
+    merged.update({tuple(t[c] for c in ident): t for t in times})
+    return sorted(merged.values(), key=lambda t: tuple(str(t[c]) for c in ident))
+
+
 def cell_of(rows: list[dict], cells: dict[str, dict], columns: tuple[str, ...]) -> list[dict]:
     out = []
     for r in rows:
@@ -375,13 +400,28 @@ def main(argv=None) -> int:
     rows = run_sweep(jobs, csv_path, args.executor, workers=args.workers or None,
                      address=args.address, resume=args.resume, label=f"compare_at_scale {args.table}")
     seconds = time.perf_counter() - t0
-    ran = max(len(rows) - before, 0)
+    ran = max(len(read_rows(csv_path)) - before, 0)  # rows this command added
+    command = shlex.join(["python", "experiments/compare_at_scale.py",
+                          *(sys.argv[1:] if argv is None else argv)])
+    cell_map = {c["key"]: c for c in cells}
+    commands = [command]
+    if args.table == "houses":
+        # One report for every cell in the CSV, whichever command ran it (see the module doc).
+        models = set(LOOKS[args.looks])
+        rows = [r for r in read_rows(csv_path) if r["model"] in models and house_cell(r["world"])]
+        cell_map = {r["key"]: house_cell(r["world"]) for r in rows}
+        log = out / "commands.txt"
+        earlier = log.read_text(encoding="utf-8").splitlines() if log.exists() else []
+        if ran and command not in earlier:
+            earlier.append(command)
+            atomic_write_text(log, "\n".join(earlier) + "\n")
+        commands = earlier or commands
     times = decision_times(jobs, args.timing_worlds) if args.timing_worlds > 0 else []
+    if args.table == "houses":
+        times = merged_times(out / "decision_times.csv", times)
     if times:
         write_csv_atomic(out / "decision_times.csv", times)
-    argv_shown = ["python", "experiments/compare_at_scale.py", *(sys.argv[1:] if argv is None else argv)]
-    path = report(args, out, rows, {c["key"]: c for c in cells}, times, shlex.join(argv_shown),
-                  seconds, ran)
+    path = report(args, out, rows, cell_map, times, "\n    ".join(commands), seconds, ran)
     print(f"episodes: {csv_path} ({len(rows)} rows); report: {path}")
     return 0
 

@@ -51,6 +51,26 @@ def test_compare_at_scale_tiny_fake_run_writes_every_table_and_resumes(tmp_path)
     assert (table / "episodes.csv").read_bytes() == before
 
 
+def test_houses_report_covers_cells_run_by_separate_commands(tmp_path):
+    """A second command with another task and fewer worlds joins the first one's report."""
+    table = tmp_path / "houses"
+    common = ("experiments/compare_at_scale.py", "--table", "houses", "--sizes", "small",
+              "--planners", "factorised_efe", "--env", "fake", "--executor", "serial",
+              "--timing-worlds", "1", "--out", str(tmp_path))
+    _run(*common, "--worlds", "2", "--tasks", "make_tea")
+    _run(*common, "--worlds", "1", "--tasks", "make_tea_milk_sugar")
+    with (table / "houses_paired.csv").open(newline="") as fh:
+        pairs = {r["task"]: r["pairs"] for r in csv.DictReader(fh)}
+    assert pairs == {"make_tea": "2", "make_tea_milk_sugar": "1"}
+    commands = (table / "commands.txt").read_text().splitlines()
+    assert len(commands) == 2 and "make_tea_milk_sugar" in commands[1]
+    text = (table / "houses.md").read_text()
+    assert commands[0] in text and commands[1] in text
+    with (table / "decision_times.csv").open(newline="") as fh:
+        times = list(csv.DictReader(fh))
+    assert {t["task"] for t in times} == {"make_tea", "make_tea_milk_sugar"}  # merged, not replaced
+
+
 def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
     table = tmp_path / "detectability"
     _run("experiments/compare_at_scale.py", "--table", "detectability", "--worlds", "2", "--sizes",
