@@ -35,7 +35,7 @@ Long sweeps: ``--executor ray --address auto`` (or ``ray://head:10001``) runs th
 tasks on a cluster with fg_tea installed on every node; the CSV is the same bytes as on the
 process pool.
 
-The houses report covers every row of its CSV whose model is one of ``--looks``' pair, not only
+Each report covers every row of its CSV whose model is one of ``--looks``' pair, not only
 the episodes the last command planned: cells run by separate commands (for example fewer worlds
 for the 45-site houses) share one report, each with its own number of pairs, and
 ``commands.txt`` in the table's folder lists every command that added rows. Decision times merge
@@ -250,6 +250,24 @@ def house_cell(world: str) -> dict | None:
     return None
 
 
+def row_cell(row: dict, table: str, models: tuple[str, ...]) -> dict | None:
+    """The cell of an episode row in `table`, or None if the row belongs to no cell of it.
+
+    Rows are matched by what they are, not by the command that ran them: the houses table by
+    world name, the detectability table by world size, the model file's n_50 tag (written by
+    :func:`detectability_models`) and the world knobs of :func:`strength_knobs`.
+    """
+    if table == "houses":
+        return house_cell(str(row["world"])) if row["model"] in models else None
+    base, sep, n50 = str(row["model"]).partition("_n50_")
+    size = next((k for k, v in SIZES.items() if v == row["world"]), None)
+    if not sep or base not in models or size is None:
+        return None
+    knobs = dict(kv.split("=") for kv in str(row["knobs"] or "").split(",") if "=" in kv)
+    strength = round(float(knobs.get("same_site", 0)) + float(knobs.get("same_room", 0)), 9)
+    return {"size": size, "half_pixels": float(n50), "strength": strength}
+
+
 def merged_times(path: Path, times: list[dict]) -> list[dict]:
     """Earlier decision times in `path`, with this run's measurements replacing theirs."""
     ident = ("world", "task", "model", "structure", "planner")
@@ -389,8 +407,7 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     out = Path(args.out) / args.table
     out.mkdir(parents=True, exist_ok=True)
-    jobs, cells = plan(args, out)
-    jobs = [replace(j, gtsam_check=args.gtsam_check) for j in jobs]
+    jobs = [replace(j, gtsam_check=args.gtsam_check) for j in plan(args, out)[0]]
     csv_path = out / "episodes.csv"
     before = 0
     if args.resume and csv_path.exists():
@@ -403,22 +420,18 @@ def main(argv=None) -> int:
     ran = max(len(read_rows(csv_path)) - before, 0)  # rows this command added
     command = shlex.join(["python", "experiments/compare_at_scale.py",
                           *(sys.argv[1:] if argv is None else argv)])
-    cell_map = {c["key"]: c for c in cells}
-    commands = [command]
-    if args.table == "houses":
-        # One report for every cell in the CSV, whichever command ran it (see the module doc).
-        models = set(LOOKS[args.looks])
-        rows = [r for r in read_rows(csv_path) if r["model"] in models and house_cell(r["world"])]
-        cell_map = {r["key"]: house_cell(r["world"]) for r in rows}
-        log = out / "commands.txt"
-        earlier = log.read_text(encoding="utf-8").splitlines() if log.exists() else []
-        if ran and command not in earlier:
-            earlier.append(command)
-            atomic_write_text(log, "\n".join(earlier) + "\n")
-        commands = earlier or commands
+    # One report for every cell in the CSV, whichever command ran it (see the module doc).
+    models = LOOKS[args.looks]
+    rows = [r for r in read_rows(csv_path) if row_cell(r, args.table, models)]
+    cell_map = {r["key"]: row_cell(r, args.table, models) for r in rows}
+    log = out / "commands.txt"
+    commands = log.read_text(encoding="utf-8").splitlines() if log.exists() else []
+    if ran and command not in commands:
+        commands.append(command)
+        atomic_write_text(log, "\n".join(commands) + "\n")
+    commands = commands or [command]
     times = decision_times(jobs, args.timing_worlds) if args.timing_worlds > 0 else []
-    if args.table == "houses":
-        times = merged_times(out / "decision_times.csv", times)
+    times = merged_times(out / "decision_times.csv", times)
     if times:
         write_csv_atomic(out / "decision_times.csv", times)
     path = report(args, out, rows, cell_map, times, "\n    ".join(commands), seconds, ran)
