@@ -56,6 +56,9 @@ CHUNK_ENTRIES = 1 << 16  # looks per step of the out-of-view tables: about this 
                          # a megabyte, a core's L2 cache here; larger batches measured slower)
 OUTCOME_LIMIT = 1 << 17  # entries of one object's P(L_o = a, Y_{-o}) table before restricting
 MI_TOLERANCE = 1e-12     # gains are clipped at 0 from below within this tolerance
+BOUND_TOLERANCE = 1e-9   # nats each bound of gain_bounds is widened by: far above the rounding of
+                         # either side (agreement with brute force is checked to 1e-9 and holds
+                         # to about 1e-13), far below any difference of scores that matters
 MATRIX_OBJECTS = 9       # up to this many objects, batches of subset convolutions with one
                          # shared operand run as one dense 2^N x 2^N matrix product (BLAS): 4^N
                          # multiplications instead of 3^N gathered ones, faster up to about N = 9
@@ -294,39 +297,50 @@ class JointViewGain:
                 oa[sm.room_sites[r]] = alg.conv(split, excl)
         return sm.rho * oa[:, :, self.comp]
 
-    def _close_weights(self, r0: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-        """W_v and W_{v,o,a} of the close look at every site of room r0 (see _view_weights)."""
-        cached = self._close.get(r0)
-        if cached is not None:
-            return cached
+    def _close_weights(self, r0: int, wanted: Sequence[int] | None = None
+                       ) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """W_v and W_{v,o,a} of the close looks at the `wanted` sites of room r0 (default: every
+        site of the room), see _view_weights; cached per site, so a later call computes only
+        the sites not yet asked for. Each site's weights are computed the same way whichever
+        other sites are asked for with it."""
+        cached = self._close.setdefault(r0, {})
         sm, alg = self.sm, self.alg
         room = [int(j) for j in sm.room_sites[r0]]
-        excl = np.stack(sm._excl[r0])                         # C_{R∖j} for each j, (L, 2^N)
+        want = set(room if wanted is None else (int(j) for j in wanted))
+        sel = [t for t, j in enumerate(room) if j in want and j not in cached]
+        if not sel:
+            return cached
+        excl = np.stack([sm._excl[r0][t] for t in sel])       # C_{R∖j} for each j, (L', 2^N)
         w_room = sm._w[r0]
         out = self._room_out(r0)
-        w_v = alg.completions(excl, w_room)                   # (L, 2^N)
+        w_v = alg.completions(excl, w_room)                   # (L', 2^N)
         outside = np.array([a for a in range(self.k) if int(sm.room_of[a]) != r0], dtype=int)
-        w_oa = np.zeros((len(room), self.k, self.n, self.red.shape[1]))
+        w_oa = np.zeros((len(sel), self.k, self.n, self.red.shape[1]))
         if len(outside):
             w_oa[:, outside] = self._completions_without_o(excl, out[outside])
         # o at another site a of the same room: W_{v,o,a}(T) = sum_{B ∋ o, B disjoint T}
         # g_a(B) D_{ja}(T ⊔ B) with D_{ja} = completions(C_{R∖{j,a}}, W_R) (completing by a
         # convolution is completing by each factor in turn), for the sets T without o.
-        # C_{R∖{j,a}} for every pair from the room's prefix and suffix products (j before a:
-        # sites before j, those between j and a, those after a).
+        # C_{R∖{j,a}} for every pair with j asked for, from the room's prefix and suffix
+        # products (the sites before the earlier of j and a, those between them, those after
+        # the later one).
         n_s = len(room)
         pre, suf = sm.pre[r0], sm.suf[r0]
+        chosen = set(sel)
         c_pair: dict[tuple[int, int], np.ndarray] = {}
         for ti in range(n_s - 1):
+            last = n_s - 1 if ti in chosen else max((t for t in chosen if t > ti), default=ti)
+            if last <= ti:
+                continue
             accs = [pre[ti]]
-            for ta in range(ti + 1, n_s - 1):
+            for ta in range(ti + 1, last):
                 accs.append(alg.conv(accs[-1], sm.g[room[ta]]))
-            both = alg.conv(np.stack(accs), np.stack([suf[ta + 1] for ta in range(ti + 1, n_s)]))
-            for x, ta in enumerate(range(ti + 1, n_s)):
+            both = alg.conv(np.stack(accs), np.stack([suf[ta + 1] for ta in range(ti + 1, last + 1)]))
+            for x, ta in enumerate(range(ti + 1, last + 1)):
                 c_pair[(ti, ta)] = c_pair[(ta, ti)] = both[x]
-        pairs = [(t, room[ta]) for t in range(n_s) for ta in range(n_s) if ta != t]
+        pairs = [(x, room[ta]) for x, t in enumerate(sel) for ta in range(n_s) if ta != t]
         if pairs:
-            c_rest = np.stack([c_pair[(t, ta)] for t in range(n_s) for ta in range(n_s) if ta != t])
+            c_rest = np.stack([c_pair[(t, ta)] for t in sel for ta in range(n_s) if ta != t])
             if self.n <= MATRIX_OBJECTS:
                 d = c_rest @ alg.completion_matrix(w_room)
             else:
@@ -334,8 +348,8 @@ class JointViewGain:
             t_idx = np.array([p[0] for p in pairs])
             a_idx = np.array([p[1] for p in pairs])
             w_oa[t_idx, a_idx] = self._place_o(sm.g[a_idx], d)
-        cached = {j: (w_v[t], w_oa[t]) for t, j in enumerate(room)}
-        self._close[r0] = cached
+        for x, t in enumerate(sel):
+            cached[room[t]] = (w_v[x], w_oa[x])
         return cached
 
     def _place_o(self, g: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -386,7 +400,7 @@ class JointViewGain:
         if not rest:                                           # a glance over the whole room
             return sm._w[r0], self._room_out(r0)
         if len(sites) == 1:
-            return self._close_weights(r0)[int(sites[0])]
+            return self._close_weights(r0, [int(sites[0])])[int(sites[0])]
         pre = [alg.delta()]
         for j in rest:
             pre.append(alg.conv(pre[-1], sm.g[j]))
@@ -586,42 +600,121 @@ class JointViewGain:
         """
         return self.gains([(sites, prob)])[:, 0]
 
-    def gains(self, views: Sequence[tuple[Sequence[int], np.ndarray]]) -> np.ndarray:
+    def gains(self, views: Sequence[tuple[Sequence[int], np.ndarray]],
+              need: np.ndarray | None = None) -> np.ndarray:
         """I(L_u ; Y_v) for every observed u and view, shape (len(observed), len(views)), nats.
 
         Looks with the same number of in-view sites are evaluated together.
+
+        Args:
+            views: (in-view sites, p_{u,c} of shape (len(observed), m)) per look.
+            need: optional boolean mask, shape (len(observed), len(views)): the gains asked
+                for. Only looks with some gain asked for are evaluated, and within them only the
+                objects asked for in some look of the same batch; every gain not computed is NaN.
+                A computed gain has the same value as without the mask. None = every gain.
         """
         self.restricted = 0
         n_obs = len(self.observed)
-        out = np.zeros((n_obs, len(views)))
+        if need is None:
+            need = np.ones((n_obs, len(views)), dtype=bool)
+        need = np.asarray(need, dtype=bool)
+        if need.shape != (n_obs, len(views)):
+            raise ValueError(f"need has shape {need.shape}, expected {(n_obs, len(views))}")
+        out = np.full((n_obs, len(views)), np.nan)
+        view_sites = [[int(j) for j in v[0]] for v in views]
+        active = [c for c in range(len(views)) if need[:, c].any()]
+        close: dict[int, list[int]] = {}          # the close looks of each room, done together
+        for c in active:
+            if len(view_sites[c]) == 1:
+                close.setdefault(int(self.sm.room_of[view_sites[c][0]]), []).append(view_sites[c][0])
+        for r0, wanted in close.items():
+            self._close_weights(r0, wanted)
         groups: dict[int, list[int]] = {}
-        weights = []
-        for c, (view_sites, _) in enumerate(views):
-            weights.append(self._view_weights([int(j) for j in view_sites]))
-            groups.setdefault(len(view_sites), []).append(c)
+        weights = {}
+        for c in active:
+            weights[c] = self._view_weights(view_sites[c])
+            groups.setdefault(len(view_sites[c]), []).append(c)
         order = np.argsort(self.observed)
         tracked_all = sorted(self.observed)
+        pos = {u: p for p, u in enumerate(self.observed)}
         for m, members in groups.items():
-            sites = np.array([[int(j) for j in views[c][0]] for c in members], dtype=int)
-            probs = np.stack([np.asarray(views[c][1], float).reshape(n_obs, m) for c in members])
-            w_v = np.stack([weights[c][0] for c in members])
-            w_oa = np.stack([weights[c][1] for c in members])
             if self._exact(m):
-                g = self._batch(sites, probs[:, order], tracked_all, range(n_obs), w_v, w_oa)
-                out[np.asarray(order)[:, None], np.array(members)[None, :]] = g.T
+                wanted = need[:, members].any(axis=1)                 # constructor order
+                targets = [i for i in range(n_obs) if wanted[order[i]]]
+                g = self._batch_of(views, members, m, order, tracked_all, targets, weights)
+                out[order[targets][:, None], np.array(members)[None, :]] = g.T
                 continue
-            pos = {u: p for p, u in enumerate(self.observed)}
             by_set: dict[tuple[int, ...], list[int]] = {}     # objects sharing a tracked set
             for o in self.observed:
                 by_set.setdefault(tuple(self._tracked_for(o, m)), []).append(o)
             for tracked_set, objs in by_set.items():
+                objs = [o for o in objs if need[pos[o], members].any()]
+                looks = [c for c in members if need[[pos[o] for o in objs], c].any()]
+                if not looks:
+                    continue
                 tracked = list(tracked_set)
-                g = self._batch(sites, probs[:, [pos[u] for u in tracked]], tracked,
-                                [tracked.index(o) for o in objs], w_v, w_oa)
+                g = self._batch_of(views, looks, m, [pos[u] for u in tracked], tracked,
+                                   [tracked.index(o) for o in objs], weights)
                 for i, o in enumerate(objs):
-                    out[pos[o], members] = g[:, i]
-                self.restricted += len(members) * len(objs)
+                    out[pos[o], looks] = g[:, i]
+                self.restricted += len(looks) * len(objs)
         return out
 
+    def _batch_of(self, views, looks: list[int], m: int, rows, tracked: Sequence[int],
+                  targets: Sequence[int], weights: dict) -> np.ndarray:
+        """_batch over the looks `looks` (indices into views) of m sites each; `rows` picks the
+        tracked objects' rows of each look's p_{u,c}."""
+        n_obs = len(self.observed)
+        sites = np.array([[int(j) for j in views[c][0]] for c in looks], dtype=int)
+        probs = np.stack([np.asarray(views[c][1], float).reshape(n_obs, m) for c in looks])
+        w_v = np.stack([weights[c][0] for c in looks])
+        w_oa = np.stack([weights[c][1] for c in looks])
+        return self._batch(sites, probs[:, rows], tracked, targets, w_v, w_oa)
 
-__all__ = ["JointViewGain", "OUTCOME_LIMIT", "detection_table"]
+    def gain_bounds(self, views: Sequence[tuple[Sequence[int], np.ndarray]]
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds on I(L_u ; Y_v) from the marginals alone, for every observed u and view.
+
+        With C_u the class of u (which in-view site, or outside) and Y_u its outcome,
+        I(C_u ; Y_u) needs only q(L_u = s_c) and u's detection table, and (docs/design.md §6.2,
+        eq. 56)
+
+            I(C_o ; Y_o)  <=  I(L_o ; Y_v)  <=  min( H(L_o), sum_u I(C_u ; Y_u) ):
+
+        the left because Y_o is part of Y_v; the right because I(L_o ; Y_v) <= I(L ; Y_v) =
+        H(Y_v) - sum_u H(Y_u | L_u) <= sum_u [H(Y_u) - H(Y_u | C_u)] (outcomes are independent
+        given the locations and depend on L_u only through C_u). A restricted gain (o's outcome
+        and some others) lies between the same bounds. Both are widened by
+        :data:`BOUND_TOLERANCE` against rounding.
+
+        Returns:
+            (lower, upper), each shape (len(observed), len(views)), nats.
+        """
+        n_obs = len(self.observed)
+        q = self.q[self.observed]                                          # (n_obs, K)
+        own = np.zeros((n_obs, len(views)))
+        groups: dict[int, list[int]] = {}
+        for c, (view_sites, _) in enumerate(views):
+            groups.setdefault(len(view_sites), []).append(c)
+        for m, members in groups.items():
+            sites = np.array([[int(j) for j in views[c][0]] for c in members], dtype=int)
+            prob = np.stack([np.asarray(views[c][1], float).reshape(n_obs, m) for c in members])
+            g_n = len(members)
+            p_in = q[:, sites].transpose(1, 0, 2)                           # (G, n_obs, m)
+            p_c = np.concatenate([np.maximum(1.0 - p_in.sum(axis=2, keepdims=True), 0.0), p_in],
+                                 axis=2)                                    # (G, n_obs, m + 1)
+            tab = np.zeros((g_n, n_obs, m + 1, m + 1))
+            tab[:, :, :, 1:] = self.fp
+            c_idx = np.arange(1, m + 1)
+            tab[:, :, c_idx, c_idx] = prob
+            tab[:, :, :, 0] = 1.0 - tab[:, :, :, 1:].sum(axis=3)
+            tab = np.clip(tab, 0.0, 1.0)
+            p_y = np.einsum("gnc,gncy->gny", p_c, tab)
+            info = _neg_xlogx_sum(p_y, axis=2) - (p_c * _neg_xlogx_sum(tab, axis=3)).sum(axis=2)
+            own[:, members] = np.maximum(info, 0.0).T
+        h_o = _neg_xlogx_sum(q, axis=1)
+        upper = np.minimum(h_o[:, None], own.sum(axis=0)[None, :]) + BOUND_TOLERANCE
+        return own - BOUND_TOLERANCE, upper
+
+
+__all__ = ["BOUND_TOLERANCE", "JointViewGain", "OUTCOME_LIMIT", "detection_table"]
