@@ -170,6 +170,36 @@ def _layout(n: int, m: int, tracked: tuple[int, ...]) -> _Layout:
     return _Layout(f, codes, bits, emb, sub, a_mask, a_idx, masks)
 
 
+@dataclass(frozen=True)
+class _Reduced:
+    """Index arrays over the 3^(N-1) disjoint pairs (A, B) of subsets of the N - 1 objects other
+    than o, for every o, in full masks (see JointViewGain.red): a_with = A ∪ o, b = B; with_o =
+    each set without o, plus o; red = the sets without o; flat = A * 2^(N-1) + (A ∪ B), the
+    position of the pair in a flattened 2^(N-1)-square convolution matrix; flip = complement
+    within the N - 1 objects."""
+
+    a_with: np.ndarray   # (N, 3^(N-1))
+    b: np.ndarray        # (N, 3^(N-1))
+    with_o: np.ndarray   # (N, 2^(N-1))
+    red: np.ndarray      # (N, 2^(N-1))
+    flat: np.ndarray     # (3^(N-1),)
+    flip: np.ndarray     # (2^(N-1),)
+
+
+@lru_cache(maxsize=16)
+def _reduced_positions(n: int) -> _Reduced:
+    ix = subset_index(n - 1)
+    half = 1 << (n - 1)
+    low = np.arange(half)
+    red = np.stack([((low >> o) << (o + 1)) | (low & ((1 << o) - 1)) for o in range(n)])
+    bits = (1 << np.arange(n))[:, None]
+    out = _Reduced(red[:, ix.a] | bits, red[:, ix.b], red | bits, red, ix.a * half + ix.union,
+                   (half - 1) ^ low)
+    for x in (out.a_with, out.b, out.with_o, out.red, out.flat, out.flip):
+        x.setflags(write=False)
+    return out
+
+
 class JointViewGain:
     """Exact I(L_o ; Y_v) for every unresolved object and viewpoint of one decision.
 
@@ -243,37 +273,38 @@ class JointViewGain:
         """_room_out for every room at once, on the sets without o throughout: for a in room r,
         Out[a, o](T) = rho(T) (split_{a,o} * E_{r0 r})(complement of T), with E_{r0 r} the
         convolution of every room but r0 and r. split_{a,o} lives on sets with o and the
-        complement of T contains o, so each object's part is a 2^(N-1)-square problem: one
-        matrix product per (room r, object o) with the matrices of every r0 side by side."""
+        complement of T contains o, so each object's part is a 2^(N-1)-square problem. E_{r0 r}
+        = E_{r r0} serves both rooms of the pair: one matrix per (pair of rooms, object), the
+        splits of both rooms' sites as its rows, the matrices of all objects in one reused
+        buffer (about 2^(2N-1) numbers, a core's cache at N = 8) and one batched product."""
         sm, alg = self.sm, self.alg
         n, half = self.n, 1 << (self.n - 1)
         ix = subset_index(n - 1)
         rooms = len(sm.room_sites)
-        excl: dict[tuple[int, int], np.ndarray] = {}
-        for r0 in range(rooms):                     # E_{r0 r} = E_{r r0}: rooms before r0, ...
-            acc = sm.rpre[r0]
-            for r in range(r0 + 1, rooms):
-                excl[(r0, r)] = excl[(r, r0)] = alg.conv(acc, sm.rsuf[r + 1])
-                acc = alg.conv(acc, sm.h[r])
+        pos = _reduced_positions(n)
         out = {r0: np.zeros((self.k, n, half)) for r0 in range(rooms)}
-        flip = (half - 1) ^ np.arange(half)                      # complement within N∖o
+        # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y'), every o at once
+        split = []
         for r in range(rooms):
-            others = [r0 for r0 in range(rooms) if r0 != r]
-            if not others:
-                continue
             sites = sm.room_sites[r]
-            e = np.stack([excl[(r0, r)] for r0 in others])       # (R - 1, 2^N)
-            c_rest = np.stack(sm._excl[r])                       # C_{R∖a}, (L, 2^N)
-            mat = np.zeros((half, len(others), half))            # same nonzeros for every o
-            for o in range(n):
-                red, bit = self.red[o], 1 << o
-                # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y')
-                prods = sm.g[sites][:, red[ix.a] | bit] * c_rest[:, red[ix.b]]
-                split = np.add.reduceat(prods, ix.starts, axis=1) * sm.rho[red | bit]
-                mat[ix.a, :, ix.union] = e[:, red[ix.b]].T
-                res = (split @ mat.reshape(half, -1)).reshape(len(sites), len(others), half)
-                for k, r0 in enumerate(others):
-                    out[r0][sites, o] = res[:, k, flip] * sm.rho[red]
+            c_rest = np.stack(sm._excl[r])                                  # C_{R∖a}, (L, 2^N)
+            prods = sm.g[sites][:, pos.a_with] * c_rest[:, pos.b]           # (L, N, 3^(N-1))
+            split.append(np.add.reduceat(prods, ix.starts, axis=2) * sm.rho[pos.with_o])
+        mats = np.zeros((n, half * half))          # the same nonzeros for every pair: zeroed once
+        rho_red = sm.rho[pos.red]                                           # (N, 2^(N-1))
+        for r0 in range(rooms - 1):                # E_{r0 r}: rooms before r0, between, after r
+            accs = [sm.rpre[r0]]
+            for r in range(r0 + 1, rooms - 1):
+                accs.append(alg.conv(accs[-1], sm.h[r]))
+            excl = alg.conv(np.stack(accs), np.stack([sm.rsuf[r + 1] for r in range(r0 + 1, rooms)]))
+            s0 = sm.room_sites[r0]
+            for x, r in enumerate(range(r0 + 1, rooms)):
+                s1 = sm.room_sites[r]
+                mats[:, pos.flat] = excl[x][pos.b]
+                rows = np.concatenate([split[r], split[r0]]).transpose(1, 0, 2)   # (N, L1 + L0, .)
+                res = np.matmul(rows, mats.reshape(n, half, half))[:, :, pos.flip] * rho_red[:, None]
+                out[r0][s1] = res[:, :len(s1)].transpose(1, 0, 2)
+                out[r][s0] = res[:, len(s1):].transpose(1, 0, 2)
         return out
 
     def _room_out_full(self, r0: int) -> np.ndarray:
