@@ -147,6 +147,8 @@ class _Layout:
     a_mask: np.ndarray     # (m, n_c) mask of the tracked objects on in-view site t
     a_idx: np.ndarray      # (m, n_c) the same as a tracked subset index
     masks: np.ndarray      # (n_c, 2^f) in-view object mask of (configuration, free subset)
+    by_a: tuple            # per t: (order, inverse, ((A, start, stop), ...)): configurations
+                           # sorted by a_idx[t] (stable), and the run of each A in that order
 
 
 @lru_cache(maxsize=64)
@@ -165,9 +167,17 @@ def _layout(n: int, m: int, tracked: tuple[int, ...]) -> _Layout:
     a_mask = np.stack([(x * bits).sum(axis=1) for x in on]) if m else np.zeros((0, len(codes)), np.int64)
     a_idx = np.stack([(x * (1 << np.arange(s))).sum(axis=1) for x in on]) if m else a_mask
     masks = ((codes > 0) * bits).sum(axis=1)[:, None] | emb[None, :]
+    by_a = []
+    for t in range(m):
+        order = np.argsort(a_idx[t], kind="stable")
+        keys = a_idx[t][order]
+        cuts = np.flatnonzero(np.diff(keys)) + 1
+        starts, stops = np.r_[0, cuts], np.r_[cuts, len(keys)]
+        by_a.append((order, np.argsort(order),
+                     tuple((int(keys[a]), int(a), int(b)) for a, b in zip(starts, stops))))
     for x in (codes, bits, emb, sub, a_mask, a_idx, masks):
         x.setflags(write=False)
-    return _Layout(f, codes, bits, emb, sub, a_mask, a_idx, masks)
+    return _Layout(f, codes, bits, emb, sub, a_mask, a_idx, masks, tuple(by_a))
 
 
 @dataclass(frozen=True)
@@ -482,17 +492,16 @@ class JointViewGain:
                 psi = psi * sm.g[sites[:, t]][:, a_mask, None]
                 continue
             # psi <- conv(psi, g_{s_t}(A ∪ ·)) by object set A of the tracked objects on s_t:
-            # one matrix M_A[E, U] = g_{s_t}(A ∪ (U ∖ E)) per A, a product (BLAS) per A.
-            a_idx = lay.a_idx[t]
+            # one matrix M_A[E, U] = g_{s_t}(A ∪ (U ∖ E)) per A, a product (BLAS) per A, on
+            # the configurations sorted by A (each A's rows one contiguous run).
             assert fix is not None  # f > 0 here
             mats = np.zeros((g_n, len(sub), 1 << f, 1 << f))
             vals = sm.g[sites[:, t]][:, sub[:, None] | emb[None, :]]        # (G, 2^s, 2^f)
             mats[:, :, fix.a, fix.union] = vals[:, :, fix.b]
-            new_psi = np.empty_like(psi)
-            for a in np.unique(a_idx):
-                sel = np.nonzero(a_idx == a)[0]
-                new_psi[:, sel] = np.matmul(psi[:, sel], mats[:, a])
-            psi = new_psi
+            order, inverse, runs = lay.by_a[t]
+            x = psi[:, order]
+            psi = np.concatenate([np.matmul(x[:, lo:hi], mats[:, a]) for a, lo, hi in runs],
+                                 axis=1)[:, inverse]
         masks = lay.masks                                                   # (n_c, 2^f)
         cls = (g_n,) + (m + 1,) * s
         p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
