@@ -199,6 +199,47 @@ def test_gain_bounds_hold_on_random_models(data):
         assert abs(own[0] - (lower[i, 0] + 1e-9)) < TOL
 
 
+@settings(max_examples=60, derandomize=True, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_objects_without_pair_factors_get_the_capacity_bound(data):
+    # Free some objects of every pair factor: they then depend on the others only through
+    # capacity, and B_o >= I(L_o ; L_{-o}) (checked on the enumerated joint) tightens the upper
+    # bound, which must still hold.
+    unary, rooms, caps, penalty, pairs = data.draw(small_models())
+    n, _ = unary.shape
+    free = data.draw(st.lists(st.integers(0, n - 1), min_size=1, unique=True))
+    site, room = pairs.same_site.copy(), pairs.same_room.copy()
+    for o in free:
+        site[o, :] = site[:, o] = room[o, :] = room[:, o] = 1.0
+    pairs = PairWeights(site, room)
+    sites, observed, prob, fp = data.draw(looks_at(rooms, n))
+    try:
+        model = StructuredLocationModel(unary, rooms, caps, penalty, pairs)
+    except Exception:  # zero partition function (hard capacity with too many objects)
+        return
+    joint = dense_joint(unary, rooms, caps, penalty, pairs)
+    solver = JointViewGain(model, observed, fp, outcome_limit=None)
+    bound = solver._independence_bound()
+    for o in range(n):
+        others = np.arange(n) != o
+        if np.any(site[o, others] != 1) or np.any(room[o, others] != 1):
+            assert bound[o] == np.inf
+            continue
+        if n == 1:
+            assert bound[o] == 0.0
+            continue
+        p_o = joint.sum(axis=tuple(a for a in range(n) if a != o))
+        rest = joint.sum(axis=o)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = joint / (np.expand_dims(rest, o) * p_o.reshape([-1 if a == o else 1 for a in range(n)]))
+            mi = float(np.sum(np.where(joint > 0, joint * np.log(ratio), 0.0)))
+        assert mi <= bound[o] + 1e-12
+    exact = solver.gains([(sites, prob)])
+    lower, upper = solver.gain_bounds([(sites, prob)])
+    assert np.all(lower <= exact) and np.all(exact <= upper)
+
+
 def test_gain_bounds_hold_for_restricted_gains():
     graph, model = joint_graph(6, 12, rooms_of=4, seed=3)
     belief = BeliefEngine(graph, model)
@@ -276,9 +317,29 @@ def _distances(names, rng, twin_of=None):
                                for row in np.linalg.norm(pts[:, None] - pts[None], axis=2)))
 
 
-@pytest.mark.parametrize("n,k,seed", [(4, 16, 0), (4, 16, 1), (5, 10, 2), (5, 12, 3), (6, 8, 4)])
-def test_pruned_choice_equals_the_unpruned_choice(n, k, seed):
-    graph, model = joint_graph(n, k, rooms_of=4, seed=seed)
+def _bundled_joint_graph(n: int, k: int, seed: int):
+    """The bundled joint model's relations (capacity, teabag-kettle co-location): every object
+    but the kettle and the teabag has no pair factor, so its gain's upper bound uses B_o."""
+    from fg_tea.beliefs.graph import assemble_graph
+    from test_beliefs_structured import JOINT
+
+    rng = np.random.default_rng(seed)
+    categories = ["kettle", "teabag"] + [f"thing{i}" for i in range(n - 2)]
+    graph = assemble_graph(JOINT, [f"s{j}" for j in range(k)], [f"room{j // 4}" for j in range(k)],
+                           [f"o{i}" for i in range(n)], categories[:n], rng.random((n, k)) + 0.05,
+                           capacities=[1 if j % 3 == 0 else None for j in range(k)])
+    return graph, JOINT
+
+
+@pytest.mark.parametrize("n,k,seed,relations", [(4, 16, 0, "all pairs"), (4, 16, 1, "all pairs"),
+                                                (5, 10, 2, "all pairs"), (5, 12, 3, "all pairs"),
+                                                (6, 8, 4, "all pairs"), (4, 16, 5, "bundled"),
+                                                (5, 12, 6, "bundled"), (6, 8, 7, "bundled")])
+def test_pruned_choice_equals_the_unpruned_choice(n, k, seed, relations):
+    if relations == "bundled":
+        graph, model = _bundled_joint_graph(n, k, seed)
+    else:
+        graph, model = joint_graph(n, k, rooms_of=4, seed=seed)
     belief = BeliefEngine(graph, model)
     assert k ** n > DENSE_GAIN_LIMIT                       # the structured route
     rng = np.random.default_rng(seed)

@@ -246,12 +246,16 @@ class StructuredLocationModel:
         same_room = np.ones((n, n)) if pairs is None else np.asarray(pairs.same_room, dtype=float)
         if np.any(same_room <= 0):
             raise ValueError("the structured solver needs positive same-room weights")
+        self.same_site, self.same_room = same_site, same_room         # (N, N) pair weights
         self.rho = subset_pair_products(same_room)                    # (2^N,)
         site_pairs = subset_pair_products(same_site / same_room)      # (2^N,)
         cap = np.ones((1 << n, k))
+        self.penalty = penalty
+        self.capacity_binds = np.zeros(k, dtype=bool)   # sites whose capacity factor is not 1
         if penalty is not None:
             for j, c in enumerate(capacities):
                 if c is not None and c < n:
+                    self.capacity_binds[j] = True
                     excess = np.maximum(ix.size - c, 0)
                     cap[:, j] = np.where(excess > 0, float(penalty) ** excess, 1.0)
         # g_j(S) for every site: capacity, unaries, and same-site pair corrections.

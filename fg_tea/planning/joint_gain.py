@@ -719,13 +719,16 @@ class JointViewGain:
         I(C_u ; Y_u) needs only q(L_u = s_c) and u's detection table, and (docs/design.md §6.2,
         eq. 56)
 
-            I(C_o ; Y_o)  <=  I(L_o ; Y_v)  <=  min( H(L_o), sum_u I(C_u ; Y_u) ):
+            I(C_o ; Y_o)  <=  I(L_o ; Y_v)  <=  min( H(L_o), I(C_o ; Y_o) + min(B_o, sum_{u != o} I(C_u ; Y_u)) ):
 
-        the left because Y_o is part of Y_v; the right because I(L_o ; Y_v) <= I(L ; Y_v) =
-        H(Y_v) - sum_u H(Y_u | L_u) <= sum_u [H(Y_u) - H(Y_u | C_u)] (outcomes are independent
-        given the locations and depend on L_u only through C_u). A restricted gain (o's outcome
-        and some others) lies between the same bounds. Both are widened by
-        :data:`BOUND_TOLERANCE` against rounding.
+        the left because Y_o is part of Y_v. The right: I(L_o ; Y_v) = I(L_o ; Y_o) +
+        I(L_o ; Y_{-o} | Y_o), and the second term is at most I(L_o ; Y_{-o}) (Y_o depends on
+        nothing but L_o), which is at most I(L_{-o} ; Y_{-o}) <= sum_{u != o} I(C_u ; Y_u)
+        (outcomes are independent given the locations and depend on L_u only through C_u) and
+        at most I(L_o ; L_{-o}) <= B_o (data processing; B_o from :meth:`_independence_bound`,
+        finite for objects without pair factors). A restricted gain (o's outcome and some
+        others) lies between the same bounds. Both are widened by :data:`BOUND_TOLERANCE`
+        against rounding.
 
         Returns:
             (lower, upper), each shape (len(observed), len(views)), nats.
@@ -753,8 +756,35 @@ class JointViewGain:
             info = _neg_xlogx_sum(p_y, axis=2) - (p_c * _neg_xlogx_sum(tab, axis=3)).sum(axis=2)
             own[:, members] = np.maximum(info, 0.0).T
         h_o = _neg_xlogx_sum(q, axis=1)
-        upper = np.minimum(h_o[:, None], own.sum(axis=0)[None, :]) + BOUND_TOLERANCE
+        rest = own.sum(axis=0)[None, :] - own                           # sum over u != o
+        rest = np.minimum(rest, self._independence_bound()[self.observed][:, None])
+        upper = np.minimum(h_o[:, None], own + rest) + BOUND_TOLERANCE
         return own - BOUND_TOLERANCE, upper
+
+    def _independence_bound(self) -> np.ndarray:
+        """B_o >= I(L_o ; L_{-o}), nats, per object (inf where no bound is known).
+
+        An object with no pair factor (same-site and same-room weights 1 with every other
+        object) depends on the others only through capacity: given them, its location is its
+        unary u_o reweighted by w(a) in [penalty, 1], below 1 only at sites whose capacity can
+        bind (S). With rho = u_o normalised, I(L_o ; L_{-o}) <= E KL(P(L_o | L_{-o}) || rho)
+        <= -ln sum_a rho(a) w(a) <= -ln(1 - (1 - penalty) rho(S)).
+        """
+        sm = self.sm
+        out = np.full(self.n, np.inf)
+        if sm.penalty is None or not sm.capacity_binds.any():
+            binding = 0.0
+        else:
+            binding = 1.0 - float(sm.penalty)
+        for o in range(self.n):
+            others = np.arange(self.n) != o
+            if np.any(sm.same_site[o, others] != 1.0) or np.any(sm.same_room[o, others] != 1.0):
+                continue
+            u = sm.unary[o]
+            share = float(u[sm.capacity_binds].sum() / u.sum()) if binding else 0.0
+            if binding * share < 1.0:
+                out[o] = -np.log1p(-binding * share)
+        return out
 
 
 __all__ = ["BOUND_TOLERANCE", "JointViewGain", "OUTCOME_LIMIT", "detection_table"]
