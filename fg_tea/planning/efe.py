@@ -431,9 +431,11 @@ class EFEPlanner:
             else:
                 gain = solver.gains(look)
         base, total = scores(gain)
-        candidates = [Candidate(o, v.name, float(d[c]), float(find[i, c]), float(gain[i, c]),
-                                int(counts[c]), float(r[i]), float(base[i, c]), float(total[i, c]),
-                                v.kind, bool(bound[i, c]))
+        # Python numbers once per array (tolist) rather than once per candidate: the same values.
+        dl, fl, gl, cl, rl = d.tolist(), find.tolist(), gain.tolist(), counts.tolist(), r.tolist()
+        bl, tl, bd = base.tolist(), total.tolist(), bound.tolist()
+        candidates = [Candidate(o, v.name, dl[c], fl[i][c], gl[i][c], int(cl[c]), rl[i], bl[i][c],
+                                tl[i][c], v.kind, bd[i][c])
                       for i, o in enumerate(objects) for c, v in enumerate(eligible)]
         exact = np.where(bound, np.inf, total)      # a bounded score is a lower bound, never the min
         i, c = (int(x) for x in np.unravel_index(int(np.argmin(exact)), exact.shape))
