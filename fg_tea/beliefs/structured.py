@@ -365,8 +365,9 @@ class StructuredLocationModel:
                 excl = self._room_exclusions(r)
             self._w.append(w)
             self._excl.append(excl)
+            done = alg.completions(np.stack(excl), w)     # every site of the room in one call
             for t, j in enumerate(sites):
-                m = self.g[j] * alg.completions(excl[t], w) / self.z   # P(S_j = S)
+                m = self.g[j] * done[t] / self.z                    # P(S_j = S)
                 self._m[int(j)] = m
                 q[:, j] = m @ ix.members
                 same[j] = (ix.members * m[:, None]).T @ ix.members
