@@ -370,6 +370,12 @@ class EFEPlanner:
         :func:`view_factorised_information_gain` (factorised mode) or the exact mutual
         information of :func:`view_joint_information_gain` (joint mode); n_v counts earlier
         looks from v that left an object unseen.
+
+        With the structured joint gain and ``prune`` (docs/design.md §6.2, eq. 56), a candidate
+        whose score with its gain's upper bound is above the smallest score with a lower bound
+        cannot be chosen: its exact gain is skipped and it is logged with the upper bound
+        (``Candidate.gain_bound``; ``info["bounded_gains"]`` counts them). The argmin is taken
+        over the exact scores only, so the choice and its tie-breaking are unchanged.
         """
         obj_idx, _ = check_inputs(belief, objects, relevance, excluded, views)
         w = self.weights

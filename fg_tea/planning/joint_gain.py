@@ -40,6 +40,10 @@ outcome is restricted to o and the objects most strongly coupled to it (the *tra
 the others' outcomes are summed out. That gives I(L_o ; Y_{v,tracked}) <= I(L_o ; Y_v), a lower
 bound whose error is measured in ``tests/test_planning_joint_gain.py`` and by
 ``experiments/bench_planning.py``.
+
+Pruning. :meth:`JointViewGain.gain_bounds` bounds every gain from the marginals alone (eq. 56),
+and :meth:`JointViewGain.gains` takes a mask of the gains wanted, so the planner computes exactly
+only the candidates that could still be chosen (docs/design.md §6.2).
 """
 
 from __future__ import annotations
