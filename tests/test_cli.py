@@ -166,3 +166,23 @@ def test_a_broken_pipe_ends_quietly():
     status = proc.wait(timeout=60)
     assert err == "", err
     assert status == 141
+
+
+def test_blas_threads_default_to_one_but_a_users_setting_stays():
+    from fg_tea.cli import BLAS_THREAD_VARIABLES, single_threaded_blas_defaults
+
+    env = {"OMP_NUM_THREADS": "4"}
+    chosen = single_threaded_blas_defaults(env)
+    assert env["OMP_NUM_THREADS"] == "4" and "OMP_NUM_THREADS" not in chosen
+    assert all(env[v] == "1" for v in BLAS_THREAD_VARIABLES if v != "OMP_NUM_THREADS")
+
+
+def test_the_command_line_module_loads_without_numpy():
+    # main() sets the BLAS thread defaults first; they take effect only if numpy is not loaded
+    # yet, so importing the command line must not import it.
+    import subprocess
+    import sys
+
+    code = "import sys, fg_tea.cli; print('numpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

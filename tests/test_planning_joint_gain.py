@@ -171,3 +171,231 @@ def test_matrix_and_gathered_subset_convolutions_agree(monkeypatch):
     gathered = JointViewGain(sm, range(n), 0.01, outcome_limit=None).gains(looks)
     np.testing.assert_allclose(with_matrix, gathered, rtol=0, atol=TOL)
     assert np.all(with_matrix > 0)
+
+
+# ---------------------------------------------------------------------------------- pruning
+# docs/design.md §6.2, eq. (56): I(C_o ; Y_o) <= I(L_o ; Y_v) <= min(H(L_o), sum_u I(C_u ; Y_u)),
+# and the EFE planner skips the exact gain of every candidate whose score with the upper bound is
+# above the best score with a lower bound.
+
+@settings(max_examples=60, derandomize=True, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_gain_bounds_hold_on_random_models(data):
+    unary, rooms, caps, penalty, pairs = data.draw(small_models())
+    n, _ = unary.shape
+    sites, observed, prob, fp = data.draw(looks_at(rooms, n))
+    try:
+        model = StructuredLocationModel(unary, rooms, caps, penalty, pairs)
+    except Exception:  # zero partition function (hard capacity with too many objects)
+        return
+    solver = JointViewGain(model, observed, fp, outcome_limit=None)
+    exact = solver.gains([(sites, prob)])
+    lower, upper = solver.gain_bounds([(sites, prob)])
+    assert np.all(lower <= exact) and np.all(exact <= upper)
+    # The lower bound is o's own outcome: the exact gain of a look that reports o alone.
+    for i, o in enumerate(observed):
+        own = JointViewGain(model, [o], fp, outcome_limit=None).gain(sites, prob[i:i + 1])
+        assert abs(own[0] - (lower[i, 0] + 1e-9)) < TOL
+
+
+@settings(max_examples=60, derandomize=True, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_objects_without_pair_factors_get_the_capacity_bound(data):
+    # Free some objects of every pair factor: they then depend on the others only through
+    # capacity, and B_o >= I(L_o ; L_{-o}) (checked on the enumerated joint) tightens the upper
+    # bound, which must still hold.
+    unary, rooms, caps, penalty, pairs = data.draw(small_models())
+    n, _ = unary.shape
+    free = data.draw(st.lists(st.integers(0, n - 1), min_size=1, unique=True))
+    site, room = pairs.same_site.copy(), pairs.same_room.copy()
+    for o in free:
+        site[o, :] = site[:, o] = room[o, :] = room[:, o] = 1.0
+    pairs = PairWeights(site, room)
+    sites, observed, prob, fp = data.draw(looks_at(rooms, n))
+    try:
+        model = StructuredLocationModel(unary, rooms, caps, penalty, pairs)
+    except Exception:  # zero partition function (hard capacity with too many objects)
+        return
+    joint = dense_joint(unary, rooms, caps, penalty, pairs)
+    solver = JointViewGain(model, observed, fp, outcome_limit=None)
+    bound = solver._independence_bound()
+    for o in range(n):
+        others = np.arange(n) != o
+        if np.any(site[o, others] != 1) or np.any(room[o, others] != 1):
+            assert bound[o] == np.inf
+            continue
+        if n == 1:
+            assert bound[o] == 0.0
+            continue
+        p_o = joint.sum(axis=tuple(a for a in range(n) if a != o))
+        rest = joint.sum(axis=o)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = joint / (np.expand_dims(rest, o) * p_o.reshape([-1 if a == o else 1 for a in range(n)]))
+            mi = float(np.sum(np.where(joint > 0, joint * np.log(ratio), 0.0)))
+        assert mi <= bound[o] + 1e-12
+    exact = solver.gains([(sites, prob)])
+    lower, upper = solver.gain_bounds([(sites, prob)])
+    assert np.all(lower <= exact) and np.all(exact <= upper)
+
+
+def test_gain_bounds_hold_for_restricted_gains():
+    graph, model = joint_graph(6, 12, rooms_of=4, seed=3)
+    belief = BeliefEngine(graph, model)
+    belief.observe_site("s5", {"o0": False, "o1": False})
+    sm = belief.structured_model()
+    rng = np.random.default_rng(2)
+    views = [(list(range(r, r + 4)), rng.uniform(0.1, 0.9, (6, 4))) for r in (0, 4, 8)]
+    views += [([j], rng.uniform(0.5, 0.9, (6, 1))) for j in range(12)]
+    solver = JointViewGain(sm, range(6), 1e-4, outcome_limit=12 * 5 ** 2,
+                           coupling=coupling_strength(belief))
+    approx = solver.gains(views)
+    assert solver.restricted > 0
+    lower, upper = solver.gain_bounds(views)
+    assert np.all(lower <= approx) and np.all(approx <= upper)
+
+
+def test_gains_of_a_mask_equal_the_full_gains():
+    graph, model = joint_graph(5, 12, rooms_of=4, seed=4)
+    belief = BeliefEngine(graph, model)
+    belief.observe_site("s2", {"o0": False, "o3": False})
+    sm = belief.structured_model()
+    rng = np.random.default_rng(3)
+    views = [(list(range(r, r + 4)), rng.uniform(0.1, 0.9, (5, 4))) for r in (0, 4, 8)]
+    views += [([j], rng.uniform(0.5, 0.9, (5, 1))) for j in range(12)]
+    for limit in (None, 12 * 5 ** 2):
+        full = JointViewGain(sm, range(5), 1e-4, outcome_limit=limit,
+                             coupling=coupling_strength(belief)).gains(views)
+        need = rng.random(full.shape) < 0.2
+        part = JointViewGain(sm, range(5), 1e-4, outcome_limit=limit,
+                             coupling=coupling_strength(belief)).gains(views, need)
+        assert np.all(np.isfinite(part[need]))
+        done = np.isfinite(part)
+        # The same numbers up to the last bit or two: a smaller batch may change the order of a
+        # matrix product's sums inside BLAS, nothing else.
+        np.testing.assert_allclose(part[done], full[done], rtol=1e-13, atol=1e-15)
+        assert not np.any(np.isfinite(part[:, ~need.any(axis=0)]))
+
+
+class _Views:
+    """The part of a ViewModel the planner reads: the views, their names, p_max."""
+
+    def __init__(self, views, max_probability):
+        self.views = list(views)
+        self.names = [v.name for v in self.views]
+        self.max_probability = max_probability
+
+
+def _views_of(belief, rng, twin: bool = False):
+    """A close look at every site and a glance over every room, random p; with `twin`, a second
+    glance identical to the first but for its name (so its candidates tie exactly)."""
+    sites, n = list(belief.sites), len(belief.objects)
+    sm = belief.structured_model()
+    views = [View(s, "site", "", (j,), rng.uniform(0.6, 0.9, (n, 1)), np.full((n, 1), 0.2),
+                  np.full((n, 1), np.nan)) for j, s in enumerate(sites)]
+    for r, members in enumerate(sm.room_sites):
+        m = len(members)
+        prob = rng.uniform(0.05, 0.8, (n, m))
+        views.append(View(f"room{r}_glance", "room", f"room{r}", tuple(int(j) for j in members),
+                          prob, 1.0 - prob, np.full((n, m), np.nan)))
+    if twin:
+        first = views[len(sites)]
+        views.insert(len(sites) + 1, View(first.name + "_twin", first.kind, first.room,
+                                          first.sites, first.probability, first.miss, first.pixels))
+    return _Views(views, 0.9)
+
+
+def _distances(names, rng, twin_of=None):
+    xy = {v: rng.uniform(0, 12, 2) for v in names}
+    if twin_of is not None:
+        xy[twin_of + "_twin"] = xy[twin_of]
+    pts = np.array([xy[v] for v in names])
+    agent = rng.uniform(0, 12, 2)
+    return DistanceTable(tuple(names), tuple(float(x) for x in np.linalg.norm(pts - agent, axis=1)),
+                         tuple(tuple(float(x) for x in row)
+                               for row in np.linalg.norm(pts[:, None] - pts[None], axis=2)))
+
+
+def _bundled_joint_graph(n: int, k: int, seed: int):
+    """The bundled joint model's relations (capacity, teabag-kettle co-location): every object
+    but the kettle and the teabag has no pair factor, so its gain's upper bound uses B_o."""
+    from fg_tea.beliefs.graph import assemble_graph
+    from test_beliefs_structured import JOINT
+
+    rng = np.random.default_rng(seed)
+    categories = ["kettle", "teabag"] + [f"thing{i}" for i in range(n - 2)]
+    graph = assemble_graph(JOINT, [f"s{j}" for j in range(k)], [f"room{j // 4}" for j in range(k)],
+                           [f"o{i}" for i in range(n)], categories[:n], rng.random((n, k)) + 0.05,
+                           capacities=[1 if j % 3 == 0 else None for j in range(k)])
+    return graph, JOINT
+
+
+@pytest.mark.parametrize("n,k,seed,relations", [(4, 16, 0, "all pairs"), (4, 16, 1, "all pairs"),
+                                                (5, 10, 2, "all pairs"), (5, 12, 3, "all pairs"),
+                                                (6, 8, 4, "all pairs"), (4, 16, 5, "bundled"),
+                                                (5, 12, 6, "bundled"), (6, 8, 7, "bundled")])
+def test_pruned_choice_equals_the_unpruned_choice(n, k, seed, relations):
+    if relations == "bundled":
+        graph, model = _bundled_joint_graph(n, k, seed)
+    else:
+        graph, model = joint_graph(n, k, rooms_of=4, seed=seed)
+    belief = BeliefEngine(graph, model)
+    assert k ** n > DENSE_GAIN_LIMIT                       # the structured route
+    rng = np.random.default_rng(seed)
+    names = list(belief.objects)
+    pruned_any = 0
+    for step in range(4):
+        site = belief.sites[int(rng.integers(k))]
+        belief.observe_site(site, {o: False for o in names[:1 + step % n]})
+        views = _views_of(belief, rng, twin=step % 2 == 1)
+        first_glance = views.views[k].name
+        dist = _distances(views.names, rng, first_glance if step % 2 == 1 else None)
+        relevance = {o: float(rng.choice([1.0, 0.75, 0.5])) for o in names}
+        inspected = {views.names[int(rng.integers(len(views.names)))]: 1}
+        pruned = EFEPlanner(model.planning, information="joint").choose(
+            belief, names, relevance, dist, inspected, views=views)
+        full = EFEPlanner(model.planning, information="joint", prune=False).choose(
+            belief, names, relevance, dist, inspected, views=views)
+        assert (pruned.object, pruned.site) == (full.object, full.site)
+        assert abs(pruned.total - full.total) < 1e-12
+        assert pruned.info["gain_solver"] == "structured"
+        bounded = [c.gain_bound for c in pruned.candidates]
+        assert pruned.info["bounded_gains"] == sum(bounded) < len(bounded)
+        pruned_any += sum(bounded)
+        assert not any(c.gain_bound for c in full.candidates)
+        for p, f in zip(pruned.candidates, full.candidates):
+            assert (p.object, p.site) == (f.object, f.site)
+            if p.gain_bound:
+                assert p.information_gain >= f.information_gain
+                assert p.total <= f.total and p.total > pruned.total
+                assert p.to_json()["information_gain_bound"] == "upper"
+            else:
+                assert abs(p.information_gain - f.information_gain) < 1e-12
+                assert abs(p.total - f.total) < 1e-12
+                assert "information_gain_bound" not in p.to_json()
+    assert pruned_any > 0                                  # the test exercises the pruning
+
+
+def test_a_tie_goes_to_the_first_candidate_with_or_without_pruning():
+    # Two viewpoints that are one look under two names, at the same place: every one of their
+    # candidates ties exactly, and the agent stands there, so they are the best.
+    graph, model = joint_graph(4, 16, rooms_of=4, seed=7)
+    belief = BeliefEngine(graph, model)
+    names = list(belief.objects)
+    rng = np.random.default_rng(7)
+    views = _views_of(belief, rng, twin=True)
+    first = views.views[16].name
+    xy = {v: rng.uniform(5, 12, 2) for v in views.names}
+    xy[first] = xy[first + "_twin"] = np.zeros(2)
+    pts = np.array([xy[v] for v in views.names])
+    dist = DistanceTable(tuple(views.names), tuple(float(x) for x in np.linalg.norm(pts, axis=1)),
+                         tuple(tuple(float(x) for x in row)
+                               for row in np.linalg.norm(pts[:, None] - pts[None], axis=2)))
+    relevance = {o: 1.0 for o in names}
+    got = [EFEPlanner(model.planning, information="joint", prune=p).choose(
+        belief, names, relevance, dist, {}, views=views) for p in (True, False)]
+    assert got[0].site == got[1].site == first
+    assert got[0].object == got[1].object and got[0].total == got[1].total
+    twin = [c for c in got[0].candidates if c.site == first + "_twin" and c.object == got[0].object]
+    assert not twin[0].gain_bound and twin[0].total == got[0].total     # a tie, kept and exact

@@ -246,12 +246,16 @@ class StructuredLocationModel:
         same_room = np.ones((n, n)) if pairs is None else np.asarray(pairs.same_room, dtype=float)
         if np.any(same_room <= 0):
             raise ValueError("the structured solver needs positive same-room weights")
+        self.same_site, self.same_room = same_site, same_room         # (N, N) pair weights
         self.rho = subset_pair_products(same_room)                    # (2^N,)
         site_pairs = subset_pair_products(same_site / same_room)      # (2^N,)
         cap = np.ones((1 << n, k))
+        self.penalty = penalty
+        self.capacity_binds = np.zeros(k, dtype=bool)   # sites whose capacity factor is not 1
         if penalty is not None:
             for j, c in enumerate(capacities):
                 if c is not None and c < n:
+                    self.capacity_binds[j] = True
                     excess = np.maximum(ix.size - c, 0)
                     cap[:, j] = np.where(excess > 0, float(penalty) ** excess, 1.0)
         # g_j(S) for every site: capacity, unaries, and same-site pair corrections.
@@ -361,8 +365,9 @@ class StructuredLocationModel:
                 excl = self._room_exclusions(r)
             self._w.append(w)
             self._excl.append(excl)
+            done = alg.completions(np.stack(excl), w)     # every site of the room in one call
             for t, j in enumerate(sites):
-                m = self.g[j] * alg.completions(excl[t], w) / self.z   # P(S_j = S)
+                m = self.g[j] * done[t] / self.z                    # P(S_j = S)
                 self._m[int(j)] = m
                 q[:, j] = m @ ix.members
                 same[j] = (ix.members * m[:, None]).T @ ix.members

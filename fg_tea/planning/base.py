@@ -134,6 +134,9 @@ class Candidate:
         base: G_base(o, j) of eq. 12 (planners that are not EFE put their own score here).
         total: the score the planner minimises (eq. 16 for EFE); lower is better.
         kind: ``"site"`` (close look) or ``"room"`` (room glance).
+        gain_bound: True when `information_gain` is an upper bound on the gain, not the gain
+            (an EFE candidate pruned exactly, docs/design.md §6.2); then `base` and `total`
+            are lower bounds on the scores, and above the chosen candidate's.
     """
 
     object: str
@@ -146,6 +149,7 @@ class Candidate:
     base: float
     total: float
     kind: str = "site"
+    gain_bound: bool = False
 
     @property
     def viewpoint(self) -> str:
@@ -157,7 +161,8 @@ class Candidate:
                 "probability": float(self.probability),
                 "information_gain": float(self.information_gain), "repeat": int(self.repeat),
                 "relevance": float(self.relevance), "base": float(self.base),
-                "total": float(self.total)}
+                "total": float(self.total)} | ({"information_gain_bound": "upper"}
+                                               if self.gain_bound else {})
 
 
 @dataclass(frozen=True)

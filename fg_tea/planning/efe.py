@@ -72,6 +72,8 @@ from fg_tea.planning.joint_gain import JointViewGain
 INFORMATION_MODES = ("auto", "factorised", "joint")
 DENSE_GAIN_LIMIT = 50_000  # joint states up to which the dense joint answers the joint gain
 CHUNK_ENTRIES = 1 << 22  # largest (sites x outcomes x joint states) product held at once
+PRUNE_SLACK = 1e-9       # score units: a candidate is skipped only if its lower bound exceeds the
+                         # best upper bound by more than this (rounding of the two scores)
 
 
 def _neg_xlogx(p: np.ndarray) -> np.ndarray:
@@ -284,16 +286,22 @@ class EFEPlanner:
         information: ``"auto"`` (exact joint gain when the belief is correlated, eqs. 10-11
             otherwise), ``"factorised"`` (always eqs. 10-11 on the marginals) or ``"joint"``
             (always the exact joint gain, also on factorised beliefs).
+        prune: with viewpoints and the structured joint gain, skip the exact gain of every
+            candidate that provably cannot be chosen (docs/design.md §6.2, eq. 56); the choice
+            is the same, and those candidates log the gain's upper bound, flagged. False
+            computes every gain exactly (for callers that rank all candidates).
     """
 
     name = "efe"
 
-    def __init__(self, weights: PlanningWeights, information: str = "auto") -> None:
+    def __init__(self, weights: PlanningWeights, information: str = "auto",
+                 prune: bool = True) -> None:
         if information not in INFORMATION_MODES:
             raise ValueError(f"unknown information mode {information!r}; use one of "
                              f"{', '.join(INFORMATION_MODES)}")
         self.weights = weights
         self.information = information
+        self.prune = prune
 
     def information_gain(self, belief, objects: Sequence[str]) -> tuple[np.ndarray, str]:
         """I(o, j) for the objects (caller's order) and every site, shape (|objects|, K), nats.
@@ -362,6 +370,12 @@ class EFEPlanner:
         :func:`view_factorised_information_gain` (factorised mode) or the exact mutual
         information of :func:`view_joint_information_gain` (joint mode); n_v counts earlier
         looks from v that left an object unseen.
+
+        With the structured joint gain and ``prune`` (docs/design.md §6.2, eq. 56), a candidate
+        whose score with its gain's upper bound is above the smallest score with a lower bound
+        cannot be chosen: its exact gain is skipped and it is logged with the upper bound
+        (``Candidate.gain_bound``; ``info["bounded_gains"]`` counts them). The argmin is taken
+        over the exact scores only, so the choice and its tie-breaking are unchanged.
         """
         obj_idx, _ = check_inputs(belief, objects, relevance, excluded, views)
         w = self.weights
@@ -380,37 +394,65 @@ class EFEPlanner:
         fp = belief.model.false_positive_rate
         n, m = len(objects), len(eligible)
         find, gain = np.empty((n, m)), np.empty((n, m))
-        for c, v in enumerate(eligible):
-            prob = v.probability_over_sites(k)[obj_idx]
-            miss = np.ones((n, k))
-            miss[:, list(v.sites)] = v.miss[obj_idx]
-            find[:, c], factorised = view_factorised_information_gain(q, prob, miss, views.max_probability)
-            if joint is not None:
-                gain[:, c] = view_joint_information_gain(joint, obj_idx, v.sites,
-                                                         v.probability[obj_idx], fp)
-            elif solver is None:
-                gain[:, c] = factorised
         if solver is not None:
-            gain = solver.gains([(v.sites, v.probability[obj_idx]) for v in eligible])
+            prob_all = np.stack([v.probability_over_sites(k)[obj_idx] for v in eligible])
+            find[:] = ((q[None] * prob_all).sum(axis=2) / views.max_probability).T
+        else:
+            for c, v in enumerate(eligible):
+                prob = v.probability_over_sites(k)[obj_idx]
+                miss = np.ones((n, k))
+                miss[:, list(v.sites)] = v.miss[obj_idx]
+                find[:, c], factorised = view_factorised_information_gain(q, prob, miss,
+                                                                          views.max_probability)
+                if joint is not None:
+                    gain[:, c] = view_joint_information_gain(joint, obj_idx, v.sites,
+                                                             v.probability[obj_idx], fp)
+                else:
+                    gain[:, c] = factorised
         d = np.array([float(distances.from_agent(v.name)) for v in eligible])
         counts = np.array([int(inspected.get(v.name, 0)) for v in eligible])
         if np.any(counts < 0):
             raise ValueError("planner: inspection counts must be non-negative")
         r = np.array([float(relevance[o]) for o in objects])
-        base = (w.distance_weight * d[None, :] - w.probability_weight * find
-                - w.information_weight * gain + w.repeat_penalty * counts[None, :].astype(float))
-        total = base - w.relevance_weight * r[:, None]
-        candidates = [Candidate(o, v.name, float(d[c]), float(find[i, c]), float(gain[i, c]),
-                                int(counts[c]), float(r[i]), float(base[i, c]), float(total[i, c]),
-                                v.kind)
+
+        def scores(information: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            base = (w.distance_weight * d[None, :] - w.probability_weight * find
+                    - w.information_weight * information
+                    + w.repeat_penalty * counts[None, :].astype(float))
+            return base, base - w.relevance_weight * r[:, None]
+
+        bound = np.zeros((n, m), dtype=bool)
+        if solver is not None:
+            look = [(v.sites, v.probability[obj_idx]) for v in eligible]
+            if self.prune:
+                # Exact pruning (docs/design.md §6.2, eq. 56): a candidate whose score with the
+                # gain's upper bound is above the best score with a gain's lower bound cannot be
+                # the argmin, nor tie with it; its exact gain is not computed.
+                lower, upper = solver.gain_bounds(look)
+                least = scores(upper)[1]
+                need = least <= scores(lower)[1].min() + PRUNE_SLACK
+                gain = solver.gains(look, need)
+                bound = np.isnan(gain)
+                gain = np.where(bound, upper, gain)
+            else:
+                gain = solver.gains(look)
+        base, total = scores(gain)
+        # Python numbers once per array (tolist) rather than once per candidate: the same values.
+        dl, fl, gl, cl, rl = d.tolist(), find.tolist(), gain.tolist(), counts.tolist(), r.tolist()
+        bl, tl, bd = base.tolist(), total.tolist(), bound.tolist()
+        candidates = [Candidate(o, v.name, dl[c], fl[i][c], gl[i][c], int(cl[c]), rl[i], bl[i][c],
+                                tl[i][c], v.kind, bd[i][c])
                       for i, o in enumerate(objects) for c, v in enumerate(eligible)]
-        i, c = (int(x) for x in np.unravel_index(int(np.argmin(total)), total.shape))
+        exact = np.where(bound, np.inf, total)      # a bounded score is a lower bound, never the min
+        i, c = (int(x) for x in np.unravel_index(int(np.argmin(exact)), exact.shape))
         info: dict[str, float | str] = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
                 "w_e": w.information_weight, "w_a": w.repeat_penalty, "lambda": w.relevance_weight,
                 "distance": str(getattr(distances, "kind", w.distance)), "viewpoints": m}
         if solver is not None:
             info["gain_solver"] = "structured"
             info["restricted_gains"] = solver.restricted
+            if self.prune:
+                info["bounded_gains"] = int(bound.sum())
         return Decision(objects[i], eligible[c].name, float(total[i, c]), tuple(candidates),
                         self.name, info)
 

@@ -40,6 +40,10 @@ outcome is restricted to o and the objects most strongly coupled to it (the *tra
 the others' outcomes are summed out. That gives I(L_o ; Y_{v,tracked}) <= I(L_o ; Y_v), a lower
 bound whose error is measured in ``tests/test_planning_joint_gain.py`` and by
 ``experiments/bench_planning.py``.
+
+Pruning. :meth:`JointViewGain.gain_bounds` bounds every gain from the marginals alone (eq. 56),
+and :meth:`JointViewGain.gains` takes a mask of the gains wanted, so the planner computes exactly
+only the candidates that could still be chosen (docs/design.md §6.2).
 """
 
 from __future__ import annotations
@@ -56,6 +60,9 @@ CHUNK_ENTRIES = 1 << 16  # looks per step of the out-of-view tables: about this 
                          # a megabyte, a core's L2 cache here; larger batches measured slower)
 OUTCOME_LIMIT = 1 << 17  # entries of one object's P(L_o = a, Y_{-o}) table before restricting
 MI_TOLERANCE = 1e-12     # gains are clipped at 0 from below within this tolerance
+BOUND_TOLERANCE = 1e-9   # nats each bound of gain_bounds is widened by: far above the rounding of
+                         # either side (agreement with brute force is checked to 1e-9 and holds
+                         # to about 1e-13), far below any difference of scores that matters
 MATRIX_OBJECTS = 9       # up to this many objects, batches of subset convolutions with one
                          # shared operand run as one dense 2^N x 2^N matrix product (BLAS): 4^N
                          # multiplications instead of 3^N gathered ones, faster up to about N = 9
@@ -144,6 +151,8 @@ class _Layout:
     a_mask: np.ndarray     # (m, n_c) mask of the tracked objects on in-view site t
     a_idx: np.ndarray      # (m, n_c) the same as a tracked subset index
     masks: np.ndarray      # (n_c, 2^f) in-view object mask of (configuration, free subset)
+    by_a: tuple            # per t: (order, inverse, ((A, start, stop), ...)): configurations
+                           # sorted by a_idx[t] (stable), and the run of each A in that order
 
 
 @lru_cache(maxsize=64)
@@ -162,9 +171,47 @@ def _layout(n: int, m: int, tracked: tuple[int, ...]) -> _Layout:
     a_mask = np.stack([(x * bits).sum(axis=1) for x in on]) if m else np.zeros((0, len(codes)), np.int64)
     a_idx = np.stack([(x * (1 << np.arange(s))).sum(axis=1) for x in on]) if m else a_mask
     masks = ((codes > 0) * bits).sum(axis=1)[:, None] | emb[None, :]
+    by_a = []
+    for t in range(m):
+        order = np.argsort(a_idx[t], kind="stable")
+        keys = a_idx[t][order]
+        cuts = np.flatnonzero(np.diff(keys)) + 1
+        starts, stops = np.r_[0, cuts], np.r_[cuts, len(keys)]
+        by_a.append((order, np.argsort(order),
+                     tuple((int(keys[a]), int(a), int(b)) for a, b in zip(starts, stops))))
     for x in (codes, bits, emb, sub, a_mask, a_idx, masks):
         x.setflags(write=False)
-    return _Layout(f, codes, bits, emb, sub, a_mask, a_idx, masks)
+    return _Layout(f, codes, bits, emb, sub, a_mask, a_idx, masks, tuple(by_a))
+
+
+@dataclass(frozen=True)
+class _Reduced:
+    """Index arrays over the 3^(N-1) disjoint pairs (A, B) of subsets of the N - 1 objects other
+    than o, for every o, in full masks (see JointViewGain.red): a_with = A ∪ o, b = B; with_o =
+    each set without o, plus o; red = the sets without o; flat = A * 2^(N-1) + (A ∪ B), the
+    position of the pair in a flattened 2^(N-1)-square convolution matrix; flip = complement
+    within the N - 1 objects."""
+
+    a_with: np.ndarray   # (N, 3^(N-1))
+    b: np.ndarray        # (N, 3^(N-1))
+    with_o: np.ndarray   # (N, 2^(N-1))
+    red: np.ndarray      # (N, 2^(N-1))
+    flat: np.ndarray     # (3^(N-1),)
+    flip: np.ndarray     # (2^(N-1),)
+
+
+@lru_cache(maxsize=16)
+def _reduced_positions(n: int) -> _Reduced:
+    ix = subset_index(n - 1)
+    half = 1 << (n - 1)
+    low = np.arange(half)
+    red = np.stack([((low >> o) << (o + 1)) | (low & ((1 << o) - 1)) for o in range(n)])
+    bits = (1 << np.arange(n))[:, None]
+    out = _Reduced(red[:, ix.a] | bits, red[:, ix.b], red | bits, red, ix.a * half + ix.union,
+                   (half - 1) ^ low)
+    for x in (out.a_with, out.b, out.with_o, out.red, out.flat, out.flip):
+        x.setflags(write=False)
+    return out
 
 
 class JointViewGain:
@@ -240,37 +287,38 @@ class JointViewGain:
         """_room_out for every room at once, on the sets without o throughout: for a in room r,
         Out[a, o](T) = rho(T) (split_{a,o} * E_{r0 r})(complement of T), with E_{r0 r} the
         convolution of every room but r0 and r. split_{a,o} lives on sets with o and the
-        complement of T contains o, so each object's part is a 2^(N-1)-square problem: one
-        matrix product per (room r, object o) with the matrices of every r0 side by side."""
+        complement of T contains o, so each object's part is a 2^(N-1)-square problem. E_{r0 r}
+        = E_{r r0} serves both rooms of the pair: one matrix per (pair of rooms, object), the
+        splits of both rooms' sites as its rows, the matrices of all objects in one reused
+        buffer (about 2^(2N-1) numbers, a core's cache at N = 8) and one batched product."""
         sm, alg = self.sm, self.alg
         n, half = self.n, 1 << (self.n - 1)
         ix = subset_index(n - 1)
         rooms = len(sm.room_sites)
-        excl: dict[tuple[int, int], np.ndarray] = {}
-        for r0 in range(rooms):                     # E_{r0 r} = E_{r r0}: rooms before r0, ...
-            acc = sm.rpre[r0]
-            for r in range(r0 + 1, rooms):
-                excl[(r0, r)] = excl[(r, r0)] = alg.conv(acc, sm.rsuf[r + 1])
-                acc = alg.conv(acc, sm.h[r])
+        pos = _reduced_positions(n)
         out = {r0: np.zeros((self.k, n, half)) for r0 in range(rooms)}
-        flip = (half - 1) ^ np.arange(half)                      # complement within N∖o
+        # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y'), every o at once
+        split = []
         for r in range(rooms):
-            others = [r0 for r0 in range(rooms) if r0 != r]
-            if not others:
-                continue
             sites = sm.room_sites[r]
-            e = np.stack([excl[(r0, r)] for r0 in others])       # (R - 1, 2^N)
-            c_rest = np.stack(sm._excl[r])                       # C_{R∖a}, (L, 2^N)
-            mat = np.zeros((half, len(others), half))            # same nonzeros for every o
-            for o in range(n):
-                red, bit = self.red[o], 1 << o
-                # split_{a,o}(Y ∪ o) = rho(Y ∪ o) sum_{B ⊔ Y' = Y} g_a(B ∪ o) C_{R∖a}(Y')
-                prods = sm.g[sites][:, red[ix.a] | bit] * c_rest[:, red[ix.b]]
-                split = np.add.reduceat(prods, ix.starts, axis=1) * sm.rho[red | bit]
-                mat[ix.a, :, ix.union] = e[:, red[ix.b]].T
-                res = (split @ mat.reshape(half, -1)).reshape(len(sites), len(others), half)
-                for k, r0 in enumerate(others):
-                    out[r0][sites, o] = res[:, k, flip] * sm.rho[red]
+            c_rest = np.stack(sm._excl[r])                                  # C_{R∖a}, (L, 2^N)
+            prods = sm.g[sites][:, pos.a_with] * c_rest[:, pos.b]           # (L, N, 3^(N-1))
+            split.append(np.add.reduceat(prods, ix.starts, axis=2) * sm.rho[pos.with_o])
+        mats = np.zeros((n, half * half))          # the same nonzeros for every pair: zeroed once
+        rho_red = sm.rho[pos.red]                                           # (N, 2^(N-1))
+        for r0 in range(rooms - 1):                # E_{r0 r}: rooms before r0, between, after r
+            accs = [sm.rpre[r0]]
+            for r in range(r0 + 1, rooms - 1):
+                accs.append(alg.conv(accs[-1], sm.h[r]))
+            excl = alg.conv(np.stack(accs), np.stack([sm.rsuf[r + 1] for r in range(r0 + 1, rooms)]))
+            s0 = sm.room_sites[r0]
+            for x, r in enumerate(range(r0 + 1, rooms)):
+                s1 = sm.room_sites[r]
+                mats[:, pos.flat] = excl[x][pos.b]
+                rows = np.concatenate([split[r], split[r0]]).transpose(1, 0, 2)   # (N, L1 + L0, .)
+                res = np.matmul(rows, mats.reshape(n, half, half))[:, :, pos.flip] * rho_red[:, None]
+                out[r0][s1] = res[:, :len(s1)].transpose(1, 0, 2)
+                out[r][s0] = res[:, len(s1):].transpose(1, 0, 2)
         return out
 
     def _room_out_full(self, r0: int) -> np.ndarray:
@@ -294,39 +342,50 @@ class JointViewGain:
                 oa[sm.room_sites[r]] = alg.conv(split, excl)
         return sm.rho * oa[:, :, self.comp]
 
-    def _close_weights(self, r0: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-        """W_v and W_{v,o,a} of the close look at every site of room r0 (see _view_weights)."""
-        cached = self._close.get(r0)
-        if cached is not None:
-            return cached
+    def _close_weights(self, r0: int, wanted: Sequence[int] | None = None
+                       ) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """W_v and W_{v,o,a} of the close looks at the `wanted` sites of room r0 (default: every
+        site of the room), see _view_weights; cached per site, so a later call computes only
+        the sites not yet asked for. Each site's weights are computed the same way whichever
+        other sites are asked for with it."""
+        cached = self._close.setdefault(r0, {})
         sm, alg = self.sm, self.alg
         room = [int(j) for j in sm.room_sites[r0]]
-        excl = np.stack(sm._excl[r0])                         # C_{R∖j} for each j, (L, 2^N)
+        want = set(room if wanted is None else (int(j) for j in wanted))
+        sel = [t for t, j in enumerate(room) if j in want and j not in cached]
+        if not sel:
+            return cached
+        excl = np.stack([sm._excl[r0][t] for t in sel])       # C_{R∖j} for each j, (L', 2^N)
         w_room = sm._w[r0]
         out = self._room_out(r0)
-        w_v = alg.completions(excl, w_room)                   # (L, 2^N)
+        w_v = alg.completions(excl, w_room)                   # (L', 2^N)
         outside = np.array([a for a in range(self.k) if int(sm.room_of[a]) != r0], dtype=int)
-        w_oa = np.zeros((len(room), self.k, self.n, self.red.shape[1]))
+        w_oa = np.zeros((len(sel), self.k, self.n, self.red.shape[1]))
         if len(outside):
             w_oa[:, outside] = self._completions_without_o(excl, out[outside])
         # o at another site a of the same room: W_{v,o,a}(T) = sum_{B ∋ o, B disjoint T}
         # g_a(B) D_{ja}(T ⊔ B) with D_{ja} = completions(C_{R∖{j,a}}, W_R) (completing by a
         # convolution is completing by each factor in turn), for the sets T without o.
-        # C_{R∖{j,a}} for every pair from the room's prefix and suffix products (j before a:
-        # sites before j, those between j and a, those after a).
+        # C_{R∖{j,a}} for every pair with j asked for, from the room's prefix and suffix
+        # products (the sites before the earlier of j and a, those between them, those after
+        # the later one).
         n_s = len(room)
         pre, suf = sm.pre[r0], sm.suf[r0]
+        chosen = set(sel)
         c_pair: dict[tuple[int, int], np.ndarray] = {}
         for ti in range(n_s - 1):
+            last = n_s - 1 if ti in chosen else max((t for t in chosen if t > ti), default=ti)
+            if last <= ti:
+                continue
             accs = [pre[ti]]
-            for ta in range(ti + 1, n_s - 1):
+            for ta in range(ti + 1, last):
                 accs.append(alg.conv(accs[-1], sm.g[room[ta]]))
-            both = alg.conv(np.stack(accs), np.stack([suf[ta + 1] for ta in range(ti + 1, n_s)]))
-            for x, ta in enumerate(range(ti + 1, n_s)):
+            both = alg.conv(np.stack(accs), np.stack([suf[ta + 1] for ta in range(ti + 1, last + 1)]))
+            for x, ta in enumerate(range(ti + 1, last + 1)):
                 c_pair[(ti, ta)] = c_pair[(ta, ti)] = both[x]
-        pairs = [(t, room[ta]) for t in range(n_s) for ta in range(n_s) if ta != t]
+        pairs = [(x, room[ta]) for x, t in enumerate(sel) for ta in range(n_s) if ta != t]
         if pairs:
-            c_rest = np.stack([c_pair[(t, ta)] for t in range(n_s) for ta in range(n_s) if ta != t])
+            c_rest = np.stack([c_pair[(t, ta)] for t in sel for ta in range(n_s) if ta != t])
             if self.n <= MATRIX_OBJECTS:
                 d = c_rest @ alg.completion_matrix(w_room)
             else:
@@ -334,8 +393,8 @@ class JointViewGain:
             t_idx = np.array([p[0] for p in pairs])
             a_idx = np.array([p[1] for p in pairs])
             w_oa[t_idx, a_idx] = self._place_o(sm.g[a_idx], d)
-        cached = {j: (w_v[t], w_oa[t]) for t, j in enumerate(room)}
-        self._close[r0] = cached
+        for x, t in enumerate(sel):
+            cached[room[t]] = (w_v[x], w_oa[x])
         return cached
 
     def _place_o(self, g: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -386,7 +445,7 @@ class JointViewGain:
         if not rest:                                           # a glance over the whole room
             return sm._w[r0], self._room_out(r0)
         if len(sites) == 1:
-            return self._close_weights(r0)[int(sites[0])]
+            return self._close_weights(r0, [int(sites[0])])[int(sites[0])]
         pre = [alg.delta()]
         for j in rest:
             pre.append(alg.conv(pre[-1], sm.g[j]))
@@ -437,17 +496,16 @@ class JointViewGain:
                 psi = psi * sm.g[sites[:, t]][:, a_mask, None]
                 continue
             # psi <- conv(psi, g_{s_t}(A ∪ ·)) by object set A of the tracked objects on s_t:
-            # one matrix M_A[E, U] = g_{s_t}(A ∪ (U ∖ E)) per A, a product (BLAS) per A.
-            a_idx = lay.a_idx[t]
+            # one matrix M_A[E, U] = g_{s_t}(A ∪ (U ∖ E)) per A, a product (BLAS) per A, on
+            # the configurations sorted by A (each A's rows one contiguous run).
             assert fix is not None  # f > 0 here
             mats = np.zeros((g_n, len(sub), 1 << f, 1 << f))
             vals = sm.g[sites[:, t]][:, sub[:, None] | emb[None, :]]        # (G, 2^s, 2^f)
             mats[:, :, fix.a, fix.union] = vals[:, :, fix.b]
-            new_psi = np.empty_like(psi)
-            for a in np.unique(a_idx):
-                sel = np.nonzero(a_idx == a)[0]
-                new_psi[:, sel] = np.matmul(psi[:, sel], mats[:, a])
-            psi = new_psi
+            order, inverse, runs = lay.by_a[t]
+            x = psi[:, order]
+            psi = np.concatenate([np.matmul(x[:, lo:hi], mats[:, a]) for a, lo, hi in runs],
+                                 axis=1)[:, inverse]
         masks = lay.masks                                                   # (n_c, 2^f)
         cls = (g_n,) + (m + 1,) * s
         p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
@@ -586,42 +644,151 @@ class JointViewGain:
         """
         return self.gains([(sites, prob)])[:, 0]
 
-    def gains(self, views: Sequence[tuple[Sequence[int], np.ndarray]]) -> np.ndarray:
+    def gains(self, views: Sequence[tuple[Sequence[int], np.ndarray]],
+              need: np.ndarray | None = None) -> np.ndarray:
         """I(L_u ; Y_v) for every observed u and view, shape (len(observed), len(views)), nats.
 
         Looks with the same number of in-view sites are evaluated together.
+
+        Args:
+            views: (in-view sites, p_{u,c} of shape (len(observed), m)) per look.
+            need: optional boolean mask, shape (len(observed), len(views)): the gains asked
+                for. Only looks with some gain asked for are evaluated, and within them only the
+                objects asked for in some look of the same batch; every gain not computed is NaN.
+                A computed gain has the same value as without the mask. None = every gain.
         """
         self.restricted = 0
         n_obs = len(self.observed)
-        out = np.zeros((n_obs, len(views)))
+        if need is None:
+            need = np.ones((n_obs, len(views)), dtype=bool)
+        need = np.asarray(need, dtype=bool)
+        if need.shape != (n_obs, len(views)):
+            raise ValueError(f"need has shape {need.shape}, expected {(n_obs, len(views))}")
+        out = np.full((n_obs, len(views)), np.nan)
+        view_sites = [[int(j) for j in v[0]] for v in views]
+        active = [c for c in range(len(views)) if need[:, c].any()]
+        close: dict[int, list[int]] = {}          # the close looks of each room, done together
+        for c in active:
+            if len(view_sites[c]) == 1:
+                close.setdefault(int(self.sm.room_of[view_sites[c][0]]), []).append(view_sites[c][0])
+        for r0, wanted in close.items():
+            self._close_weights(r0, wanted)
         groups: dict[int, list[int]] = {}
-        weights = []
-        for c, (view_sites, _) in enumerate(views):
-            weights.append(self._view_weights([int(j) for j in view_sites]))
-            groups.setdefault(len(view_sites), []).append(c)
+        weights = {}
+        for c in active:
+            weights[c] = self._view_weights(view_sites[c])
+            groups.setdefault(len(view_sites[c]), []).append(c)
         order = np.argsort(self.observed)
         tracked_all = sorted(self.observed)
+        pos = {u: p for p, u in enumerate(self.observed)}
         for m, members in groups.items():
-            sites = np.array([[int(j) for j in views[c][0]] for c in members], dtype=int)
-            probs = np.stack([np.asarray(views[c][1], float).reshape(n_obs, m) for c in members])
-            w_v = np.stack([weights[c][0] for c in members])
-            w_oa = np.stack([weights[c][1] for c in members])
             if self._exact(m):
-                g = self._batch(sites, probs[:, order], tracked_all, range(n_obs), w_v, w_oa)
-                out[np.asarray(order)[:, None], np.array(members)[None, :]] = g.T
+                wanted = need[:, members].any(axis=1)                 # constructor order
+                targets = [i for i in range(n_obs) if wanted[order[i]]]
+                g = self._batch_of(views, members, m, order, tracked_all, targets, weights)
+                out[order[targets][:, None], np.array(members)[None, :]] = g.T
                 continue
-            pos = {u: p for p, u in enumerate(self.observed)}
             by_set: dict[tuple[int, ...], list[int]] = {}     # objects sharing a tracked set
             for o in self.observed:
                 by_set.setdefault(tuple(self._tracked_for(o, m)), []).append(o)
             for tracked_set, objs in by_set.items():
+                objs = [o for o in objs if need[pos[o], members].any()]
+                looks = [c for c in members if need[[pos[o] for o in objs], c].any()]
+                if not looks:
+                    continue
                 tracked = list(tracked_set)
-                g = self._batch(sites, probs[:, [pos[u] for u in tracked]], tracked,
-                                [tracked.index(o) for o in objs], w_v, w_oa)
+                g = self._batch_of(views, looks, m, [pos[u] for u in tracked], tracked,
+                                   [tracked.index(o) for o in objs], weights)
                 for i, o in enumerate(objs):
-                    out[pos[o], members] = g[:, i]
-                self.restricted += len(members) * len(objs)
+                    out[pos[o], looks] = g[:, i]
+                self.restricted += len(looks) * len(objs)
+        return out
+
+    def _batch_of(self, views, looks: list[int], m: int, rows, tracked: Sequence[int],
+                  targets: Sequence[int], weights: dict) -> np.ndarray:
+        """_batch over the looks `looks` (indices into views) of m sites each; `rows` picks the
+        tracked objects' rows of each look's p_{u,c}."""
+        n_obs = len(self.observed)
+        sites = np.array([[int(j) for j in views[c][0]] for c in looks], dtype=int)
+        probs = np.stack([np.asarray(views[c][1], float).reshape(n_obs, m) for c in looks])
+        w_v = np.stack([weights[c][0] for c in looks])
+        w_oa = np.stack([weights[c][1] for c in looks])
+        return self._batch(sites, probs[:, rows], tracked, targets, w_v, w_oa)
+
+    def gain_bounds(self, views: Sequence[tuple[Sequence[int], np.ndarray]]
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds on I(L_u ; Y_v) from the marginals alone, for every observed u and view.
+
+        With C_u the class of u (which in-view site, or outside) and Y_u its outcome,
+        I(C_u ; Y_u) needs only q(L_u = s_c) and u's detection table, and (docs/design.md §6.2,
+        eq. 56)
+
+            I(C_o ; Y_o)  <=  I(L_o ; Y_v)  <=  min( H(L_o), I(C_o ; Y_o) + min(B_o, sum_{u != o} I(C_u ; Y_u)) ):
+
+        the left because Y_o is part of Y_v. The right: I(L_o ; Y_v) = I(L_o ; Y_o) +
+        I(L_o ; Y_{-o} | Y_o), and the second term is at most I(L_o ; Y_{-o}) (Y_o depends on
+        nothing but L_o), which is at most I(L_{-o} ; Y_{-o}) <= sum_{u != o} I(C_u ; Y_u)
+        (outcomes are independent given the locations and depend on L_u only through C_u) and
+        at most I(L_o ; L_{-o}) <= B_o (data processing; B_o from :meth:`_independence_bound`,
+        finite for objects without pair factors). A restricted gain (o's outcome and some
+        others) lies between the same bounds. Both are widened by :data:`BOUND_TOLERANCE`
+        against rounding.
+
+        Returns:
+            (lower, upper), each shape (len(observed), len(views)), nats.
+        """
+        n_obs = len(self.observed)
+        q = self.q[self.observed]                                          # (n_obs, K)
+        own = np.zeros((n_obs, len(views)))
+        groups: dict[int, list[int]] = {}
+        for c, (view_sites, _) in enumerate(views):
+            groups.setdefault(len(view_sites), []).append(c)
+        for m, members in groups.items():
+            sites = np.array([[int(j) for j in views[c][0]] for c in members], dtype=int)
+            prob = np.stack([np.asarray(views[c][1], float).reshape(n_obs, m) for c in members])
+            g_n = len(members)
+            p_in = q[:, sites].transpose(1, 0, 2)                           # (G, n_obs, m)
+            p_c = np.concatenate([np.maximum(1.0 - p_in.sum(axis=2, keepdims=True), 0.0), p_in],
+                                 axis=2)                                    # (G, n_obs, m + 1)
+            tab = np.zeros((g_n, n_obs, m + 1, m + 1))
+            tab[:, :, :, 1:] = self.fp
+            c_idx = np.arange(1, m + 1)
+            tab[:, :, c_idx, c_idx] = prob
+            tab[:, :, :, 0] = 1.0 - tab[:, :, :, 1:].sum(axis=3)
+            tab = np.clip(tab, 0.0, 1.0)
+            p_y = np.einsum("gnc,gncy->gny", p_c, tab)
+            info = _neg_xlogx_sum(p_y, axis=2) - (p_c * _neg_xlogx_sum(tab, axis=3)).sum(axis=2)
+            own[:, members] = np.maximum(info, 0.0).T
+        h_o = _neg_xlogx_sum(q, axis=1)
+        rest = own.sum(axis=0)[None, :] - own                           # sum over u != o
+        rest = np.minimum(rest, self._independence_bound()[self.observed][:, None])
+        upper = np.minimum(h_o[:, None], own + rest) + BOUND_TOLERANCE
+        return own - BOUND_TOLERANCE, upper
+
+    def _independence_bound(self) -> np.ndarray:
+        """B_o >= I(L_o ; L_{-o}), nats, per object (inf where no bound is known).
+
+        An object with no pair factor (same-site and same-room weights 1 with every other
+        object) depends on the others only through capacity: given them, its location is its
+        unary u_o reweighted by w(a) in [penalty, 1], below 1 only at sites whose capacity can
+        bind (S). With rho = u_o normalised, I(L_o ; L_{-o}) <= E KL(P(L_o | L_{-o}) || rho)
+        <= -ln sum_a rho(a) w(a) <= -ln(1 - (1 - penalty) rho(S)).
+        """
+        sm = self.sm
+        out = np.full(self.n, np.inf)
+        if sm.penalty is None or not sm.capacity_binds.any():
+            binding = 0.0
+        else:
+            binding = 1.0 - float(sm.penalty)
+        for o in range(self.n):
+            others = np.arange(self.n) != o
+            if np.any(sm.same_site[o, others] != 1.0) or np.any(sm.same_room[o, others] != 1.0):
+                continue
+            u = sm.unary[o]
+            share = float(u[sm.capacity_binds].sum() / u.sum()) if binding else 0.0
+            if binding * share < 1.0:
+                out[o] = -np.log1p(-binding * share)
         return out
 
 
-__all__ = ["JointViewGain", "OUTCOME_LIMIT", "detection_table"]
+__all__ = ["BOUND_TOLERANCE", "JointViewGain", "OUTCOME_LIMIT", "detection_table"]

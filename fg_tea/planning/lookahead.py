@@ -602,7 +602,8 @@ class LookaheadPlanner:
         self.weights = weights
         self.settings = settings
         self.efe = EFEPlanner(weights, information)
-        self.pruner = EFEPlanner(replace(weights, repeat_penalty=0.0), information)
+        # The root's candidates are ranked by their one-step scores, so every one is exact.
+        self.pruner = EFEPlanner(replace(weights, repeat_penalty=0.0), information, prune=False)
 
     # ------------------------------------------------------------------ one-step scores in the tree
     def _tree_scores(self, problem: SearchProblem, node: _Node, relevance: np.ndarray) -> np.ndarray:

@@ -257,8 +257,11 @@ def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, 
                 if c.get("viewpoint_kind") == "room":
                     where = "glance " + where
                 colour = (255, 200, 40) if i == 0 else (235, 235, 235)
-                values = (f"{_short(c['object'], 6)}@{_short(where, 14)}", f"{c['total']:+.2f}",
-                          f"{c['distance']:.1f}", f"{c['probability']:.2f}", f"{c['information_gain']:.2f}")
+                # A pruned candidate (docs/design.md §6.2) logs bounds: G at least, I at most.
+                low, high = ((">=", "<=") if c.get("information_gain_bound") else ("", ""))
+                values = (f"{_short(c['object'], 6)}@{_short(where, 14)}", f"{low}{c['total']:+.2f}",
+                          f"{c['distance']:.1f}", f"{c['probability']:.2f}",
+                          f"{high}{c['information_gain']:.2f}")
                 for x, v in zip(cols, values):
                     _text(frame, v, x, yy, fs * 0.8, colour)
             top += height + pad
