@@ -683,7 +683,7 @@ class JointViewGain:
         pos = {u: p for p, u in enumerate(self.observed)}
         for m, members in groups.items():
             if self._exact(m):
-                asked = need[:, members].any(axis=1)                  # constructor order
+                asked = np.asarray(need[:, members].any(axis=1))      # constructor order
                 targets = [i for i in range(n_obs) if asked[order[i]]]
                 g = self._batch_of(views, members, m, order, tracked_all, targets, weights)
                 out[order[targets][:, None], np.array(members)[None, :]] = g.T
