@@ -56,6 +56,9 @@ def main(argv=None) -> int:
     p.add_argument("--move", nargs=3, metavar=("OBJECT", "SITE", "AFTER"), default=None,
                    help="from episode AFTER+1 on, OBJECT always stands at SITE (recovery experiment)")
     p.add_argument("--focus", default="mug", help="the object whose inspections are reported")
+    p.add_argument("--logs", default=None, metavar="DIR",
+                   help="write every learned arm's episode logs under DIR/MODEL/ARM/householdH/ "
+                   "(then `fg-tea learn` on them rebuilds that arm's learned model)")
     args = p.parse_args(argv)
     started, cpu = time.time(), time.process_time()
     try:
@@ -101,7 +104,7 @@ def _specs(args) -> list[HouseholdSpec]:
     models = [load_model(m) for m in args.models]
     pairs = relation_pairs(models)
     return [HouseholdSpec(source, fixed, ref, h, args.episodes, args.env, args.planner, gammas,
-                          move, args.focus, pairs)
+                          move, args.focus, pairs, args.logs)
             for ref in args.models
             for h in range(args.first_household, args.first_household + args.households)]
 

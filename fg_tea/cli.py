@@ -858,15 +858,19 @@ def cmd_learn(args: argparse.Namespace) -> int:
     info = summary(learning)
     where = "; ".join(f"{cat}: " + ", ".join(f"{s} {share:.2f}" for s, share in shares.items())
                       for cat, shares in info["sites"].items()) or "no objects found"
-    print(f"learned: {out} ({len(args.logs)} new log(s), {info['sources']} in all; found at: {where})")
+    together = "; ".join(f"{pair}: " + ", ".join(f"{k.replace('_', ' ')} {v:.2f}" for k, v in shares.items())
+                         for pair, shares in info["co_location"].items() if shares)
+    print(f"learned: {out} ({len(args.logs)} new log(s), {info['sources']} in all; found at: {where}"
+          + (f"; kept together: {together}" if together else "") + ")")
     return 0
 
 
 def _add_learn_parser(sub) -> None:
-    p = sub.add_parser("learn", help="learn site priors, detector and sensor reliability from logs",
+    p = sub.add_parser("learn", help="learn site priors, co-location, detector and sensor reliability from logs",
                        description="Count, from episode logs and only from what the agent observed, "
-                       "where it found each object, the looks that saw or missed an object at the "
-                       "site where it stood, and state readings that other readings settled; write "
+                       "where it found each object, which objects it found together (same site, same "
+                       "room, apart), the looks that saw or missed an object at the site where it "
+                       "stood, and state readings that other readings settled; write "
                        "a model file that extends --base and holds the counts (docs/design.md §12). "
                        "Learning from A then B (with the first result as --base) equals learning "
                        "from A and B at once.")

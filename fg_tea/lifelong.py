@@ -31,6 +31,7 @@ relation class (same site / same room / apart) for every related category pair, 
 from __future__ import annotations
 
 import csv
+import hashlib
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -77,6 +78,9 @@ class HouseholdSpec:
         move: (object, site, after): from episode after+1 on, the object stands at site.
         focus: the object whose inspections until found are reported.
         relation_pairs: category pairs scored by the relation log loss.
+        log_dir: when given, every learned arm's episode log is written to
+            ``log_dir/MODEL/ARM/householdH/episodeKK.jsonl`` and named (with its sha256) as the
+            source of the counts, so ``fg-tea learn`` on those files rebuilds the arm's model.
     """
 
     source: str
@@ -90,6 +94,7 @@ class HouseholdSpec:
     move: tuple[str, str, int] | None = None
     focus: str = "mug"
     relation_pairs: tuple[tuple[str, str], ...] = ()
+    log_dir: str | None = None
 
 
 def relation_pairs(models: Iterable[Any]) -> tuple[tuple[str, str], ...]:
@@ -126,7 +131,8 @@ def _placements(spec: HouseholdSpec, k: int):
     return scenario, seed
 
 
-def _episode(spec: HouseholdSpec, model, scenario, seed: int):
+def _episode(spec: HouseholdSpec, model, scenario, seed: int, path: Path | None = None):
+    from fg_tea.episode.log import EventLog
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 
     if spec.env == "fake":
@@ -137,11 +143,14 @@ def _episode(spec: HouseholdSpec, model, scenario, seed: int):
         from fg_tea.env.house import PyBulletHouse
 
         env = PyBulletHouse(scenario, env_config_for(model))
+    log = EventLog(path) if path is not None else None
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=spec.planner),
-                               world=None if spec.fixed else spec.source)
+                               log, world=None if spec.fixed else spec.source)
         metrics = runner.run()
     finally:
+        if log is not None:
+            log.close()
         close = getattr(env, "close", None)
         if close is not None:
             close()
@@ -223,7 +232,12 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
                 applied = learning if kind == LEARNED_CORRELATIONS else replace(
                     learning, counts=learning.counts.without_relations())
                 model = apply_learning(base, applied)
-            events, m = _episode(spec, model, scenario, seed)
+            path = None
+            if spec.log_dir is not None and kind != HAND_SET:
+                slug = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in label)
+                path = (Path(spec.log_dir) / base.name / slug / f"household{spec.household}"
+                        / f"episode{k + 1:02d}.jsonl")
+            events, m = _episode(spec, model, scenario, seed, path)
             scores = score_start_belief(scenario, model, events, spec.relation_pairs)
             start = events[0]
             sites = [s["name"] for s in start["sites"]]
@@ -244,9 +258,12 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
                 "learned_logs": 0 if learning is None else len(learning.sources),
                 "_calibration": scores["calibration"]})
             if kind != HAND_SET:
-                learning = learn([(events, Source(f"household{spec.household}/episode{k + 1}",
-                                                  f"{seed:064x}"))],
-                                 learning or Learning(), gamma)
+                # in memory the source is named by household and episode, and its "sha256" is the
+                # episode seed (there is no file); with log_dir, the written file and its hash
+                source = (Source(str(path), hashlib.sha256(path.read_bytes()).hexdigest())
+                          if path is not None else
+                          Source(f"household{spec.household}/episode{k + 1}", f"{seed:064x}"))
+                learning = learn([(events, source)], learning or Learning(), gamma)
     return rows
 
 

@@ -357,11 +357,65 @@ def test_lifelong_script_smoke(tmp_path):
     spec = importlib.util.spec_from_file_location("lifelong", ROOT / "experiments" / "lifelong.py")
     lifelong = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(lifelong)
-    assert lifelong.main(["--households", "1", "--episodes", "3", "--workers", "1", "--models",
-                          "factorised", "--out", str(tmp_path), "--forgetting", "0.5",
+    assert lifelong.main(["--households", "1", "--episodes", "3", "--models", "factorised",
+                          "--out", str(tmp_path), "--forgetting", "1", "0.5",
                           "--move", "mug", "dining_table", "1"]) == 0
     rows = list(csv.DictReader(open(tmp_path / "episodes.csv")))
-    learned = [r for r in rows if r["arm"] == "learned"]
+    assert sorted({r["arm"] for r in rows}) == ["hand-set", "learned (γ=0.5)", "learned (γ=1)"]
+    learned = [r for r in rows if r["arm"] == "learned (γ=0.5)"]
     assert [r["learned_logs"] for r in learned] == ["0", "1", "2"]
-    assert [r["mug_site"] for r in learned][1:] == ["dining_table", "dining_table"]
+    assert [r["focus_site"] for r in learned][1:] == ["dining_table", "dining_table"]
     assert (tmp_path / "curves.png").stat().st_size > 0
+    # a fixed scenario: every episode has its placements (the mug on the study shelf)
+    assert lifelong.main(["--households", "1", "--episodes", "2", "--models", "factorised",
+                          "--scenario", "prior_violation", "--out", str(tmp_path / "pv")]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "pv" / "episodes.csv")))
+    assert {r["focus_site"] for r in rows} == {"study_shelf"}
+
+
+def test_cli_compare_lifelong(tmp_path):
+    """``fg-tea compare --lifelong K`` (fake house, one household, K = 2): every arm runs K
+    episodes on the same placements; episode 2 of the learned arms uses episode 1's counts, and
+    only the learned-correlations arm changes the relational weights (the two learned arms share
+    episode 1 and so their counts; their start beliefs differ in episode 2 only through eq. 55)."""
+    import csv
+
+    out = tmp_path / "ll"
+    done = _cli("compare", "--lifelong", "2", "--worlds", "1", "--world", "contrary_household",
+                "--models", "factorised", "joint", "--env", "fake", "--executor", "serial",
+                "--out", out)
+    assert done.returncode == 0, done.stderr
+    rows = list(csv.DictReader(open(out / "episodes.csv")))
+    arms = {(r["model"], r["arm"]) for r in rows}
+    assert arms == {("factorised", "hand-set"), ("factorised", "learned"), ("joint", "hand-set"),
+                    ("joint", "learned"), ("joint", "learned-correlations")}
+    by = {(r["model"], r["arm"], r["episode"]): r for r in rows}
+    for model, arm in arms:
+        assert by[(model, arm, "1")]["world_seed"] == "0" and by[(model, arm, "2")]["world_seed"] == "1"
+        assert by[(model, arm, "2")]["learned_logs"] == ("0" if arm == "hand-set" else "1")
+    ep1 = [by[("joint", a, "1")] for a in ("hand-set", "learned", "learned-correlations")]
+    assert len({(r["inspections"], r["search_distance"], r["relation_log_loss"]) for r in ep1}) == 1
+    learned, corr = by[("joint", "learned", "2")], by[("joint", "learned-correlations", "2")]
+    assert learned["relation_log_loss"] != corr["relation_log_loss"]
+    assert learned["log_loss"] != by[("joint", "hand-set", "2")]["log_loss"]
+    for name in ("curves.csv", "summary.md", "curves.png"):
+        assert (out / name).stat().st_size > 0
+    assert "fg-tea compare --lifelong 2" in (out / "summary.md").read_text()
+
+
+@pytest.mark.parametrize("args, fault", [
+    (["--lifelong", "0"], "--lifelong"),
+    (["--lifelong", "two"], "--lifelong"),
+    (["--lifelong", "2", "--forgetting", "0"], "--forgetting"),
+    (["--forgetting", "0.5"], "--forgetting"),
+    (["--lifelong", "2", "--planners", "efe", "greedy"], "--planners"),
+    (["--lifelong", "2", "--worlds", "0"], "--worlds"),
+    (["--lifelong", "2", "--executor", "ray"], "--executor"),
+    (["--lifelong", "2", "--models", "no_such_model"], "no_such_model"),
+    (["--lifelong", "2", "--world", "no_such_world"], "no_such_world"),
+])
+def test_cli_compare_lifelong_bad_input_is_one_line(tmp_path, args, fault):
+    done = _cli("compare", *args, "--env", "fake", "--out", tmp_path / "x")
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and fault in done.stderr, done.stderr
+    assert not (tmp_path / "x" / "episodes.csv").exists()
