@@ -617,8 +617,8 @@ def counts_from_events(events: Sequence[Mapping], file: str = "<log>") -> Counts
                 continue
             (sa, _), (sb, _) = found[a], found[b]
             k = 0 if sa == sb else 1 if room_of.get(sa) is not None and room_of.get(sa) == room_of.get(sb) else 2
-            first, second = sorted((ca, cb))
-            cell = rel.setdefault(first, {}).setdefault(second, [0.0, 0.0, 0.0])
+            cat_lo, cat_hi = sorted((ca, cb))
+            cell = rel.setdefault(cat_lo, {}).setdefault(cat_hi, [0.0, 0.0, 0.0])
             cell[k] += 1.0
     co_location = {a: {b: tuple(v) for b, v in row.items()} for a, row in rel.items()}
     return Counts(_sorted(site_counts), _sorted(det), sensors, _sorted(co_location))

@@ -100,7 +100,7 @@ class HouseholdSpec:
 def relation_pairs(models: Iterable[Any]) -> tuple[tuple[str, str], ...]:
     """The category pairs (alphabetical) that any of `models` relates by co-location."""
     pairs = {tuple(sorted(r.categories)) for m in models for r in m.relations if r.kind == "co_location"}
-    return tuple(sorted(pairs))  # type: ignore[arg-type]
+    return tuple(sorted(pairs))
 
 
 def arms_of(model: Any, forgetting: Sequence[float | None] = (None,)) -> list[tuple[str, str, float | None]]:
@@ -135,14 +135,9 @@ def _episode(spec: HouseholdSpec, model, scenario, seed: int, path: Path | None 
     from fg_tea.episode.log import EventLog
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 
-    if spec.env == "fake":
-        from fg_tea.env.fake import FakeHouse
+    from fg_tea.sweep import _make_env
 
-        env = FakeHouse(scenario, env_config_for(model))
-    else:
-        from fg_tea.env.house import PyBulletHouse
-
-        env = PyBulletHouse(scenario, env_config_for(model))
+    env = _make_env(spec.env, scenario, env_config_for(model))
     log = EventLog(path) if path is not None else None
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=spec.planner),
@@ -402,9 +397,57 @@ def summary_markdown(rows: Sequence[Mapping], table: Sequence[Mapping], title: s
             lines.append(f"| {model} | {arm} | calibration error of q0 (ECE, pooled) | "
                          f"{_fmt((c1[0]['ece'], c1[0]['ece_lo'], c1[0]['ece_hi']))} | "
                          f"{_fmt((cK[0]['ece'], cK[0]['ece_lo'], cK[0]['ece_hi']))} | – | – |")
+    lines += _between_arms(rows, keys, focus)
     lines += ["", f"{len(rows)} episodes; success rate "
               f"{np.mean([r['success'] for r in rows]):.3f}."]
     return "\n".join(lines) + "\n"
+
+
+#: Columns compared between learned arms, episode by episode (paired over households).
+BETWEEN = [("focus_inspections", "inspections until the {focus} is found"),
+           ("search_distance", "search travel (m)"),
+           ("prior_true_focus", "q0 of the {focus}'s true site"),
+           ("relation_log_loss", "-log q0(true relation class)")]
+
+
+def _gamma_of(arm: str) -> float:
+    """The forgetting factor in an arm label such as ``learned (γ=0.6)`` (1 without one)."""
+    if "γ=" not in arm:
+        return 1.0
+    return float(arm.split("γ=")[1].rstrip(")"))
+
+
+def _between_arms(rows: Sequence[Mapping], keys: Sequence[tuple[str, str]], focus: str) -> list[str]:
+    """Per episode, each further learned arm of a model minus its first learned arm (paired
+    over households): learned-correlations − learned, or γ = g − the first γ given."""
+    out: list[str] = []
+    for model in sorted({m for m, _ in keys}):
+        learned = [a for m, a in keys if m == model and a != HAND_SET]
+        if len(learned) < 2:
+            continue
+        # the reference: the plain learned arm, with the largest gamma (least forgetting)
+        ref = min(learned, key=lambda a: (a.startswith(LEARNED_CORRELATIONS), -_gamma_of(a)))
+        others = sorted((a for a in learned if a != ref), key=lambda a: (
+            a.startswith(LEARNED_CORRELATIONS), -_gamma_of(a)))
+        episodes = sorted({r["episode"] for r in rows})
+        out += ["", f"**{model}: paired differences between learned arms, per episode** (mean "
+                f"[95 % t-interval] over households, reference arm `{ref}`)", "",
+                "| arm − " + ref + " | metric | " + " | ".join(f"ep. {k}" for k in episodes) + " |",
+                "|---|---|" + "---|" * len(episodes)]
+        for arm in others:
+            for key, label in BETWEEN:
+                cells = []
+                for k in episodes:
+                    a = {r["household"]: r[key] for r in rows if r["model"] == model and r["arm"] == arm
+                         and r["episode"] == k and r[key] not in (None, "")}
+                    b = {r["household"]: r[key] for r in rows if r["model"] == model and r["arm"] == ref
+                         and r["episode"] == k and r[key] not in (None, "")}
+                    d = t_interval(a[h] - b[h] for h in a if h in b)
+                    cells.append("–" if math.isnan(d[0]) else f"{d[0]:.2f} [{d[1]:.2f}, {d[2]:.2f}]")
+                if all(c == "–" for c in cells):
+                    continue
+                out.append(f"| {arm} | {label.format(focus=focus)} | " + " | ".join(cells) + " |")
+    return out
 
 
 def plot(table: Sequence[Mapping], path: Path, title: str, focus: str = "mug") -> None:
