@@ -57,7 +57,7 @@ METRICS = [("focus_inspections", "inspections until the {focus} is found"),
            ("brier", "Brier score of q0, mean over objects"),
            ("relation_log_loss", "-log q0(true relation class) (nats)")]
 #: Every file :func:`write_outputs` writes.
-OUTPUTS = ("episodes.csv", "curves.csv", "summary.md", "curves.png")
+OUTPUTS = ("episodes.csv", "curves.csv", "summary.md", "curves.png", "focus_curve.png")
 #: Bootstrap resamples of households for the interval of the pooled calibration error.
 BOOTSTRAP = 1000
 
@@ -355,8 +355,10 @@ def write_outputs(rows: Sequence[Mapping], out: Path, title: str, command: str,
                     for c in table)
     (out / "summary.md").write_text(summary_markdown(rows, table, title, command, focus))
     plot(table, out / "curves.png", title, focus)
+    plot(table, out / "focus_curve.png", title, focus, only=("focus_inspections",))
     return {"episodes": out / "episodes.csv", "curves": out / "curves.csv",
-            "summary": out / "summary.md", "plot": out / "curves.png"}
+            "summary": out / "summary.md", "plot": out / "curves.png",
+            "focus_plot": out / "focus_curve.png"}
 
 
 def _fmt(c: tuple[float, float, float]) -> str:
@@ -450,8 +452,10 @@ def _between_arms(rows: Sequence[Mapping], keys: Sequence[tuple[str, str]], focu
     return out
 
 
-def plot(table: Sequence[Mapping], path: Path, title: str, focus: str = "mug") -> None:
-    """Learning curves with 95 % bands: one panel per metric, one line per model and arm."""
+def plot(table: Sequence[Mapping], path: Path, title: str, focus: str = "mug",
+         only: Sequence[str] | None = None) -> None:
+    """Learning curves with 95 % bands: one panel per metric (or only the metrics `only`
+    names), one line per model and arm."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -459,9 +463,13 @@ def plot(table: Sequence[Mapping], path: Path, title: str, focus: str = "mug") -
 
     panels = [m for m in METRICS if any(not math.isnan(c[m[0]]) for c in table)] + \
         [("ece", "calibration error of q0 (ECE)")]
-    cols = 4
+    if only is not None:
+        panels = [m for m in panels if m[0] in only]
+    cols = min(4, len(panels))
     rows_n = math.ceil(len(panels) / cols)
-    fig, axes = plt.subplots(rows_n, cols, figsize=(4.2 * cols, 3.4 * rows_n), squeeze=False)
+    wide = 6.0 if cols == 1 else 4.2
+    fig, axes = plt.subplots(rows_n, cols, figsize=(wide * cols, 3.4 * rows_n + (0.4 if cols == 1 else 0)),
+                             squeeze=False)
     colours = {"factorised": "tab:blue", "joint": "tab:orange"}
     styles = {HAND_SET: ":", LEARNED: "-", LEARNED_CORRELATIONS: "--"}
     keys = sorted({(c["model"], c["arm"]) for c in table}, key=lambda x: (x[0], _arm_order(x[1])))
@@ -486,7 +494,10 @@ def plot(table: Sequence[Mapping], path: Path, title: str, focus: str = "mug") -
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
-    fig.suptitle(title + " (95 % intervals over households)", fontsize=10)
+    import textwrap
+
+    heading = title + " (95 % intervals over households)"
+    fig.suptitle(textwrap.fill(heading, 70) if cols == 1 else heading, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
