@@ -68,7 +68,8 @@ def main(argv=None) -> int:
     rows = run_lifelong(specs, args.workers)
     source = args.scenario or args.world or "contrary_household"
     title = (f"Lifelong learning: {source}{' (fixed placements)' if args.scenario else ''}, "
-             f"{args.households} households x {args.episodes} episodes, {args.env} house")
+             f"{args.households} households x {args.episodes} episodes, {args.env} house"
+             + (f"; {args.move[0]} moved to {args.move[1]} after episode {args.move[2]}" if args.move else ""))
     command = shlex.join(["python", "experiments/lifelong.py", *(argv if argv is not None else sys.argv[1:])])
     write_outputs(rows, Path(args.out), title, command, args.focus)
     print((Path(args.out) / "summary.md").read_text())
