@@ -1,224 +1,113 @@
 """Lifelong learning curves: does an agent that learns from its own episodes search less?
 
 For each household (a seed) the agent lives K consecutive episodes in the same house; episode k
-uses the model learned (docs/design.md §12) from that household's episodes 0..k-1, and a control
-arm runs the same placements with the hand-written model. Placements are drawn, episode by
-episode, from a world distribution whose habits differ from the agent's priors (default
-``contrary_household``: every object placed from the inverse of the prior; the mug is on the
-study shelf 59 % of the time, where the prior says 0.01).
+uses the model learned (docs/design.md §12) from that household's episodes 0..k-1. Beside it, on
+the same placements and seeds: a hand-set control, and for joint models an arm that learns the
+co-location weights too (eqs. 54-55) where the ``learned`` arm keeps the hand-set ones. The
+logic is :mod:`fg_tea.lifelong` (also ``fg-tea compare --lifelong K``); this script adds fixed
+scenarios, several forgetting factors and moving an object.
+
+Placements are drawn, episode by episode, from a world distribution whose habits differ from the
+agent's priors (default ``contrary_household``: every object placed from the inverse of the
+prior; the mug is on the study shelf 59 % of the time, where the prior says 0.01), or, with
+``--scenario``, are one scenario's own (``prior_violation``: the mug always on the study shelf).
 
 Outputs (under ``--out``, default ``runs/experiments/lifelong``): ``episodes.csv`` (one row per
 episode), ``curves.csv`` (mean and 95 % interval over households per model, arm and episode),
 ``summary.md`` (episode 1 against episode K, paired over households) and ``curves.png``.
 
-    python experiments/lifelong.py --households 30 --episodes 10 --out docs/lifelong
+    python experiments/lifelong.py --households 30 --episodes 10 --out experiments/results/lifelong
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import math
+import shlex
 import sys
-from concurrent.futures import ProcessPoolExecutor
+import time
 from pathlib import Path
-
-import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from fg_tea.learning import Source, apply_learning, learn  # noqa: E402
-
-FIELDS = ["model", "arm", "household", "episode", "world_seed", "success", "mug_site",
-          "mug_inspections", "inspections", "search_distance", "spl", "prior_true_mug",
-          "log_loss", "learned_logs"]
-METRICS = [("mug_inspections", "inspections until the mug is found"),
-           ("search_distance", "search travel (m)"), ("spl", "SPL"),
-           ("log_loss", "-log q0(true site), mean over objects (nats)")]
-
-
-def _episode(world_name: str, model_name: str, learning, world_seed: int, env_kind: str,
-             move: tuple[str, str] | None = None):
-    from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.model import load_model
-    from fg_tea.worlds import load_world
-
-    world = load_world(world_name)
-    scenario = world.sample(world_seed)
-    if move is not None:  # the household moves an object for good (the recovery experiment)
-        from dataclasses import replace
-
-        obj, site = move
-        scenario = replace(scenario, objects=tuple(
-            replace(o, true_site=site) if o.name == obj else o for o in scenario.objects))
-    model = load_model(model_name)
-    if learning is not None:
-        model = apply_learning(model, learning)
-    if env_kind == "fake":
-        from fg_tea.env.fake import FakeHouse
-
-        env = FakeHouse(scenario, env_config_for(model))
-    else:
-        from fg_tea.env.house import PyBulletHouse
-
-        env = PyBulletHouse(scenario, env_config_for(model))
-    try:
-        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=world_seed), world=world_name)
-        metrics = runner.run()
-    finally:
-        close = getattr(env, "close", None)
-        if close is not None:
-            close()
-    return runner.events, metrics, scenario
-
-
-def household(args: tuple) -> list[dict]:
-    """K episodes of one household for one model, learning on and off (same placements)."""
-    world_name, model_name, h, episodes, env_kind, gamma, move_after, move = args
-    rows = []
-    for arm in ("learned", "hand-set"):
-        learning = None
-        for k in range(episodes):
-            seed = 1000 * h + k
-            moved = move if move is not None and k + 1 > move_after else None
-            events, m, scenario = _episode(world_name, model_name, learning, seed, env_kind, moved)
-            # evaluation only: the truth of the sampled world scores the agent's prior
-            start = events[0]
-            sites = [s["name"] for s in start["sites"]]
-            prior = start["belief"]["locations"]
-            truth = {o.name: o.true_site for o in scenario.objects}
-            losses = [-math.log(max(prior[o][sites.index(truth[o])], 1e-300)) for o in prior]
-            rows.append({
-                "model": model_name, "arm": arm, "household": h, "episode": k + 1,
-                "world_seed": seed, "success": int(bool(m["success"])),
-                "mug_site": truth["mug"],
-                "mug_inspections": (m["inspections_until_resolved"] or {}).get("mug"),
-                "inspections": m["inspections"], "search_distance": m["search_distance"],
-                "spl": m["spl"], "prior_true_mug": prior["mug"][sites.index(truth["mug"])],
-                "log_loss": float(np.mean(losses)),
-                "learned_logs": 0 if learning is None else len(learning.sources)})
-            if arm == "learned":
-                learning = learn([(events, Source(f"household{h}/episode{k + 1}",
-                                                  f"{seed:064x}"))], learning, gamma)
-    return rows
-
-
-def _ci(values) -> tuple[float, float, float]:
-    x = np.asarray([v for v in values if v is not None and v != ""], dtype=float)
-    if len(x) == 0:
-        return math.nan, math.nan, math.nan
-    from scipy.stats import t
-
-    mean = float(x.mean())
-    if len(x) < 2:
-        return mean, mean, mean
-    half = float(t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / math.sqrt(len(x)))
-    return mean, mean - half, mean + half
+from fg_tea.errors import InputError  # noqa: E402
+from fg_tea.lifelong import (HouseholdSpec, check_move, relation_pairs, run_lifelong,  # noqa: E402
+                             write_outputs)
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--world", default="contrary_household")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--world", default=None, help="world distribution (default: contrary_household)")
+    where.add_argument("--scenario", default=None,
+                       help="a scenario whose own placements every episode uses (e.g. prior_violation)")
     p.add_argument("--models", nargs="+", default=["factorised", "joint"])
     p.add_argument("--households", type=int, default=30)
     p.add_argument("--episodes", type=int, default=10)
+    p.add_argument("--first-household", type=int, default=0)
     p.add_argument("--env", choices=("fake", "pybullet"), default="fake")
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--planner", default="efe")
+    p.add_argument("--workers", type=int, default=1)
     p.add_argument("--out", default="runs/experiments/lifelong")
-    p.add_argument("--forgetting", type=float, default=None,
-                   help="forgetting factor gamma of the learned arm (default 1: never forget)")
+    p.add_argument("--forgetting", type=float, nargs="+", default=None,
+                   help="forgetting factor(s) gamma of the learned arms (default 1: never forget); "
+                   "several values run the learned arms once per value")
     p.add_argument("--move", nargs=3, metavar=("OBJECT", "SITE", "AFTER"), default=None,
                    help="from episode AFTER+1 on, OBJECT always stands at SITE (recovery experiment)")
+    p.add_argument("--focus", default="mug", help="the object whose inspections are reported")
+    p.add_argument("--logs", default=None, metavar="DIR",
+                   help="write every learned arm's episode logs under DIR/MODEL/ARM/householdH/ "
+                   "(then `fg-tea learn` on them rebuilds that arm's learned model)")
     args = p.parse_args(argv)
-    if args.forgetting is not None and not 0 < args.forgetting <= 1:
-        p.error("--forgetting must be in (0, 1]")
-    move = (args.move[0], args.move[1]) if args.move else None
-    move_after = int(args.move[2]) if args.move else 0
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    jobs = [(args.world, m, h, args.episodes, args.env, args.forgetting, move_after, move)
-            for m in args.models for h in range(args.households)]
-    rows: list[dict] = []
-    if args.workers > 1:
-        with ProcessPoolExecutor(args.workers) as pool:
-            for part in pool.map(household, jobs):
-                rows += part
-    else:
-        for job in jobs:
-            rows += household(job)
-    rows.sort(key=lambda r: (r["model"], r["arm"], r["household"], r["episode"]))
-    with open(out / "episodes.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, FIELDS)
-        w.writeheader()
-        w.writerows(rows)
-    curves = []
-    for model in args.models:
-        for arm in ("learned", "hand-set"):
-            for k in range(1, args.episodes + 1):
-                sel = [r for r in rows if r["model"] == model and r["arm"] == arm and r["episode"] == k]
-                row = {"model": model, "arm": arm, "episode": k, "n": len(sel)}
-                for key, _ in METRICS + [("success", ""), ("prior_true_mug", "")]:
-                    row[key], row[key + "_lo"], row[key + "_hi"] = _ci(r[key] for r in sel)
-                curves.append(row)
-    with open(out / "curves.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, list(curves[0]))
-        w.writeheader()
-        w.writerows({k: (round(v, 6) if isinstance(v, float) else v) for k, v in c.items()}
-                    for c in curves)
-    _summary(rows, args, out)
-    _plot(curves, args, out)
-    print((out / "summary.md").read_text())
+    started, cpu = time.time(), time.process_time()
+    try:
+        specs = _specs(args)
+    except InputError as exc:
+        p.error(str(exc))
+    rows = run_lifelong(specs, args.workers)
+    source = args.scenario or args.world or "contrary_household"
+    title = (f"Lifelong learning: {source}{' (fixed placements)' if args.scenario else ''}, "
+             f"{args.households} households x {args.episodes} episodes, {args.env} house"
+             + (f"; {args.move[0]} moved to {args.move[1]} after episode {args.move[2]}" if args.move else ""))
+    command = shlex.join(["python", "experiments/lifelong.py", *(argv if argv is not None else sys.argv[1:])])
+    write_outputs(rows, Path(args.out), title, command, args.focus)
+    print((Path(args.out) / "summary.md").read_text())
+    print(f"{len(rows)} episodes in {time.time() - started:.0f} s wall, "
+          f"{time.process_time() - cpu:.0f} s CPU (this process)")
     return 0
 
 
-def _summary(rows, args, out: Path) -> None:
-    K = args.episodes
-    lines = [f"# Lifelong learning: {args.world}, {args.households} households x {K} episodes, "
-             f"{args.env} house", "",
-             "Means with 95 % t-intervals over households. Paired: episode K minus episode 1 of "
-             "the same household, and learned minus hand-set at episode K (same placements).", "",
-             "| model | metric | episode 1 (learned arm) | episode K learned | episode K hand-set | "
-             "K - 1 (learned) | learned - hand-set at K |", "|---|---|---|---|---|---|---|"]
-    for model in args.models:
-        for key, label in METRICS:
-            def get(arm, k):
-                return {r["household"]: r[key] for r in rows
-                        if r["model"] == model and r["arm"] == arm and r["episode"] == k}
-            first, last, hand = get("learned", 1), get("learned", K), get("hand-set", K)
-            fmt = lambda c: f"{c[0]:.3f} [{c[1]:.3f}, {c[2]:.3f}]"  # noqa: E731
-            d1 = [last[h] - first[h] for h in first if last.get(h) is not None and first[h] is not None]
-            d2 = [last[h] - hand[h] for h in last if hand.get(h) is not None and last[h] is not None]
-            lines.append(f"| {model} | {label} | {fmt(_ci(first.values()))} | {fmt(_ci(last.values()))} "
-                         f"| {fmt(_ci(hand.values()))} | {fmt(_ci(d1))} | {fmt(_ci(d2))} |")
-    (out / "summary.md").write_text("\n".join(lines) + "\n")
+def _specs(args) -> list[HouseholdSpec]:
+    from fg_tea.model import load_model
+    from fg_tea.scenario import load_scenario
+    from fg_tea.worlds import load_world
 
-
-def _plot(curves, args, out: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, len(METRICS), figsize=(4.2 * len(METRICS), 3.6))
-    colours = {"factorised": "tab:blue", "joint": "tab:orange"}
-    for ax, (key, label) in zip(axes, METRICS):
-        for model in args.models:
-            for arm, style in (("learned", "-"), ("hand-set", ":")):
-                sel = [c for c in curves if c["model"] == model and c["arm"] == arm]
-                k = [c["episode"] for c in sel]
-                ax.plot(k, [c[key] for c in sel], style, marker=".", color=colours.get(model),
-                        label=f"{model}, {arm}")
-                ax.fill_between(k, [c[key + "_lo"] for c in sel], [c[key + "_hi"] for c in sel],
-                                color=colours.get(model), alpha=0.12 if arm == "learned" else 0.05)
-        ax.set(xlabel="episode in the household", title=label)
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7)
-    fig.suptitle(f"Learning where things live: {args.world}, {args.households} households, "
-                 f"95 % intervals ({args.env} house)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(out / "curves.png", dpi=100)
+    if args.households < 1 or args.episodes < 1 or args.first_household < 0:
+        raise InputError("<command line>", "--households/--episodes", "expected positive counts")
+    if args.episodes > 1000:
+        raise InputError("<command line>", "--episodes", "at most 1000 (seeds are 1000 h + k)")
+    gammas = tuple(args.forgetting) if args.forgetting else (None,)
+    for g in gammas:
+        if g is not None and not 0 < g <= 1:
+            raise InputError("<command line>", "--forgetting", f"must be in (0, 1], got {g}")
+    fixed = args.scenario is not None
+    source = args.scenario or args.world or "contrary_household"
+    house = load_scenario(source) if fixed else load_world(source).sample(0)
+    move = None
+    if args.move:
+        try:
+            after = int(args.move[2])
+        except ValueError:
+            raise InputError("<command line>", "--move", f"AFTER must be an integer, got {args.move[2]!r}") from None
+        move = (args.move[0], args.move[1], after)
+        check_move(move, house, args.episodes)
+    models = [load_model(m) for m in args.models]
+    pairs = relation_pairs(models)
+    return [HouseholdSpec(source, fixed, ref, h, args.episodes, args.env, args.planner, gammas,
+                          move, args.focus, pairs, args.logs)
+            for ref in args.models
+            for h in range(args.first_household, args.first_household + args.households)]
 
 
 if __name__ == "__main__":

@@ -650,6 +650,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     if args.workers < 0:
         raise InputError("<command line>", "--workers", f"expected 0 (every core) or more, got {args.workers}")
+    if args.lifelong is not None:
+        return _compare_lifelong(args)
+    if args.forgetting is not None:
+        raise InputError("<command line>", "--forgetting", "applies only with --lifelong K")
     n_worlds = args.worlds if args.worlds is not None else (10 if args.quick else 200)
     planners = args.planners or list(COMPARE_QUICK_PLANNERS if args.quick else COMPARE_PLANNERS)
     out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-{Path(args.world).stem}")
@@ -702,6 +706,69 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _compare_lifelong(args: argparse.Namespace) -> int:
+    """``compare --lifelong K``: K consecutive episodes per household, episode k with the model
+    learned from that household's episodes before k, beside the hand-set model (and, for joint
+    models, learned co-location weights), on the same placements (docs/design.md §12)."""
+    import os
+    import shlex
+
+    from fg_tea.lifelong import HouseholdSpec, SEED_STRIDE, relation_pairs, run_lifelong, write_outputs
+    from fg_tea.model import load_model
+    from fg_tea.sweep import check_jobs, model_path, plan_sweep, world_path
+    from fg_tea.worlds import load_world
+
+    k = args.lifelong
+    households = args.worlds if args.worlds is not None else (10 if args.quick else 30)
+    if households < 1:
+        raise InputError("<command line>", "--worlds", f"expected at least 1 household, got {households}")
+    if (args.first_seed + households) * SEED_STRIDE > MAX_SEED:
+        raise InputError("<command line>", "--first-seed", "households x 1000 exceed the largest seed")
+    if args.forgetting is not None and not 0.0 < args.forgetting <= 1.0:
+        raise InputError("<command line>", "--forgetting", f"expected a value in (0, 1], got {args.forgetting}")
+    planners = args.planners or ["efe"]
+    if len(planners) != 1:
+        raise InputError("<command line>", "--planners", "--lifelong runs one planner; name one")
+    if args.executor == "ray":
+        raise InputError("<command line>", "--executor", "--lifelong runs serial or process; not ray")
+    check_jobs(plan_sweep([args.world], 1, args.models, planners, first_seed=args.first_seed,
+                          env=args.env))  # unknown worlds, models, planners named first
+    world = load_world(world_path(args.world))
+    models = [load_model(model_path(m)) for m in args.models]
+    base = world.base if world.base is not None else world.house(args.first_seed)
+    if planners[0] == "optimal":  # the Bayes-optimal DP's size limit, before any episode
+        from fg_tea.tasks.load import load_task
+
+        fault = planner_size_fault("optimal", base, load_task("make_tea", models[0], base))
+        if fault is not None:
+            raise InputError(world.source or args.world, "--planners optimal", f"{fault} ({base.name})")
+    if args.env == "pybullet":
+        for m in models:
+            check_scenario(base, m)
+    out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-lifelong-{Path(args.world).stem}")
+    _check_out_dir(out)
+    from fg_tea.lifelong import OUTPUTS
+
+    _remove_outputs(out, OUTPUTS)
+    pairs = relation_pairs(models)
+    specs = [HouseholdSpec(str(world_path(args.world)), False, str(model_path(ref)), h, k, args.env,
+                           planners[0], (args.forgetting,), None, "mug", pairs)
+             for ref in args.models for h in range(args.first_seed, args.first_seed + households)]
+    workers = 1 if args.executor == "serial" else (args.workers or os.cpu_count() or 1)
+    rows = run_lifelong(specs, workers)
+    shown = os.path.relpath(out) if not os.path.relpath(out).startswith("..") else str(out)
+    command = shlex.join(["fg-tea", "compare", "--lifelong", str(k), "--world", args.world,
+                          "--worlds", str(households), "--models", *args.models, "--planners",
+                          *planners, "--first-seed", str(args.first_seed), "--env", args.env,
+                          *(["--forgetting", str(args.forgetting)] if args.forgetting is not None else []),
+                          "--out", shown])
+    files = write_outputs(rows, out, f"Lifelong learning on `{args.world}`: {households} households "
+                          f"x {k} episodes, {args.env} house", command)
+    print(f"episodes: {files['episodes']} ({len(rows)} rows)")
+    print("wrote: " + ", ".join(str(files[n]) for n in ("curves", "summary", "plot")))
+    return 0
+
+
 def _add_compare_parser(sub) -> None:
     from fg_tea.sweep import add_execution_arguments
 
@@ -726,6 +793,15 @@ def _add_compare_parser(sub) -> None:
     p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
     p.add_argument("--quick", action="store_true",
                    help=f"10 worlds and planners {' '.join(COMPARE_QUICK_PLANNERS)} (CI size)")
+    p.add_argument("--lifelong", type=_integer(1, 1000), default=None, metavar="K",
+                   help="lifelong learning curves (docs/design.md §12): K consecutive episodes per "
+                   "household (--worlds households, default 30; 10 with --quick), episode k with "
+                   "the model learned from the household's episodes before k, beside the hand-set "
+                   "model on the same placements; one planner (default efe); episodes are run afresh "
+                   "(--resume does not apply)")
+    p.add_argument("--forgetting", type=float, default=None, metavar="GAMMA",
+                   help="with --lifelong: forgetting factor gamma in (0, 1] of the learned arms "
+                   "(default 1: never forget)")
 # ------------------------------------------------------------------------------ end compare
 
 
@@ -782,15 +858,19 @@ def cmd_learn(args: argparse.Namespace) -> int:
     info = summary(learning)
     where = "; ".join(f"{cat}: " + ", ".join(f"{s} {share:.2f}" for s, share in shares.items())
                       for cat, shares in info["sites"].items()) or "no objects found"
-    print(f"learned: {out} ({len(args.logs)} new log(s), {info['sources']} in all; found at: {where})")
+    together = "; ".join(f"{pair}: " + ", ".join(f"{k.replace('_', ' ')} {v:.2f}" for k, v in shares.items())
+                         for pair, shares in info["co_location"].items() if shares)
+    print(f"learned: {out} ({len(args.logs)} new log(s), {info['sources']} in all; found at: {where}"
+          + (f"; kept together: {together}" if together else "") + ")")
     return 0
 
 
 def _add_learn_parser(sub) -> None:
-    p = sub.add_parser("learn", help="learn site priors, detector and sensor reliability from logs",
+    p = sub.add_parser("learn", help="learn site priors, co-location, detector and sensor reliability from logs",
                        description="Count, from episode logs and only from what the agent observed, "
-                       "where it found each object, the looks that saw or missed an object at the "
-                       "site where it stood, and state readings that other readings settled; write "
+                       "where it found each object, which objects it found together (same site, same "
+                       "room, apart), the looks that saw or missed an object at the site where it "
+                       "stood, and state readings that other readings settled; write "
                        "a model file that extends --base and holds the counts (docs/design.md §12). "
                        "Learning from A then B (with the first result as --base) equals learning "
                        "from A and B at once.")

@@ -12,7 +12,12 @@ is exact, and with no experience a model is exactly the model it started from:
   p_{o,j}(v) of eq. (33) becomes the posterior mean of a Beta prior centred on it, eq. (51);
 - **how reliable the state sensor is** (Beta): readings whose value other readings settled,
   counted as true/false positives/negatives; sensitivity and specificity become posterior means,
-  eq. (52).
+  eq. (52);
+- **which things are kept together** (Dirichlet): for two categories, how often the agent found
+  one of each on the same site, in the same room on different sites, or apart. The relational
+  factor of eq. (35) between them gets the weights under which the model predicts the
+  posterior-predictive mean of those three frequencies, with the frequencies the hand-set
+  weights predict as pseudo-counts, eqs. (54)-(55).
 
 Counts come from logs, and only from what the agent itself observed (the counting rules,
 :func:`counts_from_events`); ``episode_end.world_truth``, ``episode_end.yardstick`` and
@@ -52,6 +57,12 @@ DEFAULT_DETECTION_STRENGTH = 10.0
 DEFAULT_SENSOR_STRENGTH = 20.0
 #: Forgetting factor gamma (eq. 53): 1 keeps every count forever.
 DEFAULT_FORGETTING = 1.0
+#: Pseudo-count mass S_r of the relation frequencies the hand-set co-location weights predict
+#: (eq. 54). Same rule as S: each episode that finds one object of each category adds one count,
+#: so the hand-set relation is worth as much as five episodes. Not tuned on any house.
+DEFAULT_RELATION_STRENGTH = 5.0
+#: The three relation classes of eq. (35), in the order of a co-location count.
+RELATION_CLASSES = ("same_site", "same_room", "apart")
 
 #: Look bands of the detector counts: a close look, or a room glance nearer or farther than
 #: GLANCE_SPLIT_M from the viewpoint to the site's surface point.
@@ -82,16 +93,32 @@ class Counts:
         sites: category -> site -> N_cj, objects of category c found at site j (eq. 50).
         detection: category -> band -> (hits, misses) at the site where the object stood (eq. 51).
         sensors: sensor -> {true_positive, false_negative, true_negative, false_positive} (eq. 52).
+        co_location: category a -> category b -> (same site, same room, apart), pairs of
+            objects of categories a < b (alphabetical) found together (eq. 54).
     """
 
     sites: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     detection: Mapping[str, Mapping[str, tuple[float, float]]] = field(default_factory=dict)
     sensors: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    co_location: Mapping[str, Mapping[str, tuple[float, float, float]]] = field(default_factory=dict)
 
     def is_empty(self) -> bool:
         return not (any(v for c in self.sites.values() for v in c.values())
                     or any(h or m for c in self.detection.values() for h, m in c.values())
-                    or any(v for s in self.sensors.values() for v in s.values()))
+                    or any(v for s in self.sensors.values() for v in s.values())
+                    or self.relations_active)
+
+    @property
+    def relations_active(self) -> bool:
+        """True when some co-location cell has a count (eq. 55 changes some weight)."""
+        return any(any(n) for row in self.co_location.values() for n in row.values())
+
+    def relation(self, a: str, b: str) -> tuple[float, float, float] | None:
+        """The (same site, same room, apart) counts of categories `a` and `b` (either order),
+        or None without any count."""
+        first, second = sorted((a, b))
+        cell = self.co_location.get(first, {}).get(second)
+        return cell if cell is not None and any(cell) else None
 
     def scaled(self, gamma: float) -> "Counts":
         """Every count multiplied by gamma (forgetting, eq. 53)."""
@@ -100,7 +127,9 @@ class Counts:
         return Counts({c: {s: n * gamma for s, n in row.items()} for c, row in self.sites.items()},
                       {c: {b: (h * gamma, m * gamma) for b, (h, m) in row.items()}
                        for c, row in self.detection.items()},
-                      {s: {k: n * gamma for k, n in row.items()} for s, row in self.sensors.items()})
+                      {s: {k: n * gamma for k, n in row.items()} for s, row in self.sensors.items()},
+                      {a: {b: tuple(n * gamma for n in v) for b, v in row.items()}  # type: ignore[misc]
+                       for a, row in self.co_location.items()})
 
     def plus(self, other: "Counts") -> "Counts":
         """The sum of two sets of counts (keys sorted, so the result does not depend on order)."""
@@ -120,12 +149,25 @@ class Counts:
             for s, srow in stable.items():
                 for k, n in srow.items():
                     sensors.setdefault(s, {})[k] = sensors.get(s, {}).get(k, 0.0) + float(n)
-        return Counts(_sorted(sites), _sorted(det), _sorted(sensors))
+        rel: dict[str, dict[str, tuple[float, float, float]]] = {}
+        for rtable in (self.co_location, other.co_location):
+            for a, rrow in rtable.items():
+                for b, cell in rrow.items():
+                    old = rel.get(a, {}).get(b, (0.0, 0.0, 0.0))
+                    rel.setdefault(a, {})[b] = tuple(x + float(y) for x, y in zip(old, cell))  # type: ignore[assignment]
+        return Counts(_sorted(sites), _sorted(det), _sorted(sensors), _sorted(rel))
+
+    def without_relations(self) -> "Counts":
+        """These counts without the co-location counts (hand-set correlations, learned sites)."""
+        return replace(self, co_location={})
 
     def to_json(self) -> dict:
-        return {"sites": {c: dict(r) for c, r in self.sites.items()},
-                "detection": {c: {b: list(v) for b, v in r.items()} for c, r in self.detection.items()},
-                "sensors": {s: dict(r) for s, r in self.sensors.items()}}
+        out = {"sites": {c: dict(r) for c, r in self.sites.items()},
+               "detection": {c: {b: list(v) for b, v in r.items()} for c, r in self.detection.items()},
+               "sensors": {s: dict(r) for s, r in self.sensors.items()}}
+        if self.co_location:
+            out["co_location"] = {a: {b: list(v) for b, v in r.items()} for a, r in self.co_location.items()}
+        return out
 
 
 def _sorted(table: dict) -> dict:
@@ -144,6 +186,7 @@ class Learning:
         counts: the experience.
         house: the site names of the house the counts were gathered in (empty: none yet).
         sources: the logs counted, in the order they were added.
+        relation_strength: S_r, pseudo-counts of the hand-set relation frequencies (eq. 54).
     """
 
     prior_strength: float = DEFAULT_PRIOR_STRENGTH
@@ -153,6 +196,7 @@ class Learning:
     counts: Counts = field(default_factory=Counts)
     house: tuple[str, ...] = ()
     sources: tuple[Source, ...] = ()
+    relation_strength: float = DEFAULT_RELATION_STRENGTH
 
     @property
     def active(self) -> bool:
@@ -168,6 +212,7 @@ class Learning:
         return {"prior_strength": self.prior_strength,
                 "detection_strength": self.detection_strength,
                 "sensor_strength": self.sensor_strength, "forgetting": self.forgetting,
+                "relation_strength": self.relation_strength,
                 "sources": [{"file": s.file, "sha256": s.sha256} for s in self.sources],
                 **self.counts.to_json()}
 
@@ -177,7 +222,7 @@ class Learning:
 
 
 def learned_prior(declared: np.ndarray, counts: np.ndarray, strength: float) -> np.ndarray:
-    """Eq. 49: the posterior-predictive mean of a Dirichlet with S * q0 as pseudo-counts.
+    """Eq. 50: the posterior-predictive mean of a Dirichlet with S * q0 as pseudo-counts.
 
         q(L_o = j | N) = (S q0_j + N_cj) / (S + sum_k N_ck)
 
@@ -192,7 +237,7 @@ def learned_prior(declared: np.ndarray, counts: np.ndarray, strength: float) -> 
 
 
 def learned_probability(assumed: float, hits: float, misses: float, strength: float) -> float:
-    """Eqs. 50-52: the posterior mean of Beta(S p, S (1 - p)) after `hits` and `misses`."""
+    """Eqs. 51-52: the posterior mean of Beta(S p, S (1 - p)) after `hits` and `misses`."""
     return (strength * assumed + hits) / (strength + hits + misses)
 
 
@@ -242,7 +287,7 @@ def location_weights(learning: Learning | None, category: str, sites: Sequence[s
 
 def learned_detection(learning: Learning | None, category: str, band: str,
                       assumed: np.ndarray) -> np.ndarray:
-    """Eq. 50 applied to the assumed detection probabilities of one object's looks in one band
+    """Eq. 51 applied to the assumed detection probabilities of one object's looks in one band
     (unchanged without counts for that cell)."""
     if learning is None:
         return assumed
@@ -255,13 +300,73 @@ def learned_detection(learning: Learning | None, category: str, band: str,
 
 
 def learned_sensor(sensor: "Sensor", counts: Mapping[str, float], strength: float) -> "Sensor":
-    """Eq. 51: sensitivity and specificity as posterior means under the settled readings."""
+    """Eq. 52: sensitivity and specificity as posterior means under the settled readings."""
     from fg_tea.model import Sensor
 
     tp, fn = counts.get("true_positive", 0.0), counts.get("false_negative", 0.0)
     tn, fp = counts.get("true_negative", 0.0), counts.get("false_positive", 0.0)
     return Sensor(learned_probability(sensor.sensitivity, tp, fn, strength),
                   learned_probability(sensor.specificity, tn, fp, strength))
+
+
+def relation_base_rates(q_a: np.ndarray, q_b: np.ndarray, rooms: Sequence[str]) -> np.ndarray:
+    """(p_S, p_R, p_A): how often two independent objects with location priors `q_a` and `q_b`
+    share a site, share a room on two different sites, or are apart (eq. 55's base rates)."""
+    qa, qb = np.asarray(q_a, dtype=float), np.asarray(q_b, dtype=float)
+    qa, qb = qa / qa.sum(), qb / qb.sum()
+    room = np.asarray([[x == y for y in rooms] for x in rooms])
+    joint = np.outer(qa, qb)
+    same_site = float(np.trace(joint))
+    same_room = float(joint[room].sum()) - same_site
+    apart = float(joint[~room].sum())
+    return np.array([same_site, max(same_room, 0.0), apart])
+
+
+def predicted_relation(base_rates: np.ndarray, same_site: float, same_room: float) -> np.ndarray:
+    """The relation frequencies (same site, same room, apart) predicted by the pair model
+    q_a(L_a) q_b(L_b) psi(L_a, L_b) of eq. (35) with weights `same_site`, `same_room`."""
+    w = np.asarray(base_rates, dtype=float) * np.array([same_site, same_room, 1.0])
+    return w / w.sum()
+
+
+def learned_relation_weights(q_a: np.ndarray, q_b: np.ndarray, rooms: Sequence[str],
+                             same_site: float, same_room: float,
+                             counts: Sequence[float] | None, strength: float) -> tuple[float, float]:
+    """Eqs. (54)-(55): the co-location weights learned from relation counts.
+
+    The hand-set weights (s0, r0) over the location priors predict relation frequencies pi0
+    (:func:`predicted_relation`); with S_r = `strength` pseudo-counts of pi0 and counts n of
+    (same site, same room, apart), the posterior-predictive mean is
+
+        (54)  pi = (S_r pi0 + n) / (S_r + n_S + n_R + n_A)
+
+    and the weights under which the pair model predicts exactly pi are the odds ratios
+
+        (55)  s = (pi_S / pi_A) (p_A / p_S),     r = (pi_R / pi_A) (p_A / p_R)
+
+    with p the base rates of two independent objects (:func:`relation_base_rates`). Without
+    counts the hand-set weights come back unchanged (the same floats). A class the priors make
+    impossible (p = 0: no two sites share a room) keeps its hand-set weight, and so do both when
+    no two sites are apart (p_A = 0, a one-room house: the reference class is missing).
+
+    Args:
+        q_a, q_b: the two objects' location priors over the K sites (eq. 2 or eq. 50).
+        rooms: room of each site (K).
+        same_site, same_room: the hand-set weights s0, r0 of eq. (35).
+        counts: (n_S, n_R, n_A), or None.
+        strength: S_r > 0.
+    """
+    if counts is None or not any(counts):
+        return same_site, same_room
+    p = relation_base_rates(q_a, q_b, rooms)
+    if p[2] <= 0.0:
+        return same_site, same_room
+    pi0 = predicted_relation(p, same_site, same_room)
+    n = np.asarray(counts, dtype=float)
+    pi = (strength * pi0 + n) / (strength + float(n.sum()))
+    s = float(pi[0] / pi[2] * p[2] / p[0]) if p[0] > 0 else same_site
+    r = float(pi[1] / pi[2] * p[2] / p[1]) if p[1] > 0 else same_room
+    return s, r
 
 
 # ---------------------------------------------------------------------------------------------
@@ -273,8 +378,9 @@ def read_learning(r: "Reader") -> Learning:
     strength = r.positive("prior_strength", DEFAULT_PRIOR_STRENGTH)
     d_strength = r.positive("detection_strength", DEFAULT_DETECTION_STRENGTH)
     s_strength = r.positive("sensor_strength", DEFAULT_SENSOR_STRENGTH)
+    r_strength = r.positive("relation_strength", DEFAULT_RELATION_STRENGTH)
     for key, value in (("prior_strength", strength), ("detection_strength", d_strength),
-                       ("sensor_strength", s_strength)):
+                       ("sensor_strength", s_strength), ("relation_strength", r_strength)):
         if value <= 0:
             raise r.fail("must be positive (the declared assumption's weight in pseudo-counts)", key)
     forgetting = r.probability("forgetting", DEFAULT_FORGETTING)
@@ -316,9 +422,23 @@ def read_learning(r: "Reader") -> Learning:
         for name in sens_r.names():
             row = sens_r.child(name)
             sensors[name] = {k: row.positive(k, 0.0, allow_zero=True) for k in SENSOR_KEYS}
-    return Learning(strength, d_strength, s_strength, forgetting,
-                    Counts(_sorted(sites), _sorted(detection), _sorted(sensors)),
-                    tuple(house), tuple(sources))
+    co_location: dict[str, dict[str, tuple[float, float, float]]] = {}
+    rel_r = r.child("co_location", required=False)
+    if rel_r is not None:
+        for first in rel_r.names():
+            row = rel_r.child(first)
+            for second in row.names():
+                if not first < second:
+                    raise row.fail(f"a pair is written once, under the alphabetically first "
+                                   f"category: [learning.co_location.{second}] {first} = ...", second)
+                cell = row.child(second)
+                co_location.setdefault(first, {})[second] = tuple(  # type: ignore[assignment]
+                    cell.positive(k, allow_zero=True) for k in RELATION_CLASSES)
+    return Learning(prior_strength=strength, detection_strength=d_strength,
+                    sensor_strength=s_strength, forgetting=forgetting,
+                    counts=Counts(_sorted(sites), _sorted(detection), _sorted(sensors),
+                                  _sorted(co_location)),
+                    house=tuple(house), sources=tuple(sources), relation_strength=r_strength)
 
 
 def apply_to_sensors(learning: Learning, sensors: Mapping[str, "Sensor"], r: "Reader") -> dict:
@@ -406,6 +526,10 @@ def counts_from_events(events: Sequence[Mapping], file: str = "<log>") -> Counts
        actions whose transitions touch the state) holds at least two *other* readings and they all
        agree; their value is the settled value. The reading is then a true/false
        positive/negative of the sensor ``state``.
+    4. **Co-location.** For every two objects of different categories that were both found (rule
+       1's sites, where each stood at the start), one count of their relation: the same site,
+       the same room on different sites (``episode_start.sites[].room``), or apart; keyed by the
+       two categories in alphabetical order. A pair with an object never found carries no count.
 
     Raises:
         InputError: the log lacks a field a rule needs (file and event named).
@@ -482,7 +606,22 @@ def counts_from_events(events: Sequence[Mapping], file: str = "<log>") -> Counts
                        ("false_positive" if value else "true_negative")
                 sensor[name] = sensor.get(name, 0.0) + 1.0
     sensors = {COUNTED_SENSOR: {k: sensor.get(k, 0.0) for k in SENSOR_KEYS}} if sensor else {}
-    return Counts(_sorted(site_counts), _sorted(det), sensors)
+
+    room_of = {s["name"]: s.get("room") for s in start["sites"]}
+    rel: dict[str, dict[str, list[float]]] = {}
+    names = sorted(found)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            ca, cb = category(a), category(b)
+            if ca == cb:
+                continue
+            (sa, _), (sb, _) = found[a], found[b]
+            k = 0 if sa == sb else 1 if room_of.get(sa) is not None and room_of.get(sa) == room_of.get(sb) else 2
+            cat_lo, cat_hi = sorted((ca, cb))
+            cell = rel.setdefault(cat_lo, {}).setdefault(cat_hi, [0.0, 0.0, 0.0])
+            cell[k] += 1.0
+    co_location = {a: {b: tuple(v) for b, v in row.items()} for a, row in rel.items()}
+    return Counts(_sorted(site_counts), _sorted(det), sensors, _sorted(co_location))
 
 
 def _distance(view: Mapping | None, site_position: Any) -> float:
@@ -549,12 +688,13 @@ def model_text(learning: Learning, base_ref: str, name: str, base_name: str) -> 
         "# (docs/design.md §12). Counts are totals over every source log listed below.",
         f"extends = {json.dumps(base_ref)}",
         f"name = {json.dumps(name)}",
-        f"description = {json.dumps(f'{base_name} with location, detector and sensor counts learned from {len(learning.sources)} episode log(s)')}",
+        f"description = {json.dumps(f'{base_name} with location, detector, sensor and co-location counts learned from {len(learning.sources)} episode log(s)')}",
         "",
         "[learning]",
         f"prior_strength = {_num(learning.prior_strength)}          # S, eq. 50",
         f"detection_strength = {_num(learning.detection_strength)}      # S_d, eq. 51",
         f"sensor_strength = {_num(learning.sensor_strength)}         # S_s, eq. 52",
+        f"relation_strength = {_num(learning.relation_strength)}       # S_r, eq. 54",
         f"forgetting = {_num(learning.forgetting)}              # gamma, eq. 53",
         "house = [" + ", ".join(json.dumps(s) for s in learning.house) + "]",
         "sources = [",
@@ -571,6 +711,10 @@ def model_text(learning: Learning, base_ref: str, name: str, base_name: str) -> 
     for sensor, srow in c.sensors.items():
         lines += ["", f"[learning.sensors.{_toml_key(sensor)}]   # settled readings (rule 3)"]
         lines += [f"{k} = {_num(srow.get(k, 0.0))}" for k in SENSOR_KEYS]
+    for first, rrow in c.co_location.items():
+        lines += ["", f"[learning.co_location.{_toml_key(first)}]   # pairs found together: same site, same room, apart (rule 4)"]
+        lines += [f"{_toml_key(second)} = {{ " + ", ".join(f"{k} = {_num(n)}" for k, n in zip(RELATION_CLASSES, cell)) + " }"
+                  for second, cell in rrow.items()]
     return "\n".join(lines) + "\n"
 
 
@@ -588,7 +732,13 @@ def base_reference(base_path: Path, out: Path, bundled_name: str | None) -> str:
 def summary(learning: Learning) -> dict:
     """What was learned, as numbers: per category the learned site shares (without the declared
     prior) and per detector cell the posterior interval of the hit rate under a flat prior."""
-    out: dict[str, Any] = {"sources": len(learning.sources), "sites": {}, "detection": {}}
+    out: dict[str, Any] = {"sources": len(learning.sources), "sites": {}, "detection": {},
+                           "co_location": {}}
+    for first, rrow in learning.counts.co_location.items():
+        for second, cell in rrow.items():
+            total = sum(cell)
+            out["co_location"][f"{first}~{second}"] = (
+                {k: round(n / total, 3) for k, n in zip(RELATION_CLASSES, cell)} if total else {})
     for cat, row in learning.counts.sites.items():
         total = sum(row.values())
         out["sites"][cat] = {s: round(n / total, 3) for s, n in row.items() if n} if total else {}
@@ -614,10 +764,11 @@ def _declared_sensors(model: "Model") -> Mapping[str, "Sensor"]:
     return model.declared_sensors if model.declared_sensors is not None else model.sensors
 
 
-__all__ = ["BANDS", "Counts", "Learning", "Source", "apply_learning", "band_of", "beta_interval",
-           "counts_from_events", "learn", "learned_detection", "learned_prior",
-           "learned_probability", "learned_sensor", "location_weights", "model_text", "read_learning",
-           "read_log", "summary"]
+__all__ = ["BANDS", "Counts", "Learning", "RELATION_CLASSES", "Source", "apply_learning", "band_of",
+           "beta_interval", "counts_from_events", "learn", "learned_detection", "learned_prior",
+           "learned_probability", "learned_relation_weights", "learned_sensor", "location_weights",
+           "model_text", "predicted_relation", "read_learning", "read_log", "relation_base_rates",
+           "summary"]
 
 
 def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,

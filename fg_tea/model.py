@@ -176,7 +176,7 @@ class Model:
     room_glances: bool = False
     #: Experience learned from logs (docs/design.md §12); None or without counts: no change.
     learning: Learning | None = None
-    #: The declared sensors before eq. 51 was applied (None when no learning changed them).
+    #: The declared sensors before eq. 52 was applied (None when no learning changed them).
     declared_sensors: Mapping[str, Sensor] | None = None
 
     @property

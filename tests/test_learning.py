@@ -17,8 +17,10 @@ from fg_tea.env.fake import FakeHouse
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.errors import InputError
-from fg_tea.learning import (Learning, Source, apply_learning, beta_interval, counts_from_events,
-                             learn, learn_files, learned_prior, read_log)
+from fg_tea.learning import (Counts, Learning, Source, apply_learning, beta_interval,
+                             counts_from_events, learn, learn_files, learned_prior,
+                             learned_relation_weights, predicted_relation, read_log,
+                             relation_base_rates)
 from fg_tea.model import load_model, parse_model
 from fg_tea.scenario import load_scenario
 from fg_tea.worlds import load_world
@@ -64,22 +66,38 @@ def test_counts_are_equal_in_any_order(logs):
     assert not reference.is_empty()
     for order in itertools.islice(itertools.permutations(range(len(read))), 0, 120, 17):
         assert learn([read[i] for i in order]).counts == reference
-    # every object found once per episode: the site counts sum to the number of logs
+    # every object found once per episode: the site counts sum to the number of logs, and each
+    # of the three category pairs has one co-location count per log (rule 4)
     for row in reference.sites.values():
         assert sum(row.values()) == len(logs)
+    assert sorted((a, b) for a, row in reference.co_location.items() for b in row) == [
+        ("kettle", "mug"), ("kettle", "teabag"), ("mug", "teabag")]
+    for row in reference.co_location.values():
+        for cell in row.values():
+            assert sum(cell) == len(logs)
+    # with forgetting, order matters only through gamma: the same logs in the same order agree
+    assert learn(read, forgetting=0.5).counts == learn(read[:2], forgetting=0.5).counts.scaled(0.5 ** 3).plus(
+        learn(read[2:], forgetting=0.5).counts)
 
 
 def test_learning_a_then_b_equals_a_plus_b(logs, tmp_path):
     a, b = [str(p) for p in logs[:2]], [str(p) for p in logs[2:]]
-    for gamma in (None, 0.5):
-        both, _ = learn_files(a + b, "factorised", tmp_path / "ab.toml", forgetting=gamma)
-        first, _ = learn_files(a, "factorised", tmp_path / "sub" / "a.toml", forgetting=gamma)
+    scenario = load_scenario("default_apartment")
+    for base, gamma in (("factorised", None), ("factorised", 0.5), ("joint", None), ("joint", 0.5)):
+        both, _ = learn_files(a + b, base, tmp_path / "ab.toml", forgetting=gamma)
+        first, _ = learn_files(a, base, tmp_path / "sub" / "a.toml", forgetting=gamma)
         then, _ = learn_files(b, first, tmp_path / "a_then_b.toml")
         m_both, m_then = load_model(both), load_model(then)
         assert m_both.learning.counts == m_then.learning.counts
+        assert m_both.learning.counts.relations_active
         assert m_both.learning.sources == m_then.learning.sources
         assert m_both.learning.forgetting == m_then.learning.forgetting
         assert m_both.sensors == m_then.sensors
+        # the learned relational factors (eq. 55) are the same numbers, too
+        assert build_graph(scenario, m_both).pairs == build_graph(scenario, m_then).pairs
+        if base == "joint":
+            pair = build_graph(scenario, m_both).pairs[0]
+            assert pair.label.endswith("(learned)") and pair.same_site != 3.0
 
 
 def test_model_learned_from_no_logs_runs_its_base_episodes(tmp_path):
@@ -98,6 +116,75 @@ def test_model_learned_from_no_logs_runs_its_base_episodes(tmp_path):
             start["inputs"] = {k: v for k, v in start["inputs"].items() if k != "model"}
             runs.append([json.dumps(e, sort_keys=True) for e in [start, *events[1:]]])
         assert runs[0] == runs[1]
+
+
+def test_zero_or_no_co_location_counts_keep_the_hand_set_relations(tmp_path):
+    """A joint model whose [learning] holds co-location counts that are all zero runs episodes
+    byte-identical to its base; one with site counts but no co-location counts keeps the hand-set
+    relational weights as the very same numbers."""
+    model = tmp_path / "zero_relations.toml"
+    model.write_text('extends = "joint"\nname = "joint"\n[learning.co_location.kettle]\n'
+                     'teabag = { same_site = 0, same_room = 0, apart = 0 }\n')
+    scenario = load_scenario("prior_violation")
+    runs = []
+    for m in (load_model("joint"), load_model(model)):
+        events = _episode(scenario, m, 4)
+        start = dict(events[0])
+        start.pop("model_file")
+        start["inputs"] = {k: v for k, v in start["inputs"].items() if k != "model"}
+        runs.append([json.dumps(e, sort_keys=True) for e in [start, *events[1:]]])
+    assert runs[0] == runs[1]
+    sites_only = apply_learning(load_model("joint"), Learning(counts=Counts(
+        sites={"teabag": {"study_shelf": 4.0}, "kettle": {"sideboard": 2.0}})))
+    assert build_graph(scenario, sites_only).pairs == build_graph(scenario, load_model("joint")).pairs
+
+
+def test_learned_relation_weights_predict_the_posterior_predictive_mean():
+    """Eqs. (54)-(55): under the learned weights the pair model q_a q_b psi predicts exactly the
+    Dirichlet posterior-predictive mean of the relation frequencies, with the hand-set model's
+    predicted frequencies as S_r pseudo-counts; without counts the hand-set weights return."""
+    rng = np.random.default_rng(0)
+    rooms = ["k", "k", "d", "d", "l", "l", "l", "s"]
+    for _ in range(20):
+        qa, qb = rng.dirichlet(np.ones(8)), rng.dirichlet(np.ones(8))
+        s0, r0 = rng.uniform(0.2, 5), rng.uniform(0.2, 5)
+        n = rng.integers(0, 6, size=3).astype(float)
+        strength = float(rng.uniform(0.5, 10))
+        s, r = learned_relation_weights(qa, qb, rooms, s0, r0, n, strength)
+        p = relation_base_rates(qa, qb, rooms)
+        assert p.sum() == pytest.approx(1.0)
+        pi0 = predicted_relation(p, s0, r0)
+        want = (strength * pi0 + n) / (strength + n.sum())
+        assert np.allclose(predicted_relation(p, s, r), want, atol=1e-12)
+        # brute force: the pair model's own relation frequencies under (s, r)
+        psi = np.array([[s if i == j else r if rooms[i] == rooms[j] else 1.0 for j in range(8)]
+                        for i in range(8)])
+        joint = np.outer(qa, qb) * psi
+        joint /= joint.sum()
+        same_room = sum(joint[i, j] for i in range(8) for j in range(8) if i != j and rooms[i] == rooms[j])
+        assert np.allclose([np.trace(joint), same_room], want[:2], atol=1e-12)
+        assert learned_relation_weights(qa, qb, rooms, s0, r0, None, strength) == (s0, r0)
+        assert learned_relation_weights(qa, qb, rooms, s0, r0, [0.0, 0.0, 0.0], strength) == (s0, r0)
+    # many counts: the weights follow the data, whatever the hand-set weights said
+    qa = qb = np.full(8, 1 / 8)
+    s, r = learned_relation_weights(qa, qb, rooms, 3.0, 2.0, [0.0, 0.0, 1e6], 5.0)
+    assert s < 1e-3 and r < 1e-3
+
+
+def test_co_location_counting_rule():
+    """Rule 4: one count per pair of found objects of different categories, from the sites of
+    their first confirmations; an object never found, or two of one category, count nothing."""
+    sites = [{"name": n, "room": r, "position": [0, 0]} for n, r in
+             (("a1", "A"), ("a2", "A"), ("b1", "B"))]
+    start = {"event": "episode_start", "sites": sites,
+             "categories": {"k": "kettle", "t": "teabag", "m": "mug", "m2": "mug", "x": "sugar"}}
+    found = lambda o, s: {"event": "confirm_search", "object": o, "site": s}  # noqa: E731
+    events = [start, found("k", "a1"), found("t", "a1"), found("m", "a2"), found("m2", "b1"),
+              found("t", "b1")]  # t's second confirmation (after a recovery) is not counted
+    rel = counts_from_events(events).co_location
+    assert rel == {"kettle": {"mug": (0.0, 1.0, 1.0), "teabag": (1.0, 0.0, 0.0)},
+                   "mug": {"teabag": (0.0, 1.0, 1.0)}}
+    assert "sugar" not in json.dumps(rel)
 
 
 def test_prior_is_the_posterior_predictive_mean():
@@ -201,6 +288,18 @@ def test_learning_table_is_strict(tmp_path):
     bad.write_text('extends = "factorised"\nname = "x"\n[learning]\nforgetting = 0\n')
     with pytest.raises(InputError, match="forgetting"):
         load_model(bad)
+    for body, fault in (("[learning.co_location.teabag]\nkettle = { same_site = 1, same_room = 0, apart = 0 }",
+                         "alphabetically first"),
+                        ("[learning.co_location.kettle]\nteabag = { same_site = 1, same_room = 0, apart = 0, far = 2 }",
+                         "far"),
+                        ("[learning.co_location.kettle]\nteabag = { same_site = -1, same_room = 0, apart = 0 }",
+                         "non-negative"),
+                        ("[learning.co_location.kettle]\nteabag = { same_site = 1, same_room = 0 }",
+                         "apart"),
+                        ("[learning]\nrelation_strength = 0", "relation_strength")):
+        bad.write_text(f'extends = "joint"\nname = "x"\n{body}\n')
+        with pytest.raises(InputError, match=fault):
+            load_model(bad)
 
 
 def _cli(*args, cwd=ROOT):
@@ -258,11 +357,65 @@ def test_lifelong_script_smoke(tmp_path):
     spec = importlib.util.spec_from_file_location("lifelong", ROOT / "experiments" / "lifelong.py")
     lifelong = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(lifelong)
-    assert lifelong.main(["--households", "1", "--episodes", "3", "--workers", "1", "--models",
-                          "factorised", "--out", str(tmp_path), "--forgetting", "0.5",
+    assert lifelong.main(["--households", "1", "--episodes", "3", "--models", "factorised",
+                          "--out", str(tmp_path), "--forgetting", "1", "0.5",
                           "--move", "mug", "dining_table", "1"]) == 0
     rows = list(csv.DictReader(open(tmp_path / "episodes.csv")))
-    learned = [r for r in rows if r["arm"] == "learned"]
+    assert sorted({r["arm"] for r in rows}) == ["hand-set", "learned (γ=0.5)", "learned (γ=1)"]
+    learned = [r for r in rows if r["arm"] == "learned (γ=0.5)"]
     assert [r["learned_logs"] for r in learned] == ["0", "1", "2"]
-    assert [r["mug_site"] for r in learned][1:] == ["dining_table", "dining_table"]
+    assert [r["focus_site"] for r in learned][1:] == ["dining_table", "dining_table"]
     assert (tmp_path / "curves.png").stat().st_size > 0
+    # a fixed scenario: every episode has its placements (the mug on the study shelf)
+    assert lifelong.main(["--households", "1", "--episodes", "2", "--models", "factorised",
+                          "--scenario", "prior_violation", "--out", str(tmp_path / "pv")]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "pv" / "episodes.csv")))
+    assert {r["focus_site"] for r in rows} == {"study_shelf"}
+
+
+def test_cli_compare_lifelong(tmp_path):
+    """``fg-tea compare --lifelong K`` (fake house, one household, K = 2): every arm runs K
+    episodes on the same placements; episode 2 of the learned arms uses episode 1's counts, and
+    only the learned-correlations arm changes the relational weights (the two learned arms share
+    episode 1 and so their counts; their start beliefs differ in episode 2 only through eq. 55)."""
+    import csv
+
+    out = tmp_path / "ll"
+    done = _cli("compare", "--lifelong", "2", "--worlds", "1", "--world", "contrary_household",
+                "--models", "factorised", "joint", "--env", "fake", "--executor", "serial",
+                "--out", out)
+    assert done.returncode == 0, done.stderr
+    rows = list(csv.DictReader(open(out / "episodes.csv")))
+    arms = {(r["model"], r["arm"]) for r in rows}
+    assert arms == {("factorised", "hand-set"), ("factorised", "learned"), ("joint", "hand-set"),
+                    ("joint", "learned"), ("joint", "learned-correlations")}
+    by = {(r["model"], r["arm"], r["episode"]): r for r in rows}
+    for model, arm in arms:
+        assert by[(model, arm, "1")]["world_seed"] == "0" and by[(model, arm, "2")]["world_seed"] == "1"
+        assert by[(model, arm, "2")]["learned_logs"] == ("0" if arm == "hand-set" else "1")
+    ep1 = [by[("joint", a, "1")] for a in ("hand-set", "learned", "learned-correlations")]
+    assert len({(r["inspections"], r["search_distance"], r["relation_log_loss"]) for r in ep1}) == 1
+    learned, corr = by[("joint", "learned", "2")], by[("joint", "learned-correlations", "2")]
+    assert learned["relation_log_loss"] != corr["relation_log_loss"]
+    assert learned["log_loss"] != by[("joint", "hand-set", "2")]["log_loss"]
+    for name in ("curves.csv", "summary.md", "curves.png"):
+        assert (out / name).stat().st_size > 0
+    assert "fg-tea compare --lifelong 2" in (out / "summary.md").read_text()
+
+
+@pytest.mark.parametrize("args, fault", [
+    (["--lifelong", "0"], "--lifelong"),
+    (["--lifelong", "two"], "--lifelong"),
+    (["--lifelong", "2", "--forgetting", "0"], "--forgetting"),
+    (["--forgetting", "0.5"], "--forgetting"),
+    (["--lifelong", "2", "--planners", "efe", "greedy"], "--planners"),
+    (["--lifelong", "2", "--worlds", "0"], "--worlds"),
+    (["--lifelong", "2", "--executor", "ray"], "--executor"),
+    (["--lifelong", "2", "--models", "no_such_model"], "no_such_model"),
+    (["--lifelong", "2", "--world", "no_such_world"], "no_such_world"),
+])
+def test_cli_compare_lifelong_bad_input_is_one_line(tmp_path, args, fault):
+    done = _cli("compare", *args, "--env", "fake", "--out", tmp_path / "x")
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and fault in done.stderr, done.stderr
+    assert not (tmp_path / "x" / "episodes.csv").exists()

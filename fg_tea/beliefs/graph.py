@@ -158,10 +158,53 @@ def assemble_graph(model: Model, sites: Sequence[str], rooms: Sequence[str],
                 for i, a in enumerate(objects):
                     for b in objects[i + 1:]:
                         pairs.append(PairRelation(a, b, rel.weight, 1.0, f"exclusivity {a}|{b}"))
+        if model.learning is not None and model.learning.counts.relations_active:
+            pairs = _learned_pairs(model, pairs, objects, categories, priors, rooms)
     states = tuple(state_prior(name, p) for name, p in (state_priors or {}).items())
     return BeliefGraph(sites=tuple(sites), objects=tuple(objects), rooms=tuple(rooms),
                        capacities=capacities, location_priors=priors, state_priors=states,
                        structure=model.structure, pairs=tuple(pairs), capacity_penalty=penalty)
+
+
+def _learned_pairs(model: Model, pairs: list[PairRelation], objects: Sequence[str],
+                   categories: Sequence[str], priors: Sequence[Factor],
+                   rooms: Sequence[str]) -> list[PairRelation]:
+    """The pair factors with eq. (55)'s learned co-location weights (docs/design.md §12.1).
+
+    For every two objects related by a co-location relation whose categories have counts, the
+    hand-set weights are the product of every pair factor between the two (co-location and
+    exclusivity alike); eq. (55) gives the learned (s, r) over the two objects' location priors,
+    and the first co-location factor of the pair is scaled so that the product is (s, r).
+    Pairs without counts keep their factors unchanged.
+    """
+    from fg_tea.learning import learned_relation_weights
+
+    assert model.learning is not None
+    learning = model.learning
+    cat = dict(zip(objects, categories))
+    prior = {o: f.table for o, f in zip(objects, priors)}
+    groups: dict[frozenset, list[int]] = {}
+    for i, p in enumerate(pairs):
+        groups.setdefault(frozenset((p.a, p.b)), []).append(i)
+    out = list(pairs)
+    for members in groups.values():
+        co = [i for i in members if pairs[i].label.startswith("co_location")]
+        if not co:
+            continue
+        a, b = pairs[co[0]].a, pairs[co[0]].b
+        counts = learning.counts.relation(cat[a], cat[b])
+        if counts is None:
+            continue
+        s0 = float(np.prod([pairs[i].same_site for i in members]))
+        r0 = float(np.prod([pairs[i].same_room for i in members]))
+        s, r = learned_relation_weights(prior[a], prior[b], rooms, s0, r0, counts,
+                                        learning.relation_strength)
+        first = pairs[co[0]]
+        out[co[0]] = PairRelation(first.a, first.b,
+                                  first.same_site * s / s0 if s0 > 0 else s,
+                                  first.same_room * r / r0 if r0 > 0 else r,
+                                  first.label + " (learned)")
+    return out
 
 
 def build_graph(scenario: Scenario, model: Model) -> BeliefGraph:

@@ -343,7 +343,7 @@ class EpisodeRunner:
         excluded = frozenset(self.executor.excluded_sites)
         learned = self.model.learning is not None and self.model.learning.detection_active
         # A close-looks model scores sites with its miss likelihood; once it has learned
-        # per-category reliabilities (eq. 50) the planner scores them through the views.
+        # per-category reliabilities (eq. 51) the planner scores them through the views.
         views = None if self.model.close_looks_only and not learned else self.views
         extra = {"views": views} if views is not None else {}
         decision = self.planner.choose(self.belief, objects, relevance, distances,
