@@ -48,9 +48,11 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
 
 With ``depth = 1`` and no rollout there is nothing to look ahead with: the planner returns the
 EFE planner's choice (a test checks it). Planner specs: ``lookahead`` (defaults) or
-``lookahead:depth=2,width=3,rollout=mppm,nodes=60,look=0.144`` (the defaults: a pilot on the
-default apartment's correlated worlds found depth 1 and depth 2 within noise of each other in
-travel, and 60 nodes keeps a three-object decision to a few milliseconds).
+``lookahead:depth=2,width=3,rollout=mppm,nodes=20,look=0.144`` (the defaults). The node budget
+is chosen by a rule across houses (docs/design.md §6.6, ``experiments/lookahead_budget.py``): the
+smallest of 10, 20, 40, 60, 120, 240 nodes whose paired mean search travel is not detectably worse
+than 240 nodes' (95 % paired bootstrap) on the default apartment and on generated 13- and 27-site
+houses, for factorised and joint close-look models.
 """
 
 from __future__ import annotations
@@ -89,7 +91,7 @@ class LookaheadSettings:
     depth: int = 2
     width: int = 3
     rollout: str = "mppm"
-    nodes: int = 60
+    nodes: int = 20  # the budget rule of docs/design.md §6.6
     look: float = LOOK_COST
 
     def __post_init__(self) -> None:
