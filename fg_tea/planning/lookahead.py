@@ -74,6 +74,7 @@ ROLLOUTS = ("mppm", "none")
 MAX_TRUTHS = 50_000          # largest truth table the planner holds (K^|U|)
 OUTCOME_FLOOR = 1e-9         # outcomes less probable than this are not expanded
 STOP_PROBABILITY = 1e-3      # a rollout ends once the search is over with at least 1 - this
+NULL_LOOK = 1e-9             # a look expected to find less than this cannot change the belief
 
 
 @dataclass(frozen=True)
@@ -686,6 +687,7 @@ class LookaheadPlanner:
             node.base = base
         else:
             actions = list(root_actions)
+        actions = self._useful(problem, node, actions) if root_actions is None else actions
         if node.base >= 0:
             fortify.append(node)
         node.children = []
@@ -697,6 +699,22 @@ class LookaheadPlanner:
         for _, _, kids in node.children:
             for _, child in kids:
                 self._expand(problem, child, relevance, budget, leaves, fortify)
+
+    @staticmethod
+    def _useful(problem: SearchProblem, node: _Node, actions: Sequence[int]) -> list[int]:
+        """The looks of `actions` that can change the belief (all of them if none can).
+
+        A look expected to find fewer than :data:`NULL_LOOK` objects (in practice a re-look of a
+        site already missed several times) leaves every outcome but "nothing seen" below the
+        outcome floor, so its child is the same belief one look poorer: it costs and changes
+        nothing, and is never the best plan. Kept as a candidate it can still win on a
+        depth-limited tree, whose child (valued to a smaller depth, over its own candidates) may
+        look cheaper than the node's other looks, and then it is chosen for ever.
+        """
+        q = _node_marginals(problem, node) * node.unfound[:, None]
+        finds = np.einsum("nk,ank->a", q, problem.prob[list(actions)])
+        keep = [a for a, f in zip(actions, finds) if f >= NULL_LOOK]
+        return keep or list(actions)
 
     def _base_action(self, problem: SearchProblem, node: _Node) -> int:
         """The rollout policy's first look from `node` (-1 without a rollout or if none helps).
@@ -776,6 +794,9 @@ class LookaheadPlanner:
             kept = order[:st.width] + [best_by_view[problem.names[base]]]
         else:
             kept = order[:st.width]
+        useful = set(self._useful(problem, root, root_actions))
+        kept = [c for a, c in zip(root_actions, kept) if a in useful]
+        root_actions = [a for a in root_actions if a in useful]
         fortify: list[_Node] = []
         self._expand(problem, root, r, budget, leaves, fortify, root_actions)
         steps = 0
