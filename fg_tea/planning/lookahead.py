@@ -33,6 +33,8 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
   (eq. 39 without the repeat term, since re-looks are priced by the miss model) are expanded.
   At the root the score is the EFE planner's own (exact joint information for joint beliefs); in
   the tree it is eqs. 39-41 on the tree's marginals.
+  A look expected to find fewer than :data:`NULL_LOOK` objects cannot change the belief and is
+  dropped from the candidates (unless nothing else is left; see ``LookaheadPlanner._useful``).
 - **Rollout** (``rollout = "mppm"``, most probable per metre): from the leaf, repeatedly go to the
   viewpoint with the largest expected number of newly found objects per metre of cost, following
   the all-miss branch, until the search would be over with probability 1 - 1e-3
