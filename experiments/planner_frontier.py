@@ -20,7 +20,7 @@ stay out of the episode logs (which remain deterministic) and are measured seria
     python experiments/planner_frontier.py --worlds 100 --models factorised_close joint_close \
         --planners optimal efe lookahead lookahead:nodes=60 pouct:1000 \
         --out experiments/results/planner_frontier
-    # beyond the optimal planner's reach (SPL against the clairvoyant route), about 15 minutes:
+    # beyond the optimal planner's reach (SPL against the clairvoyant route), about 20 minutes:
     python experiments/planner_frontier.py --world generated_medium --worlds 30 \
         --models factorised_close joint_close --planners efe lookahead pouct:100 pouct:1000 \
         --out experiments/results/planner_frontier/generated_medium
