@@ -16,10 +16,14 @@ stay out of the episode logs (which remain deterministic) and are measured seria
 
     python experiments/planner_frontier.py                      # every default planner (long)
     python experiments/planner_frontier.py --worlds 20 --planners optimal efe lookahead pouct:1000
-    # the committed headline (experiments/results/planner_frontier/), about 15 minutes on 2 cores:
+    # the committed headline (experiments/results/planner_frontier/), about 6 minutes on 2 cores:
     python experiments/planner_frontier.py --worlds 100 --models factorised_close joint_close \
-        --planners optimal efe lookahead lookahead:nodes=20 pouct:1000 \
+        --planners optimal efe lookahead lookahead:nodes=60 pouct:1000 \
         --out experiments/results/planner_frontier
+    # beyond the optimal planner's reach (SPL against the clairvoyant route), about 20 minutes:
+    python experiments/planner_frontier.py --world generated_medium --worlds 30 \
+        --models factorised_close joint_close --planners efe lookahead pouct:100 pouct:1000 \
+        --out experiments/results/planner_frontier/generated_medium
 
 The default environment is the fake house (straight-line travel, oracle pixel counts) with an
 injected detector miss rate equal to the model's mu (0.05), so the detector misses as often as

@@ -398,7 +398,7 @@ def planner_size_fault(planner: str, scenario, graph, model=None) -> str | None:
     The Bayes-optimal planner has a size limit (docs/design.md §6.5): its first decision plans
     over every site for every object the task searches for. The lookahead planner has one for
     correlated beliefs only (§6.6: it holds their exact joint), so it is checked when `model` is
-    given.
+    given; POUCT and POMCP hold the table of truths for every model (§6.7).
     """
     objects = {graph.action(n).object for n in graph.search_nodes()}
     if planner == "optimal":
@@ -415,6 +415,14 @@ def planner_size_fault(planner: str, scenario, graph, model=None) -> str | None:
                                 BeliefEngine(scenario, model).correlated)
         return None if fault is None else (f"the lookahead planner refuses this house: {fault}; "
                                            "use a factorised model or another planner")
+    kind, _, budget = planner.partition(":")
+    if kind in ("pouct", "pomcp") and budget.isdigit():
+        from fg_tea.planning.lookahead import MAX_TRUTHS
+
+        n, k = len(objects), len(scenario.sites)
+        if k ** n > MAX_TRUTHS:  # the peers hold the table of truths for every model (§6.7)
+            return (f"the {kind} planner refuses this house: {n} objects over {k} sites give "
+                    f"{k ** n:,} truths, more than the limit of {MAX_TRUTHS:,}; use another planner")
     return None
 
 

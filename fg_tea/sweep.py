@@ -57,8 +57,8 @@ ENVIRONMENTS = ("pybullet", "fake")
 WORLD_KNOBS = ("prior_violation", "same_site", "same_room")
 #: Reason prefix of episodes the optimal planner declined (too many open sites for its DP).
 REFUSED = "refused: "
-#: How the planners that state a size limit begin their refusals (docs/design.md §6.5, §6.6).
-REFUSING = ("optimal planner:", "lookahead planner:")
+#: How the planners that state a size limit begin their refusals (docs/design.md §6.5–§6.7).
+REFUSING = ("optimal planner:", "lookahead planner:", "pouct planner:", "pomcp planner:")
 #: Reason prefix of episodes stopped by the sweep's step limit (see :class:`Job`).
 STEP_LIMIT = "step_limit: "
 #: Columns of a row that describe the configuration (everything else is an outcome).

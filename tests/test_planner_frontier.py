@@ -36,3 +36,24 @@ def test_frontier_runs_resumes_and_summarises(tmp_path, capsys):
     assert frontier.main(args[:-2] + ["--out", str(tmp_path), "--summary-only"]) == 0
     assert not episodes[-1].exists()  # --summary-only runs nothing
     capsys.readouterr()
+
+
+def test_budget_rule_tabulates_and_picks(tmp_path, capsys):
+    """experiments/lookahead_budget.py runs the ladder per house, then picks the smallest budget
+    that is not detectably worse than the largest on every house and model."""
+    spec = importlib.util.spec_from_file_location("lookahead_budget", ROOT / "experiments" / "lookahead_budget.py")
+    budget = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(budget)
+    args = ["--houses", "correlated:3", "--ladder", "2", "20", "--models", "factorised_close",
+            "--out", str(tmp_path)]
+    assert budget.main(args) == 0
+    assert len(list((tmp_path / "correlated" / "episodes").glob("*.json"))) == 6
+    text = (tmp_path / "budget.md").read_text()
+    assert "| 20 | 3 |" in text and "+0.00 [+0.00, +0.00]" in text  # the largest against itself
+    chosen = text.strip().splitlines()[-1]
+    assert chosen.startswith("Smallest budget passing on every house and model: ")
+    assert chosen.rstrip(".").split(": ")[1] in ("2", "20")
+    import numpy as np
+    lo, hi = budget.paired_interval(np.array([1.0, 2.0, 3.0]))
+    assert 1.0 <= lo <= 2.0 <= hi <= 3.0
+    capsys.readouterr()

@@ -260,3 +260,18 @@ def _at_near_of(scenario):
     pts = np.array([s.vantage for s in scenario.sites])
     matrix = np.linalg.norm(pts[:, None] - pts[None], axis=2)
     return DistanceTable(tuple(names), tuple(matrix[0]), tuple(map(tuple, matrix)))
+
+
+def test_a_look_that_cannot_find_anything_is_not_a_candidate():
+    """A re-look of a site missed so often that it cannot change the belief costs and changes
+    nothing; kept as a candidate, a depth-limited tree can still prefer it for ever (this
+    27-site joint episode re-looked one site 105 times and ran out of looks). Now the episode
+    ends, and no chosen look is expected to find less than NULL_LOOK."""
+    from fg_tea.planning import lookahead
+
+    scenario = _world("generated_medium").sample(9)
+    model = load_model("joint_close")
+    _, runner = _decisions(scenario, model, "lookahead", 9)
+    assert runner.metrics()["success"]
+    assert max(runner.state.inspected.values()) < 10
+    assert lookahead.NULL_LOOK > 0

@@ -33,6 +33,8 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
   (eq. 39 without the repeat term, since re-looks are priced by the miss model) are expanded.
   At the root the score is the EFE planner's own (exact joint information for joint beliefs); in
   the tree it is eqs. 39-41 on the tree's marginals.
+  A look expected to find fewer than :data:`NULL_LOOK` objects cannot change the belief and is
+  dropped from the candidates (unless nothing else is left; see ``LookaheadPlanner._useful``).
 - **Rollout** (``rollout = "mppm"``, most probable per metre): from the leaf, repeatedly go to the
   viewpoint with the largest expected number of newly found objects per metre of cost, following
   the all-miss branch, until the search would be over with probability 1 - 1e-3
@@ -48,9 +50,11 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
 
 With ``depth = 1`` and no rollout there is nothing to look ahead with: the planner returns the
 EFE planner's choice (a test checks it). Planner specs: ``lookahead`` (defaults) or
-``lookahead:depth=2,width=3,rollout=mppm,nodes=60,look=0.144`` (the defaults: a pilot on the
-default apartment's correlated worlds found depth 1 and depth 2 within noise of each other in
-travel, and 60 nodes keeps a three-object decision to a few milliseconds).
+``lookahead:depth=2,width=3,rollout=mppm,nodes=20,look=0.144`` (the defaults). The node budget
+is chosen by a rule across houses (docs/design.md §6.6, ``experiments/lookahead_budget.py``): the
+smallest of 10, 20, 40, 60, 120, 240 nodes whose paired mean search travel is not detectably worse
+than 240 nodes' (95 % paired bootstrap) on the default apartment and on generated 13- and 27-site
+houses, for factorised and joint close-look models.
 """
 
 from __future__ import annotations
@@ -72,6 +76,7 @@ ROLLOUTS = ("mppm", "none")
 MAX_TRUTHS = 50_000          # largest truth table the planner holds (K^|U|)
 OUTCOME_FLOOR = 1e-9         # outcomes less probable than this are not expanded
 STOP_PROBABILITY = 1e-3      # a rollout ends once the search is over with at least 1 - this
+NULL_LOOK = 1e-9             # a look expected to find less than this cannot change the belief
 
 
 @dataclass(frozen=True)
@@ -89,7 +94,7 @@ class LookaheadSettings:
     depth: int = 2
     width: int = 3
     rollout: str = "mppm"
-    nodes: int = 60
+    nodes: int = 20  # the budget rule of docs/design.md §6.6
     look: float = LOOK_COST
 
     def __post_init__(self) -> None:
@@ -685,6 +690,7 @@ class LookaheadPlanner:
             node.base = base
         else:
             actions = list(root_actions)
+        actions = self._useful(problem, node, actions) if root_actions is None else actions
         if node.base >= 0:
             fortify.append(node)
         node.children = []
@@ -696,6 +702,22 @@ class LookaheadPlanner:
         for _, _, kids in node.children:
             for _, child in kids:
                 self._expand(problem, child, relevance, budget, leaves, fortify)
+
+    @staticmethod
+    def _useful(problem: SearchProblem, node: _Node, actions: Sequence[int]) -> list[int]:
+        """The looks of `actions` that can change the belief (all of them if none can).
+
+        A look expected to find fewer than :data:`NULL_LOOK` objects (in practice a re-look of a
+        site already missed several times) leaves every outcome but "nothing seen" below the
+        outcome floor, so its child is the same belief one look poorer: it costs and changes
+        nothing, and is never the best plan. Kept as a candidate it can still win on a
+        depth-limited tree, whose child (valued to a smaller depth, over its own candidates) may
+        look cheaper than the node's other looks, and then it is chosen for ever.
+        """
+        q = _node_marginals(problem, node) * node.unfound[:, None]
+        finds = np.einsum("nk,ank->a", q, problem.prob[list(actions)])
+        keep = [a for a, f in zip(actions, finds) if f >= NULL_LOOK]
+        return keep or list(actions)
 
     def _base_action(self, problem: SearchProblem, node: _Node) -> int:
         """The rollout policy's first look from `node` (-1 without a rollout or if none helps).
@@ -775,6 +797,9 @@ class LookaheadPlanner:
             kept = order[:st.width] + [best_by_view[problem.names[base]]]
         else:
             kept = order[:st.width]
+        useful = set(self._useful(problem, root, root_actions))
+        kept = [c for a, c in zip(root_actions, kept) if a in useful]
+        root_actions = [a for a in root_actions if a in useful]
         fortify: list[_Node] = []
         self._expand(problem, root, r, budget, leaves, fortify, root_actions)
         steps = 0

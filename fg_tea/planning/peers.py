@@ -16,8 +16,16 @@ problem each decision solves is derived from the scenario and model by
 - **belief**: the exact posterior over truths (a histogram for POUCT; for POMCP, as many particles
   drawn from it as simulations), rebuilt from the belief engine at every decision;
 - **rollout**: uniform among viewpoints not yet looked from in the simulation (all, once every
-  one has been), the help the peers are given; exploration constant 5 m (about half the
-  default apartment's search travel; not tuned), discount 1, depth 2 x the number of viewpoints.
+  one has been), the help the peers are given; exploration constant 20 m (:data:`EXPLORATION`,
+  the scale of a random rollout's return in the default apartment; not tuned further), discount
+  1, depth 2 x the number of viewpoints.
+
+Cost: pomdp-py's POUCT rolls out to the full depth whatever the state (it knows no terminal
+state), so a decision costs about N x 2 x |A| calls of the models below; they are kept to a
+few attribute reads (states hash once; the rollout's choices are cached per looked-from set).
+The start state is drawn by bisection of running sums built once per decision, the same draws
+as ``pomdp_py.Histogram`` over the same table (which rebuilds them at every simulation, O(T)
+each: 20 s per decision at 27 sites and 3 objects).
 
 Randomness: pomdp-py draws from Python's ``random`` module; each decision seeds it from the
 planner's Generator and restores the caller's state afterwards, so a seeded episode is
@@ -27,6 +35,8 @@ optional extra ``pip install -e ".[peers]"``.
 
 from __future__ import annotations
 
+import bisect
+import itertools
 import random
 from typing import Mapping, Sequence
 
@@ -34,7 +44,7 @@ import numpy as np
 
 from fg_tea.model import Model
 from fg_tea.planning.base import Candidate, Decision, DistanceModel, check_inputs
-from fg_tea.planning.lookahead import LOOK_COST, SearchProblem, build_problem
+from fg_tea.planning.lookahead import LOOK_COST, MAX_TRUTHS, SearchProblem, build_problem
 
 EXPLORATION = 20.0  # metres: UCB1 exploration constant (rewards are metres)
 
@@ -55,9 +65,12 @@ def _classes():
     class SearchState(pomdp_py.State):
         def __init__(self, pos: int, t: int, found: int, looked: int, new: tuple = ()):
             self.pos, self.t, self.found, self.looked, self.new = pos, t, found, looked, new
+            # pomdp-py hashes states, actions and observations at every tree and dict lookup:
+            # hash once, not per lookup (the value is the same tuple hash as before)
+            self._hash = hash((pos, t, found, looked, new))
 
         def __hash__(self):
-            return hash((self.pos, self.t, self.found, self.looked, self.new))
+            return self._hash
 
         def __eq__(self, other):
             return (isinstance(other, SearchState) and self.pos == other.pos and self.t == other.t
@@ -77,9 +90,10 @@ def _classes():
     class Seen(pomdp_py.Observation):
         def __init__(self, new: tuple):
             self.new = new
+            self._hash = hash(new)
 
         def __hash__(self):
-            return hash(self.new)
+            return self._hash
 
         def __eq__(self, other):
             return isinstance(other, Seen) and self.new == other.new
@@ -90,8 +104,9 @@ def _classes():
             self.seen = problem.seen  # (A, T, n)
 
         def sample(self, state, action):
-            if state.found == self.full:
-                return SearchState(state.pos, state.t, state.found, state.looked)
+            if state.found == self.full:  # absorbing (pomdp-py rolls out to max_depth regardless)
+                return state if not state.new else SearchState(state.pos, state.t, state.found,
+                                                               state.looked)
             a = action.a
             found, new = state.found, []
             probs = self.seen[a, state.t]
@@ -123,6 +138,7 @@ def _classes():
         def __init__(self, actions: list):
             self.actions = actions
             self.all = (1 << len(actions)) - 1
+            self._fresh: dict[int, list] = {}  # looked-from mask -> the rollout's choices
 
         def sample(self, state):
             return self.rollout(state)
@@ -131,10 +147,44 @@ def _classes():
             return self.actions
 
         def rollout(self, state, history=None):
-            fresh = [x for x in self.actions if not state.looked >> x.a & 1]
-            return random.choice(fresh or self.actions)
+            fresh = self._fresh.get(state.looked)
+            if fresh is None:
+                fresh = [x for x in self.actions if not state.looked >> x.a & 1] or self.actions
+                self._fresh[state.looked] = fresh
+            return random.choice(fresh)
 
-    return SearchState, Look, Transition, Observe, Reward, Policy
+    class TruthBelief(pomdp_py.GenerativeDistribution):
+        """The exact belief over start states, drawn from in O(log T) per simulation.
+
+        The same draws as ``pomdp_py.Histogram`` over the same states in the same order (its
+        ``random`` is ``random.choices(states, weights)``: a bisection of the running sums,
+        rebuilt from the dict at every call, O(T) per simulation); here the running sums are
+        built once per decision.
+        """
+
+        def __init__(self, states: list, weights: Sequence[float]):
+            self.states = states
+            self.cum = list(itertools.accumulate(float(w) for w in weights))
+            self.total = self.cum[-1] + 0.0
+            self.hi = len(states) - 1
+
+        def random(self, rnd=random):
+            return self.states[bisect.bisect(self.cum, rnd.random() * self.total, 0, self.hi)]
+
+        def mpe(self):
+            weights = np.diff(np.concatenate([[0.0], self.cum]))
+            return self.states[int(np.argmax(weights))]
+
+        def __getitem__(self, state):
+            if state in self.states:
+                i = self.states.index(state)
+                return self.cum[i] - (self.cum[i - 1] if i else 0.0)
+            return 0.0
+
+        def get_histogram(self):
+            return {s: self[s] for s in self.states}
+
+    return SearchState, Look, Transition, Observe, Reward, Policy, TruthBelief
 
 
 class PeerPlanner:
@@ -158,12 +208,36 @@ class PeerPlanner:
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self._classes = _classes()
 
+    def size_fault(self, n_sites: int, n_objects: int) -> str | None:
+        """Why this planner cannot hold the search problem, or None.
+
+        The peers' belief is the table of truths itself (a histogram over it, or particles drawn
+        from it), for a factorised belief too, so the limit of :data:`MAX_TRUTHS` truths applies to
+        every model. The first decision, over every site for every object, is the largest.
+        """
+        if n_sites ** n_objects > MAX_TRUTHS:
+            return (f"{self.kind} planner: {n_objects} objects over {n_sites} sites give "
+                    f"{n_sites ** n_objects:,} truths, more than the limit of {MAX_TRUTHS:,} (its "
+                    "belief is the exact table of truths, factorised or not); use another planner")
+        return None
+
+    def check_belief(self, belief, objects: Sequence[str]) -> None:
+        """Refuse, before an episode starts, a search problem whose truth table is too large.
+
+        Raises:
+            ValueError: ``"pouct planner: ..."`` or ``"pomcp planner: ..."``.
+        """
+        fault = self.size_fault(len(belief.sites), len(objects))
+        if fault is not None:
+            raise ValueError(fault)
+
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
                excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
         pomdp_py = _pomdp_py()
-        SearchState, Look, Transition, Observe, Reward, Policy = self._classes
+        SearchState, Look, Transition, Observe, Reward, Policy, TruthBelief = self._classes
         check_inputs(belief, objects, relevance, excluded_sites, views)
+        self.check_belief(belief, objects)
         problem = build_problem(belief, objects, distances, excluded_sites, views, self.look)
         n, a_count = len(objects), len(problem.names)
         full = (1 << n) - 1
@@ -175,8 +249,8 @@ class PeerPlanner:
             actions = [Look(a) for a in range(a_count)]
             policy = Policy(actions)
             if self.kind == "pouct":
-                init = pomdp_py.Histogram({SearchState(-1, t, 0, looked): float(p)
-                                           for t, p in enumerate(problem.p)})
+                init = TruthBelief([SearchState(-1, t, 0, looked) for t in range(len(problem.p))],
+                                   problem.p)
             else:
                 draws = np.random.default_rng(seed).choice(len(problem.p), size=self.simulations,
                                                            p=problem.p)
