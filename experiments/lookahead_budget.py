@@ -30,6 +30,9 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import planner_frontier  # noqa: E402
 
+from fg_tea.errors import InputError  # noqa: E402
+from fg_tea.files import atomic_write_text  # noqa: E402
+
 LADDER = (10, 20, 40, 60, 120, 240)
 HOUSES = ("correlated:100", "generated_small:30", "generated_medium:30")
 
@@ -82,16 +85,39 @@ def budget_table(rows: list[dict], ladder: tuple[int, ...]) -> tuple[list[str], 
     return lines, verdict
 
 
+def check(args: argparse.Namespace) -> None:
+    """Every house, budget and model, checked before any episode runs.
+
+    Raises:
+        InputError: the first bad value, named by its flag.
+    """
+    from fg_tea.sweep import _model, _world
+
+    for house in args.houses:
+        world, _, count = house.partition(":")
+        if count and not (count.isdigit() and int(count) >= 1):
+            raise InputError("<command line>", "--houses", f"{house!r}: WORLDS must be a positive integer")
+        _world(world, ())
+    if len(set(args.ladder)) < 2 or min(args.ladder) < 1:
+        raise InputError("<command line>", "--ladder", "give at least two different budgets, each >= 1")
+    for m in args.models:
+        _model(m, ())
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--houses", nargs="+", default=list(HOUSES),
                    help="WORLD:WORLDS pairs (default: %(default)s)")
-    p.add_argument("--ladder", nargs="+", type=int, default=list(LADDER))
-    p.add_argument("--models", nargs="+", default=["factorised_close", "joint_close"])
-    p.add_argument("--out", default="runs/experiments/lookahead_budget")
+    p.add_argument("--ladder", nargs="+", type=int, default=list(LADDER),
+                   help="node budgets, the largest is the reference (default: %(default)s)")
+    p.add_argument("--models", nargs="+", default=["factorised_close", "joint_close"],
+                   help="models, bundled names or files (default: %(default)s)")
+    p.add_argument("--out", default="runs/experiments/lookahead_budget",
+                   help="output folder: OUT/budget.md and OUT/<world>/ (default: %(default)s)")
     p.add_argument("--summary-only", action="store_true",
                    help="run nothing; summarise the episodes already under OUT/<world>/episodes")
     args = p.parse_args(argv)
+    check(args)
     ladder = tuple(sorted(args.ladder))
     out = Path(args.out)
     planners = [f"lookahead:nodes={n}" for n in ladder]
@@ -120,10 +146,14 @@ def main(argv: list[str] | None = None) -> int:
                  f"{chosen if chosen is not None else 'none'}.")
     text = "\n".join(lines) + "\n"
     out.mkdir(parents=True, exist_ok=True)
-    (out / "budget.md").write_text(text)
+    atomic_write_text(out / "budget.md", text)
     print(text)
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    try:
+        raise SystemExit(main())
+    except InputError as exc:
+        sys.stderr.write(f"lookahead_budget.py: error: {exc}\n")
+        raise SystemExit(2)

@@ -57,3 +57,19 @@ def test_budget_rule_tabulates_and_picks(tmp_path, capsys):
     lo, hi = budget.paired_interval(np.array([1.0, 2.0, 3.0]))
     assert 1.0 <= lo <= 2.0 <= hi <= 3.0
     capsys.readouterr()
+
+
+def test_budget_rule_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
+    import subprocess
+    import sys
+
+    for bad, field in ((["--houses", "nowhere:3"], "nowhere"), (["--houses", "correlated:x"], "--houses"),
+                       (["--ladder", "20"], "--ladder"), (["--ladder", "0", "20"], "--ladder"),
+                       (["--models", "no_such_model"], "no_such_model")):
+        proc = subprocess.run([sys.executable, "experiments/lookahead_budget.py", *bad, "--out",
+                               str(tmp_path)], capture_output=True, text=True, cwd=ROOT,
+                              stdin=subprocess.DEVNULL, timeout=120)
+        assert proc.returncode == 2, (bad, proc.stderr)
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and field in lines[0], (bad, proc.stderr)
+    assert not any(tmp_path.iterdir())  # nothing run, nothing written
