@@ -250,19 +250,21 @@ def _read_relation(r: Reader) -> Relation:
 def _read_curve(r: Reader, base: VisibilityCurve | None = None) -> VisibilityCurve:
     """A visibility curve: ``half_pixels``, ``slope``, ``max_probability``, ``categories``."""
     d = base or VisibilityCurve()
+    half, slope = r.positive("half_pixels", d.half_pixels), r.positive("slope", d.slope)
     categories = dict(d.categories)
     cats = r.child("categories", required=False)
     if cats is not None:
         for name in cats.names():
             c = cats.child(name)
-            default = categories.get(name) or CurveParams(d.half_pixels, d.slope)
+            # A category inherits what it does not set: its own earlier values, else this
+            # curve's (so half_pixels alone keeps the curve's slope).
+            default = categories.get(name) or CurveParams(half, slope)
             categories[name] = CurveParams(c.positive("half_pixels", default.half_pixels),
                                            c.positive("slope", default.slope))
     max_p = r.probability("max_probability", d.max_probability)
     if max_p <= 0:
         raise r.fail("max_probability must be positive, or nothing is ever seen", "max_probability")
-    return VisibilityCurve(r.positive("half_pixels", d.half_pixels), r.positive("slope", d.slope),
-                           max_p, MappingProxyType(categories))
+    return VisibilityCurve(half, slope, max_p, MappingProxyType(categories))
 
 
 def parse_model(data: dict, file: str | Path = "<model>",

@@ -161,3 +161,22 @@ def test_ablation_models_change_only_their_switch():
     assert all(e.success == 1.0 for t in certain.transitions.values() for e in t.effects)
     assert load_model(ROOT / "models/ablations/direct_effects.toml").transition_form == "direct"
     assert base.planning.information_weight == 1.5 and base.miss_likelihood == 0.05
+
+
+def test_a_category_curve_inherits_what_it_does_not_set(tmp_path):
+    """[perception.visibility.categories.X] with half_pixels only keeps the curve's slope (3.0 in
+    the bundled models, not the library default), for the camera and for the agent alike."""
+    base = load_model("factorised")
+    path = tmp_path / "n50.toml"
+    path.write_text('extends = "factorised"\nname = "n50"\n'
+                    "[perception.visibility.categories.teabag]\nhalf_pixels = 80.0\n")
+    model = load_model(path)
+    for curve in (model.camera_curve, model.detection_curve):
+        teabag, mug = curve.params("teabag"), curve.params("mug")
+        assert (teabag.half_pixels, teabag.slope) == (80.0, base.camera_curve.params("teabag").slope)
+        assert mug == base.camera_curve.params("mug")
+        assert curve.max_probability == base.camera_curve.max_probability
+    same = tmp_path / "same.toml"
+    same.write_text('extends = "factorised"\nname = "same"\n'
+                    "[perception.visibility.categories.teabag]\nhalf_pixels = 50\n")
+    assert load_model(same).camera_curve.params("teabag") == base.camera_curve.params("teabag")
