@@ -62,7 +62,7 @@ sys.path.insert(0, str(ROOT))
 
 from fg_tea.analysis import (markdown_table, paired_differences, save_figure,  # noqa: E402
                              summary_markdown, summary_table)
-from fg_tea.errors import InputError  # noqa: E402
+from fg_tea.errors import run_script  # noqa: E402
 from fg_tea.files import atomic_write_text  # noqa: E402
 from fg_tea.sweep import (Job, add_execution_arguments, parse_cell, plan_sweep,  # noqa: E402
                           read_rows, run_sweep, write_csv_atomic)
@@ -440,8 +440,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        raise SystemExit(main())
-    except InputError as exc:
-        sys.stderr.write(f"compare_at_scale.py: error: {exc}\n")
-        raise SystemExit(2)
+    run_script(main, "compare_at_scale.py")

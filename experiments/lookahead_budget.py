@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import planner_frontier  # noqa: E402
 
-from fg_tea.errors import InputError  # noqa: E402
+from fg_tea.errors import InputError, run_script  # noqa: E402
 from fg_tea.files import atomic_write_text  # noqa: E402
 
 LADDER = (10, 20, 40, 60, 120, 240)
@@ -152,8 +152,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        raise SystemExit(main())
-    except InputError as exc:
-        sys.stderr.write(f"lookahead_budget.py: error: {exc}\n")
-        raise SystemExit(2)
+    run_script(main, "lookahead_budget.py")

@@ -45,7 +45,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for  # noqa: E402
-from fg_tea.planning import check_planner_name  # noqa: E402
+from fg_tea.errors import InputError, run_script  # noqa: E402
+from fg_tea.planning.plugins import check as check_planner  # noqa: E402
 from fg_tea.sweep import _make_env, model_path, world_path  # noqa: E402
 from fg_tea.model import load_model  # noqa: E402
 from fg_tea.worlds import load_world  # noqa: E402
@@ -204,8 +205,14 @@ def main(argv: list[str] | None = None) -> int:
         if skipped:
             print(f"pomdp-py not installed; skipping {', '.join(skipped)} (pip install -e \".[peers]\")")
         planners = [x for x in planners if x not in skipped]
+    if args.worlds < 1:
+        raise InputError("<command line>", "--worlds", f"{args.worlds}: must be at least 1")
+    if not world_path(args.world).exists():
+        raise InputError("<command line>", "--world", f"unknown world {args.world!r}")
+    for model in args.models:
+        load_model(model_path(model))  # InputError naming the file and the fault
     for name in planners:
-        check_planner_name(name)
+        check_planner(name)
     out = Path(args.out)
     episodes = out / "episodes"
     episodes.mkdir(parents=True, exist_ok=True)
@@ -230,4 +237,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_script(main, "planner_frontier.py")

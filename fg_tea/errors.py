@@ -29,6 +29,19 @@ class InputError(ValueError):
         return (type(self), (self.file, self.path, self.fault))
 
 
+def run_script(main: Callable[[], int], prog: str) -> None:
+    """Run an experiment script's `main` and exit with its status; an :class:`InputError` (bad
+    flag, file or name) becomes one line ``prog: error: file: path: fault`` and status 2."""
+    import sys
+
+    try:
+        status = main()
+    except InputError as exc:
+        sys.stderr.write(f"{prog}: error: {exc}\n")
+        raise SystemExit(2) from None
+    raise SystemExit(status)
+
+
 class ContradictionError(ValueError):
     """Evidence that has probability zero under the model (the posterior would be undefined)."""
 

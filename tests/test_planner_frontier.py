@@ -73,3 +73,18 @@ def test_budget_rule_refuses_bad_input_with_one_line_before_any_episode(tmp_path
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and field in lines[0], (bad, proc.stderr)
     assert not any(tmp_path.iterdir())  # nothing run, nothing written
+
+
+def test_frontier_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
+    import subprocess
+    import sys
+
+    for bad, field in ((["--world", "nowhere"], "--world"), (["--planners", "nope"], "nope"),
+                       (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model")):
+        proc = subprocess.run([sys.executable, "experiments/planner_frontier.py", *bad, "--out",
+                               str(tmp_path)], capture_output=True, text=True, cwd=ROOT,
+                              stdin=subprocess.DEVNULL, timeout=120)
+        assert proc.returncode == 2, (bad, proc.stderr)
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and field in lines[0], (bad, proc.stderr)
+    assert not any(tmp_path.iterdir())  # nothing run, nothing written

@@ -50,17 +50,30 @@ def looks_at(draw, rooms, n):
     return sites, list(observed), prob, fp
 
 
+def _structured(*parts):
+    """The structured model of drawn parts, or None where a hard capacity with too many objects
+    leaves a zero partition function."""
+    try:
+        return StructuredLocationModel(*parts)
+    except Exception:
+        return None
+
+
+def _model_and_look(data):
+    """A drawn small model's parts, a look at it, and its structured model (or None)."""
+    parts = data.draw(small_models())
+    look = data.draw(looks_at(parts[1], parts[0].shape[0]))
+    return parts, look, _structured(*parts)
+
+
 @settings(max_examples=60, derandomize=True, deadline=None,
           suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())
 def test_structured_gain_equals_enumeration_of_every_outcome(data):
-    unary, rooms, caps, penalty, pairs = data.draw(small_models())
-    n, k = unary.shape
-    sites, observed, prob, fp = data.draw(looks_at(rooms, n))
-    try:
-        model = StructuredLocationModel(unary, rooms, caps, penalty, pairs)
-    except Exception:  # zero partition function (hard capacity with too many objects)
+    (unary, rooms, caps, penalty, pairs), (sites, observed, prob, fp), model = _model_and_look(data)
+    if model is None:
         return
+    n, k = unary.shape
     joint = dense_joint(unary, rooms, caps, penalty, pairs)
     got = JointViewGain(model, observed, fp, outcome_limit=None).gain(sites, prob)
     if len(observed) <= 2 and len(sites) <= 3:
@@ -182,13 +195,10 @@ def test_matrix_and_gathered_subset_convolutions_agree(monkeypatch):
           suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())
 def test_gain_bounds_hold_on_random_models(data):
-    unary, rooms, caps, penalty, pairs = data.draw(small_models())
-    n, _ = unary.shape
-    sites, observed, prob, fp = data.draw(looks_at(rooms, n))
-    try:
-        model = StructuredLocationModel(unary, rooms, caps, penalty, pairs)
-    except Exception:  # zero partition function (hard capacity with too many objects)
+    (unary, rooms, caps, penalty, pairs), (sites, observed, prob, fp), model = _model_and_look(data)
+    if model is None:
         return
+    n, _ = unary.shape
     solver = JointViewGain(model, observed, fp, outcome_limit=None)
     exact = solver.gains([(sites, prob)])
     lower, upper = solver.gain_bounds([(sites, prob)])
@@ -214,9 +224,8 @@ def test_objects_without_pair_factors_get_the_capacity_bound(data):
         site[o, :] = site[:, o] = room[o, :] = room[:, o] = 1.0
     pairs = PairWeights(site, room)
     sites, observed, prob, fp = data.draw(looks_at(rooms, n))
-    try:
-        model = StructuredLocationModel(unary, rooms, caps, penalty, pairs)
-    except Exception:  # zero partition function (hard capacity with too many objects)
+    model = _structured(unary, rooms, caps, penalty, pairs)
+    if model is None:
         return
     joint = dense_joint(unary, rooms, caps, penalty, pairs)
     solver = JointViewGain(model, observed, fp, outcome_limit=None)
