@@ -28,6 +28,14 @@ from fg_tea.worlds import load_world
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _apart_from_model_file(events):
+    """An episode's events as JSON lines, without what names the model file (file, input hash)."""
+    start = dict(events[0])
+    start.pop("model_file")
+    start["inputs"] = {k: v for k, v in start["inputs"].items() if k != "model"}
+    return [json.dumps(e, sort_keys=True) for e in [start, *events[1:]]]
+
+
 def _episode(scenario, model, seed: int, path: Path | None = None) -> list[dict]:
     env = FakeHouse(scenario, env_config_for(model))
     log = EventLog(path) if path is not None else None
@@ -110,11 +118,7 @@ def test_model_learned_from_no_logs_runs_its_base_episodes(tmp_path):
         scenario = load_scenario("prior_violation")
         runs = []
         for model in (load_model(base), load_model(out)):
-            events = _episode(scenario, model, 3)
-            start = dict(events[0])
-            start.pop("model_file")
-            start["inputs"] = {k: v for k, v in start["inputs"].items() if k != "model"}
-            runs.append([json.dumps(e, sort_keys=True) for e in [start, *events[1:]]])
+            runs.append(_apart_from_model_file(_episode(scenario, model, 3)))
         assert runs[0] == runs[1]
 
 
@@ -128,11 +132,7 @@ def test_zero_or_no_co_location_counts_keep_the_hand_set_relations(tmp_path):
     scenario = load_scenario("prior_violation")
     runs = []
     for m in (load_model("joint"), load_model(model)):
-        events = _episode(scenario, m, 4)
-        start = dict(events[0])
-        start.pop("model_file")
-        start["inputs"] = {k: v for k, v in start["inputs"].items() if k != "model"}
-        runs.append([json.dumps(e, sort_keys=True) for e in [start, *events[1:]]])
+        runs.append(_apart_from_model_file(_episode(scenario, m, 4)))
     assert runs[0] == runs[1]
     sites_only = apply_learning(load_model("joint"), Learning(counts=Counts(
         sites={"teabag": {"study_shelf": 4.0}, "kettle": {"sideboard": 2.0}})))

@@ -59,32 +59,30 @@ def test_budget_rule_tabulates_and_picks(tmp_path, capsys):
     capsys.readouterr()
 
 
-def test_budget_rule_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
+
+def _refuses_each(script, cases, tmp_path):
+    """Every (flags, word) case exits 2 with one stderr line naming `word`, writing nothing."""
     import subprocess
     import sys
 
-    for bad, field in ((["--houses", "nowhere:3"], "nowhere"), (["--houses", "correlated:x"], "--houses"),
-                       (["--ladder", "20"], "--ladder"), (["--ladder", "0", "20"], "--ladder"),
-                       (["--models", "no_such_model"], "no_such_model")):
-        proc = subprocess.run([sys.executable, "experiments/lookahead_budget.py", *bad, "--out",
-                               str(tmp_path)], capture_output=True, text=True, cwd=ROOT,
-                              stdin=subprocess.DEVNULL, timeout=120)
+    for bad, field in cases:
+        proc = subprocess.run([sys.executable, f"experiments/{script}", *bad, "--out", str(tmp_path)],
+                              capture_output=True, text=True, cwd=ROOT, stdin=subprocess.DEVNULL,
+                              timeout=120)
         assert proc.returncode == 2, (bad, proc.stderr)
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and field in lines[0], (bad, proc.stderr)
     assert not any(tmp_path.iterdir())  # nothing run, nothing written
+
+
+def test_budget_rule_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
+    _refuses_each("lookahead_budget.py", (
+        (["--houses", "nowhere:3"], "nowhere"), (["--houses", "correlated:x"], "--houses"),
+        (["--ladder", "20"], "--ladder"), (["--ladder", "0", "20"], "--ladder"),
+        (["--models", "no_such_model"], "no_such_model")), tmp_path)
 
 
 def test_frontier_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
-    import subprocess
-    import sys
-
-    for bad, field in ((["--world", "nowhere"], "--world"), (["--planners", "nope"], "nope"),
-                       (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model")):
-        proc = subprocess.run([sys.executable, "experiments/planner_frontier.py", *bad, "--out",
-                               str(tmp_path)], capture_output=True, text=True, cwd=ROOT,
-                              stdin=subprocess.DEVNULL, timeout=120)
-        assert proc.returncode == 2, (bad, proc.stderr)
-        lines = proc.stderr.strip().splitlines()
-        assert len(lines) == 1 and field in lines[0], (bad, proc.stderr)
-    assert not any(tmp_path.iterdir())  # nothing run, nothing written
+    _refuses_each("planner_frontier.py", (
+        (["--world", "nowhere"], "--world"), (["--planners", "nope"], "nope"),
+        (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model")), tmp_path)

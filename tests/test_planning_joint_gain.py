@@ -249,14 +249,20 @@ def test_objects_without_pair_factors_get_the_capacity_bound(data):
     assert np.all(lower <= exact) and np.all(exact <= upper)
 
 
-def test_gain_bounds_hold_for_restricted_gains():
-    graph, model = joint_graph(6, 12, rooms_of=4, seed=3)
+def _glances_and_close_looks(n, seed, site, misses, rng_seed):
+    """A joint n-object, 12-site belief (rooms of 4) after misses at `site`, its structured model,
+    an RNG, and views: a glance at each room and a close look at each site, random p_o,j."""
+    graph, model = joint_graph(n, 12, rooms_of=4, seed=seed)
     belief = BeliefEngine(graph, model)
-    belief.observe_site("s5", {"o0": False, "o1": False})
-    sm = belief.structured_model()
-    rng = np.random.default_rng(2)
-    views = [(list(range(r, r + 4)), rng.uniform(0.1, 0.9, (6, 4))) for r in (0, 4, 8)]
-    views += [([j], rng.uniform(0.5, 0.9, (6, 1))) for j in range(12)]
+    belief.observe_site(site, misses)
+    rng = np.random.default_rng(rng_seed)
+    views = [(list(range(r, r + 4)), rng.uniform(0.1, 0.9, (n, 4))) for r in (0, 4, 8)]
+    views += [([j], rng.uniform(0.5, 0.9, (n, 1))) for j in range(12)]
+    return belief, belief.structured_model(), rng, views
+
+
+def test_gain_bounds_hold_for_restricted_gains():
+    belief, sm, rng, views = _glances_and_close_looks(6, 3, "s5", {"o0": False, "o1": False}, 2)
     solver = JointViewGain(sm, range(6), 1e-4, outcome_limit=12 * 5 ** 2,
                            coupling=coupling_strength(belief))
     approx = solver.gains(views)
@@ -266,13 +272,7 @@ def test_gain_bounds_hold_for_restricted_gains():
 
 
 def test_gains_of_a_mask_equal_the_full_gains():
-    graph, model = joint_graph(5, 12, rooms_of=4, seed=4)
-    belief = BeliefEngine(graph, model)
-    belief.observe_site("s2", {"o0": False, "o3": False})
-    sm = belief.structured_model()
-    rng = np.random.default_rng(3)
-    views = [(list(range(r, r + 4)), rng.uniform(0.1, 0.9, (5, 4))) for r in (0, 4, 8)]
-    views += [([j], rng.uniform(0.5, 0.9, (5, 1))) for j in range(12)]
+    belief, sm, rng, views = _glances_and_close_looks(5, 4, "s2", {"o0": False, "o3": False}, 3)
     for limit in (None, 12 * 5 ** 2):
         full = JointViewGain(sm, range(5), 1e-4, outcome_limit=limit,
                              coupling=coupling_strength(belief)).gains(views)
