@@ -864,13 +864,18 @@ def cmd_learn(args: argparse.Namespace) -> int:
     out, learning = learn_files(args.logs, args.base, args.out, name=args.name,
                                 forgetting=args.forgetting, prior_strength=args.prior_strength)
     info = summary(learning)
-    where = "; ".join(f"{cat}: " + ", ".join(f"{s} {share:.2f}" for s, share in shares.items())
-                      for cat, shares in info["sites"].items()) or "no objects found"
-    together = "; ".join(f"{pair}: " + ", ".join(f"{k.replace('_', ' ')} {v:.2f}" for k, v in shares.items())
-                         for pair, shares in info["co_location"].items() if shares)
+    where = _shares(info["sites"]) or "no objects found"
+    together = _shares({pair: {k.replace("_", " "): v for k, v in shares.items()}
+                        for pair, shares in info["co_location"].items() if shares})
     print(f"learned: {out} ({len(args.logs)} new log(s), {info['sources']} in all; found at: {where}"
           + (f"; kept together: {together}" if together else "") + ")")
     return 0
+
+
+def _shares(groups: dict[str, dict[str, float]]) -> str:
+    """``group: key share, ...; group: ...`` with shares to two decimals."""
+    return "; ".join(f"{g}: " + ", ".join(f"{k} {v:.2f}" for k, v in shares.items())
+                     for g, shares in groups.items())
 
 
 def _add_learn_parser(sub) -> None:
