@@ -122,18 +122,19 @@ def _kron(tab: np.ndarray, objs: Sequence[int]) -> np.ndarray:
 
 
 def detection_table(prob: np.ndarray, fp: float) -> np.ndarray:
-    """P(Y_u = y | C_u = c) for one object, shape (m + 1, m + 1): rows class, columns outcome.
+    """P(Y_u = y | C_u = c), shape (..., m + 1, m + 1): rows class, columns outcome.
 
     Args:
-        prob: p_{u,c} for the m in-view sites, shape (m,).
+        prob: p_{u,c} for the m in-view sites, shape (..., m): one object, or a batch of them.
         fp: P(seen at one given in-view site | standing elsewhere), per site.
     """
-    m = len(prob)
-    f = np.zeros((m + 1, m + 1))
-    f[:, 1:] = fp
-    for c in range(m):
-        f[1 + c, 1 + c] = prob[c]
-    f[:, 0] = 1.0 - f[:, 1:].sum(axis=1)
+    prob = np.asarray(prob, float)
+    m = prob.shape[-1]
+    f = np.zeros(prob.shape[:-1] + (m + 1, m + 1))
+    f[..., 1:] = fp
+    c = np.arange(1, m + 1)
+    f[..., c, c] = prob
+    f[..., 0] = 1.0 - f[..., 1:].sum(axis=-1)
     return np.clip(f, 0.0, 1.0)
 
 
@@ -406,9 +407,8 @@ class JointViewGain:
             out[:, 0, 0] = g[:, 1] * d[:, 1]
             return out
         ix = subset_index(n - 1)
-        low = np.arange(1 << (n - 1))
         for o in range(n):
-            expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
+            expand = self.red[o]                                           # reduced -> full mask
             prods = g[:, expand[ix.xb] | (1 << o)] * d[:, expand[ix.xunion] | (1 << o)]
             out[:, o] = np.add.reduceat(prods, ix.xstarts, axis=1)
         return out
@@ -423,12 +423,12 @@ class JointViewGain:
             return c[:, None, None, :1] * w[None]
         ix = subset_index(n - 1)
         out = np.zeros((c.shape[0],) + w.shape[:2] + (1 << (n - 1),))
-        low = np.arange(1 << (n - 1))
-        mat = np.zeros((len(low), c.shape[0], len(low)))   # one product for every l; the same
+        half = self.red.shape[1]                            # 2^(N-1) sets without o
+        mat = np.zeros((half, c.shape[0], half))           # one product for every l; the same
         for o in range(n):                                 # nonzeros for every o
-            expand = ((low >> o) << (o + 1)) | (low & ((1 << o) - 1))     # reduced -> full mask
+            expand = self.red[o]                                           # reduced -> full mask
             mat[ix.xunion, :, ix.xa] = c[:, expand[ix.xb]].T
-            res = w[:, o] @ mat.reshape(len(low), -1)               # (A, L * 2^(N-1))
+            res = w[:, o] @ mat.reshape(half, -1)                   # (A, L * 2^(N-1))
             out[:, :, o] = res.reshape(w.shape[0], c.shape[0], -1).transpose(1, 0, 2)
         return out
 
@@ -511,12 +511,7 @@ class JointViewGain:
         p_c = (psi * w_v[:, masks]).sum(axis=2).reshape(cls) / sm.z
         o_sel = np.array([tracked[i] for i in targets])
         # Detection tables per look and tracked object: (G, s, class, outcome).
-        tab = np.zeros((g_n, s, m + 1, m + 1))
-        tab[:, :, :, 1:] = self.fp
-        c_idx = np.arange(1, m + 1)
-        tab[:, :, c_idx, c_idx] = prob
-        tab[:, :, :, 0] = 1.0 - tab[:, :, :, 1:].sum(axis=3)
-        tab = np.clip(tab, 0.0, 1.0)
+        tab = detection_table(prob, self.fp)                              # (G, s, class, outcome)
         y = _outcomes(p_c, [tab[:, b] for b in range(s)], 1)
         h_y = _neg_xlogx_sum(y, axis=tuple(range(1, 1 + s)))                          # (G,)
         # -sum P ln P of P(C_o = c, Y_{-o}) over o's in-view classes c >= 1 (C_o = c is L_o = s_c):
@@ -750,12 +745,7 @@ class JointViewGain:
             p_in = q[:, sites].transpose(1, 0, 2)                           # (G, n_obs, m)
             p_c = np.concatenate([np.maximum(1.0 - p_in.sum(axis=2, keepdims=True), 0.0), p_in],
                                  axis=2)                                    # (G, n_obs, m + 1)
-            tab = np.zeros((g_n, n_obs, m + 1, m + 1))
-            tab[:, :, :, 1:] = self.fp
-            c_idx = np.arange(1, m + 1)
-            tab[:, :, c_idx, c_idx] = prob
-            tab[:, :, :, 0] = 1.0 - tab[:, :, :, 1:].sum(axis=3)
-            tab = np.clip(tab, 0.0, 1.0)
+            tab = detection_table(prob, self.fp)
             p_y = np.einsum("gnc,gncy->gny", p_c, tab)
             info = _neg_xlogx_sum(p_y, axis=2) - (p_c * _neg_xlogx_sum(tab, axis=3)).sum(axis=2)
             own[:, members] = np.maximum(info, 0.0).T
