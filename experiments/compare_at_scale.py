@@ -414,15 +414,16 @@ def main(argv=None) -> int:
         with csv_path.open(newline="", encoding="utf-8") as fh:
             before = max(sum(1 for _ in csv.reader(fh)) - 1, 0)
     t0 = time.perf_counter()
-    rows = run_sweep(jobs, csv_path, args.executor, workers=args.workers or None,
+    run_sweep(jobs, csv_path, args.executor, workers=args.workers or None,
                      address=args.address, resume=args.resume, label=f"compare_at_scale {args.table}")
     seconds = time.perf_counter() - t0
-    ran = max(len(read_rows(csv_path)) - before, 0)  # rows this command added
+    every = read_rows(csv_path)
+    ran = max(len(every) - before, 0)  # rows this command added
     command = shlex.join(["python", "experiments/compare_at_scale.py",
                           *(sys.argv[1:] if argv is None else argv)])
     # One report for every cell in the CSV, whichever command ran it (see the module doc).
     models = LOOKS[args.looks]
-    rows = [r for r in read_rows(csv_path) if row_cell(r, args.table, models)]
+    rows = [r for r in every if row_cell(r, args.table, models)]
     cell_map = {r["key"]: row_cell(r, args.table, models) for r in rows}
     log = out / "commands.txt"
     commands = log.read_text(encoding="utf-8").splitlines() if log.exists() else []

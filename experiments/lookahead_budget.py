@@ -37,11 +37,7 @@ LADDER = (10, 20, 40, 60, 120, 240)
 HOUSES = ("correlated:100", "generated_small:30", "generated_medium:30")
 
 
-def paired_interval(d: np.ndarray, n: int = 4000, seed: int = 0) -> tuple[float, float]:
-    """95 % bootstrap interval of the mean of paired differences `d` (one per world)."""
-    rng = np.random.default_rng(seed)
-    draws = d[rng.integers(0, len(d), size=(n, len(d)))].mean(axis=1)
-    return float(np.percentile(draws, 2.5)), float(np.percentile(draws, 97.5))
+paired_interval = planner_frontier.paired_interval  # the frontier's bootstrap, shared
 
 
 def load_rows(folder: Path) -> list[dict]:

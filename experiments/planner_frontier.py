@@ -101,6 +101,13 @@ def bootstrap_ratio(x: np.ndarray, y: np.ndarray, n: int = 4000, seed: int = 0) 
     return float(np.percentile(r, 2.5)), float(np.percentile(r, 97.5))
 
 
+def paired_interval(d: np.ndarray, n: int = 4000, seed: int = 0) -> tuple[float, float]:
+    """95 % bootstrap interval of the mean of `d` (one value or paired difference per world)."""
+    rng = np.random.default_rng(seed)
+    draws = d[rng.integers(0, len(d), size=(n, len(d)))].mean(axis=1)
+    return float(np.percentile(draws, 2.5)), float(np.percentile(draws, 97.5))
+
+
 def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
     import matplotlib
     matplotlib.use("Agg")
@@ -154,8 +161,7 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
             if with_spl:
                 spl_txt = " n/a |"
                 if len(spl):
-                    draws = spl[np.random.default_rng(0).integers(0, len(spl), (4000, len(spl)))]
-                    lo, hi = np.percentile(draws.mean(axis=1), [2.5, 97.5])
+                    lo, hi = paired_interval(spl)
                     part = f" (of {len(spl)} worlds)" if len(spl) < len(seeds) else ""
                     spl_txt = f" {spl_mean:.3f} [{lo:.3f}, {hi:.3f}]{part} |"
             lines.append(f"| {planner} | {len(seeds)} | {travel.mean():.2f} | {ratio_txt} | "
