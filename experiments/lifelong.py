@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from fg_tea.errors import InputError  # noqa: E402
+from fg_tea.errors import InputError, run_script  # noqa: E402
 from fg_tea.lifelong import (HouseholdSpec, check_move, relation_pairs, run_lifelong,  # noqa: E402
                              write_outputs)
 
@@ -111,4 +111,4 @@ def _specs(args) -> list[HouseholdSpec]:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    run_script(main, "lifelong.py")

@@ -23,7 +23,7 @@ import numpy as np
 
 from fg_tea.beliefs.factors import (Factor, capacity_factor, location_prior, location_var,
                                     pair_factor, state_prior)
-from fg_tea.learning import location_weights
+from fg_tea.learning import learned_relation_weights, location_weights
 from fg_tea.model import Model
 from fg_tea.scenario import Scenario
 
@@ -177,8 +177,6 @@ def _learned_pairs(model: Model, pairs: list[PairRelation], objects: Sequence[st
     and the first co-location factor of the pair is scaled so that the product is (s, r).
     Pairs without counts keep their factors unchanged.
     """
-    from fg_tea.learning import learned_relation_weights
-
     assert model.learning is not None
     learning = model.learning
     cat = dict(zip(objects, categories))
