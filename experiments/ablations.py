@@ -34,12 +34,13 @@ import shlex
 import sys
 from pathlib import Path
 
-from fg_tea.files import atomic_write_text
-from fg_tea.analysis import (METRICS, markdown_table, paired_differences,
-                             plot_bars, summary_markdown, summary_table)
-from fg_tea.errors import InputError
-from fg_tea.model import load_model
-from fg_tea.sweep import ablation_names, add_execution_arguments, model_path, plan_sweep, run_sweep
+from fg_tea.common.files import atomic_write_text
+from fg_tea.study.analysis import (METRICS, markdown_table, paired_differences, plot_bars,
+    summary_markdown, summary_table)
+from fg_tea.common.errors import InputError
+from fg_tea.model.spec import load_model
+from fg_tea.study.sweep import (ablation_names, add_execution_arguments, model_path, plan_sweep,
+    run_sweep)
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/;
 #: the committed results (experiments/results/ablations) are written only when --out names them.

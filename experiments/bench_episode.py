@@ -19,9 +19,9 @@ from pathlib import Path
 from fg_tea.env.house import PyBulletHouse
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.model import load_model
+from fg_tea.model.spec import load_model
 from fg_tea.render.video import VideoOptions, render_video
-from fg_tea.scenario import load_scenario
+from fg_tea.world.scenario import load_scenario
 
 
 def headless(scenario: str, model: str, seed: int, log_path: Path) -> tuple[float, list[dict]]:

@@ -35,7 +35,7 @@ from pathlib import Path
 from fg_tea.env import house as house_module
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.house import PyBulletHouse
-from fg_tea.scenario import Scenario, load_scenario
+from fg_tea.world.scenario import Scenario, load_scenario
 
 TARGET_MS = 20.0
 #: Target for one close look and one room glance (ms), movement excluded.
@@ -83,7 +83,7 @@ _WARM_PROCESS = """
 import sys, time
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.house import PyBulletHouse
-from fg_tea.scenario import load_scenario
+from fg_tea.world.scenario import load_scenario
 sc = load_scenario(sys.argv[1])
 house = PyBulletHouse(sc, EnvConfig())
 house.reset(0)

@@ -52,7 +52,7 @@ import numpy as np  # noqa: E402
 from fg_tea.beliefs.engine import BeliefEngine  # noqa: E402
 from fg_tea.beliefs.factors import detection_factor, miss_factor  # noqa: E402
 from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, assemble_graph  # noqa: E402
-from fg_tea.model import Model, Relation, load_model  # noqa: E402
+from fg_tea.model.spec import Model, Relation, load_model  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Output of the full run, relative to the working directory like every fg-tea output under runs/;

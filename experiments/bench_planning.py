@@ -10,7 +10,7 @@ docs/design.md §6.2 eqs. 44-45, the dense joint being out of reach); and one jo
 
 Houses are synthetic, random but seeded: K sites scattered over four rooms of a 10 m x 8 m floor,
 random affordance weights for mug, kettle and teabag, a few sites with capacity 1-2; built through
-``fg_tea.scenario.parse_scenario``. Models are the bundled ``factorised`` and ``joint`` ones. Each
+``fg_tea.world.scenario.parse_scenario``. Models are the bundled ``factorised`` and ``joint`` ones. Each
 timed decision follows a fresh observation (a miss of every object at a random site, applied to a
 copy of the belief before the clock starts), as in an episode, so caches hold only what
 ``observe_site`` itself computes. The inspection counts passed are empty, so every planner (the
@@ -57,9 +57,9 @@ import numpy as np
 
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine
-from fg_tea.model import load_model
+from fg_tea.model.spec import load_model
 from fg_tea.planning import check_planner_name, euclidean_distances, make_planner
-from fg_tea.scenario import parse_scenario
+from fg_tea.world.scenario import parse_scenario
 
 OBJECTS = ("mug", "kettle", "teabag")
 ROOMS = (("kitchen", (0.0, 0.0), (5.0, 4.0)), ("dining", (0.0, 4.0), (5.0, 8.0)),

@@ -54,9 +54,9 @@ if str(ROOT) not in sys.path:
 
 from fg_tea.beliefs.detection import ViewModel, slot_pixels  # noqa: E402
 from fg_tea.episode.runner import env_config_for  # noqa: E402
-from fg_tea.files import atomic_write_text  # noqa: E402
-from fg_tea.model import load_model  # noqa: E402
-from fg_tea.scenario import Scenario, load_scenario  # noqa: E402
+from fg_tea.common.files import atomic_write_text  # noqa: E402
+from fg_tea.model.spec import load_model  # noqa: E402
+from fg_tea.world.scenario import Scenario, load_scenario  # noqa: E402
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
 DEFAULT_OUT = Path("runs") / "experiments" / "check_detector_calibration"

@@ -1,7 +1,7 @@
 """Do generated houses always work? Generate, validate and run one PyBullet episode per house.
 
 For every room count (default 3-10) and seed (default 0-49) this script generates a house with
-:func:`fg_tea.housegen.generate_house`, validates it (:func:`fg_tea.scenario.parse_scenario`),
+:func:`fg_tea.world.housegen.generate_house`, validates it (:func:`fg_tea.world.scenario.parse_scenario`),
 builds it in the PyBullet house and runs one headless make-tea episode through the public runner
 API (``EpisodeRunner(...).step()`` until done, ``RunConfig(seed=...)``). Any exception, an episode
 that does not succeed, or one still running after ``--max-steps`` runner steps counts as a
@@ -33,7 +33,7 @@ DEFAULT_OUT = Path("runs") / "experiments" / "check_generated_houses"
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from fg_tea.files import atomic_path, atomic_write_text  # noqa: E402
+from fg_tea.common.files import atomic_path, atomic_write_text  # noqa: E402
 
 COLUMNS = ("rooms", "seed", "ok", "stage", "error", "sites", "room_vantages", "success", "reason",
            "frames", "inspections", "generate_s", "build_s", "episode_s")
@@ -44,9 +44,9 @@ def check_one(job: tuple[int, int, str, int]) -> dict:
     rooms, seed, model_name, max_steps = job
     from fg_tea.env.house import PyBulletHouse
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.housegen import generate_house
-    from fg_tea.model import load_model
-    from fg_tea.scenario import parse_scenario
+    from fg_tea.world.housegen import generate_house
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import parse_scenario
 
     row: dict = {"rooms": rooms, "seed": seed, "ok": False, "stage": "generate", "error": ""}
     env = None

@@ -25,7 +25,7 @@ already in its CSV):
   bundled worlds' 0.5 / 0.25) × house size.
 
 Each writes under ``runs/experiments/compare_at_scale/<table>/`` by default: ``episodes.csv`` (one row per
-episode, the sweep CSV of :mod:`fg_tea.sweep`), ``<table>.md`` (markdown tables of every cell),
+episode, the sweep CSV of :mod:`fg_tea.study.sweep`), ``<table>.md`` (markdown tables of every cell),
 ``<table>_paired.csv``, a heat map ``<table>_heatmap.png`` of the paired joint − factorised
 difference in search travel, and ``decision_times.csv``: the median wall time per decision of each
 model and planner, measured in-process on the first ``--timing-worlds`` worlds of each house size
@@ -60,12 +60,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from fg_tea.analysis import (markdown_table, paired_differences, save_figure,  # noqa: E402
-                             summary_markdown, summary_table)
-from fg_tea.errors import run_script  # noqa: E402
-from fg_tea.files import atomic_write_text  # noqa: E402
-from fg_tea.sweep import (Job, add_execution_arguments, parse_cell, plan_sweep,  # noqa: E402
-                          read_rows, run_sweep, write_csv_atomic)
+from fg_tea.study.analysis import (markdown_table, paired_differences, save_figure,
+    summary_markdown, summary_table)
+from fg_tea.common.errors import run_script  # noqa: E402
+from fg_tea.common.files import atomic_write_text  # noqa: E402
+from fg_tea.study.sweep import (Job, add_execution_arguments, parse_cell, plan_sweep, read_rows,
+    run_sweep, write_csv_atomic)
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}
@@ -193,7 +193,7 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
     new.
     """
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.sweep import _make_env, _model, _world
+    from fg_tea.study.sweep import _make_env, _model, _world
 
     first = min(j.world_seed for j in jobs) if jobs else 0
     picked = [j for j in jobs if j.world_seed < first + worlds]

@@ -31,7 +31,7 @@ VERBS = ("PICK", "NAVIGATE", "PLACE", "INSERT", "FILL", "POUR", "USE", "WAIT")
 
 def run_one(args: tuple[str, int, str, float, str]) -> dict:
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.sweep import _make_env, _model, _world
+    from fg_tea.study.sweep import _make_env, _model, _world
 
     world_name, seed, model_name, rate, env_kind = args
     world, model = _world(world_name, ()), _model(model_name, ())

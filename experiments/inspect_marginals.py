@@ -25,9 +25,9 @@ import numpy as np
 
 from fg_tea.env.house import PyBulletHouse
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.files import atomic_path
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
+from fg_tea.common.files import atomic_path
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
 
 #: Default PNG, relative to the working directory like every fg-tea output under runs/.
 DEFAULT_OUT = Path("runs") / "experiments" / "inspect_marginals" / "inspect_marginals.png"

@@ -4,7 +4,7 @@ For each household (a seed) the agent lives K consecutive episodes in the same h
 uses the model learned (docs/design.md §12) from that household's episodes 0..k-1. Beside it, on
 the same placements and seeds: a hand-set control, and for joint models an arm that learns the
 co-location weights too (eqs. 54-55) where the ``learned`` arm keeps the hand-set ones. The
-logic is :mod:`fg_tea.lifelong` (also ``fg-tea compare --lifelong K``); this script adds fixed
+logic is :mod:`fg_tea.study.households` (also ``fg-tea compare --lifelong K``); this script adds fixed
 scenarios, several forgetting factors and moving an object.
 
 Placements are drawn, episode by episode, from a world distribution whose habits differ from the
@@ -31,9 +31,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from fg_tea.errors import InputError, run_script  # noqa: E402
-from fg_tea.lifelong import (HouseholdSpec, check_move, relation_pairs, run_lifelong,  # noqa: E402
-                             write_outputs)
+from fg_tea.common.errors import InputError, run_script  # noqa: E402
+from fg_tea.study.households import (HouseholdSpec, check_move, relation_pairs, run_lifelong,
+    write_outputs)
 
 
 def main(argv=None) -> int:
@@ -79,9 +79,9 @@ def main(argv=None) -> int:
 
 
 def _specs(args) -> list[HouseholdSpec]:
-    from fg_tea.model import load_model
-    from fg_tea.scenario import load_scenario
-    from fg_tea.worlds import load_world
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import load_scenario
+    from fg_tea.world.distributions import load_world
 
     if args.households < 1 or args.episodes < 1 or args.first_household < 0:
         raise InputError("<command line>", "--households/--episodes", "expected positive counts")

@@ -30,8 +30,8 @@ sys.path.insert(0, str(ROOT / "experiments"))
 
 import planner_frontier  # noqa: E402
 
-from fg_tea.errors import InputError, run_script  # noqa: E402
-from fg_tea.files import atomic_write_text  # noqa: E402
+from fg_tea.common.errors import InputError, run_script  # noqa: E402
+from fg_tea.common.files import atomic_write_text  # noqa: E402
 
 LADDER = (10, 20, 40, 60, 120, 240)
 HOUSES = ("correlated:100", "generated_small:30", "generated_medium:30")
@@ -87,7 +87,7 @@ def check(args: argparse.Namespace) -> None:
     Raises:
         InputError: the first bad value, named by its flag.
     """
-    from fg_tea.sweep import _model, _world
+    from fg_tea.study.sweep import _model, _world
 
     for house in args.houses:
         world, _, count = house.partition(":")

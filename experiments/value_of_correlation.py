@@ -37,11 +37,11 @@ import shlex
 import sys
 from pathlib import Path
 
-from fg_tea.files import atomic_write_text
-from fg_tea.analysis import (Interval, markdown_table, paired_differences,
-                             plot_sweep, step_limited)
-from fg_tea.errors import InputError
-from fg_tea.sweep import add_execution_arguments, plan_sweep, run_sweep
+from fg_tea.common.files import atomic_write_text
+from fg_tea.study.analysis import (Interval, markdown_table, paired_differences, plot_sweep,
+    step_limited)
+from fg_tea.common.errors import InputError
+from fg_tea.study.sweep import add_execution_arguments, plan_sweep, run_sweep
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/;
 #: the committed results (experiments/results/value_of_correlation) change only when --out names them.

@@ -5,4 +5,4 @@ tasks -> env -> episode -> render. The agent side (beliefs, planning, tasks) nev
 simulator.
 """
 
-__version__ = "0.1.0"
+from fg_tea._version import __version__

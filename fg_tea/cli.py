@@ -13,10 +13,10 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, NoReturn, Sequence
 
-from fg_tea.options import DeprecatedAlias
-from fg_tea.errors import InputError
-from fg_tea.files import atomic_path, atomic_write_text
-from fg_tea.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
+from fg_tea.common.errors import InputError
+from fg_tea.common.files import atomic_path, atomic_write_text
+from fg_tea.common.options import DeprecatedAlias
+from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
 
@@ -88,8 +88,8 @@ def _format_table(rows: list[list[str]], header: list[str]) -> str:
 def cmd_beliefs(args: argparse.Namespace) -> int:
     """Print the prior marginals of every object and task state (eq. 2, eq. 21)."""
     from fg_tea.beliefs.engine import BeliefEngine, entropy
-    from fg_tea.model import load_model
-    from fg_tea.scenario import load_scenario
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
     model = load_model(args.model)
@@ -141,15 +141,15 @@ def file_kind(path: Path, data: object | None) -> str:
 def check_scenario(scenario, model) -> None:
     """Every check a run makes before its first step, without a simulator.
 
-    Builds the occupancy grid and :class:`~fg_tea.env.navigation.Navigator` (vantage points on
+    Builds the occupancy grid and :class:`~fg_tea.world.navigation.Navigator` (vantage points on
     free floor and reachable from the start) and the exact belief (state and joint-size limits).
 
     Raises:
         InputError: naming the scenario file (or the model's, for a joint too large).
     """
     from fg_tea.beliefs.engine import BeliefEngine
-    from fg_tea.env.navigation import Navigator
     from fg_tea.episode.runner import env_config_for
+    from fg_tea.world.navigation import Navigator
 
     Navigator(scenario, env_config_for(model))
     try:
@@ -168,9 +168,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
     against ``--scenario`` and ``--model``; a world distribution's base scenario is checked and
     one world is drawn.
     """
-    from fg_tea.errors import read_json
-    from fg_tea.model import load_model, parse_model
-    from fg_tea.scenario import load_scenario, parse_scenario
+    from fg_tea.common.inputs import read_json
+    from fg_tea.model.spec import load_model, parse_model
+    from fg_tea.world.scenario import load_scenario, parse_scenario
 
     for path in [p for name in args.files for p in _validate_targets(name)]:
         data = None if path.suffix == ".toml" else read_json(path)
@@ -183,7 +183,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
             scenario = args.scenario or _scenario_for_task(data)
             parse_task(data, load_model(args.model), load_scenario(scenario), file=path)
         elif kind == "world":
-            from fg_tea.worlds import parse_world
+            from fg_tea.world.distributions import parse_world
 
             world = parse_world(data, path)
             check_scenario(world.base if world.base is not None else world.house(0),
@@ -202,8 +202,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 def _scenario_for_task(data: object) -> str:
     """The bundled scenario a task file is checked against when none is named: the default
     apartment, or the first bundled scenario holding every object the task's actions name."""
-    from fg_tea.resources import bundled
-    from fg_tea.scenario import load_scenario
+    from fg_tea.common.resources import bundled
+    from fg_tea.world.scenario import load_scenario
 
     names = set()
     if isinstance(data, dict) and isinstance(data.get("actions"), list):
@@ -249,7 +249,7 @@ OBSERVING_VERBS = ("SEARCH", "INSPECT")
 
 
 def _failure_rates(pairs: list[str]) -> dict[str, float]:
-    from fg_tea.interface import VERBS
+    from fg_tea.world.interface import VERBS
 
     actions = [v for v in VERBS if v not in OBSERVING_VERBS]
     rates = {}
@@ -428,7 +428,7 @@ def planner_size_fault(planner: str, scenario, graph, model=None) -> str | None:
 
 #: Every file `fg-tea run` writes into its output folder (stale ones are removed first).
 RUN_OUTPUTS = ("episode.jsonl", "episode.mp4", "timings.json")
-#: Files `compare` writes besides episodes.csv (fg_tea.analysis.comparison_report).
+#: Files `compare` writes besides episodes.csv (fg_tea.study.analysis.comparison_report).
 COMPARE_REPORT_OUTPUTS = ("summary.md", "summary.csv", "paired.csv", "ratio_to_optimal.png",
                           "travel_inspections.png", "entropy.png")
 
@@ -442,8 +442,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     from fg_tea.env.house import PyBulletHouse
     from fg_tea.episode.log import EventLog
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.model import load_model
-    from fg_tea.scenario import load_scenario
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import load_scenario
 
     t0 = time.perf_counter()
     scenario = load_scenario(args.scenario)
@@ -528,12 +528,12 @@ def cmd_preview(args: argparse.Namespace) -> int:
     import cv2
 
     from fg_tea.env.house import PyBulletHouse
-    from fg_tea.model import load_model
+    from fg_tea.episode.runner import env_config_for
+    from fg_tea.model.spec import load_model
     from fg_tea.render.floorplan import MiniMap, write_floor_plan
     from fg_tea.render.overlay import OverlayState
     from fg_tea.render.video import _compose
-    from fg_tea.scenario import load_scenario
-    from fg_tea.episode.runner import env_config_for
+    from fg_tea.world.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
     options = _video_options(args)
@@ -653,8 +653,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     import os
     import shlex
 
-    from fg_tea.analysis import comparison_report
-    from fg_tea.sweep import SweepError, plan_sweep, run_sweep
+    from fg_tea.study.analysis import comparison_report
+    from fg_tea.study.sweep import SweepError, plan_sweep, run_sweep
 
     if args.workers < 0:
         raise InputError("<command line>", "--workers", f"expected 0 (every core) or more, got {args.workers}")
@@ -665,10 +665,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
     n_worlds = args.worlds if args.worlds is not None else (10 if args.quick else 200)
     planners = args.planners or list(COMPARE_QUICK_PLANNERS if args.quick else COMPARE_PLANNERS)
     out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-{Path(args.world).stem}")
-    from fg_tea.model import load_model
-    from fg_tea.sweep import check_jobs, model_path, world_path
+    from fg_tea.model.spec import load_model
+    from fg_tea.study.sweep import check_jobs, model_path, world_path
     from fg_tea.tasks.load import load_task
-    from fg_tea.worlds import load_world
+    from fg_tea.world.distributions import load_world
 
     check_jobs(plan_sweep([args.world], 1, args.models, planners, first_seed=args.first_seed,
                           env=args.env))  # unknown worlds, models and planners are named first
@@ -721,10 +721,16 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
     import os
     import shlex
 
-    from fg_tea.lifelong import HouseholdSpec, SEED_STRIDE, relation_pairs, run_lifelong, write_outputs
-    from fg_tea.model import load_model
-    from fg_tea.sweep import check_jobs, model_path, plan_sweep, world_path
-    from fg_tea.worlds import load_world
+    from fg_tea.model.spec import load_model
+    from fg_tea.study.households import (
+        SEED_STRIDE,
+        HouseholdSpec,
+        relation_pairs,
+        run_lifelong,
+        write_outputs,
+    )
+    from fg_tea.study.sweep import check_jobs, model_path, plan_sweep, world_path
+    from fg_tea.world.distributions import load_world
 
     k = args.lifelong
     households = args.worlds if args.worlds is not None else (10 if args.quick else 30)
@@ -755,7 +761,7 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
             check_scenario(base, m)
     out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-lifelong-{Path(args.world).stem}")
     _check_out_dir(out)
-    from fg_tea.lifelong import OUTPUTS
+    from fg_tea.study.households import OUTPUTS
 
     _remove_outputs(out, OUTPUTS)
     pairs = relation_pairs(models)
@@ -778,7 +784,7 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
 
 
 def _add_compare_parser(sub) -> None:
-    from fg_tea.sweep import add_execution_arguments
+    from fg_tea.study.sweep import add_execution_arguments
 
     p = sub.add_parser("compare", help="compare models and planners over many sampled worlds (paired)",
                        description="Run every model with every planner on the same N sampled worlds "
@@ -817,7 +823,7 @@ def _add_compare_parser(sub) -> None:
 @_command("house")
 def cmd_house(args: argparse.Namespace) -> int:
     """Generate a house scenario (rooms, furniture sites, room vantages, priors, objects)."""
-    from fg_tea.housegen import check_arguments, write_house
+    from fg_tea.world.housegen import check_arguments, write_house
 
     objects = [o.strip() for o in args.objects.split(",") if o.strip()]
     try:
@@ -859,7 +865,7 @@ def _add_house_parser(sub) -> None:
 def cmd_learn(args: argparse.Namespace) -> int:
     """Write a model that extends a base model and holds the counts learned from logs
     (docs/design.md §12)."""
-    from fg_tea.learning import learn_files, summary
+    from fg_tea.study.learn import learn_files, summary
 
     out, learning = learn_files(args.logs, args.base, args.out, name=args.name,
                                 forgetting=args.forgetting, prior_strength=args.prior_strength)
@@ -916,7 +922,7 @@ def _add_solver_argument(p: argparse.ArgumentParser) -> None:
 @_command("list")
 def cmd_list(args: argparse.Namespace) -> int:
     """Print the bundled scenarios, models, ablations, tasks and world distributions."""
-    from fg_tea.resources import KINDS, bundled, describe
+    from fg_tea.common.resources import KINDS, bundled, describe
 
     kinds = args.kind or list(KINDS)
     unknown = [k for k in kinds if k not in KINDS]
@@ -937,7 +943,7 @@ def cmd_list(args: argparse.Namespace) -> int:
         for path in files:
             description = describe(path)
             if not description and path.suffix == ".toml":  # a model may inherit its description
-                from fg_tea.model import load_model
+                from fg_tea.model.spec import load_model
 
                 try:
                     description = load_model(path).description
@@ -957,7 +963,7 @@ def _first_sentence(text: str, limit: int = 100) -> str:
 
 
 def _add_list_parser(sub: Any) -> None:
-    from fg_tea.resources import KINDS  # noqa: F811 - for the help text
+    from fg_tea.common.resources import KINDS  # noqa: F811 - for the help text
 
     p = sub.add_parser("list", help="list the bundled scenarios, models, ablations, tasks and worlds",
                        description="Print every bundled file by kind, with its one-line description. "
@@ -972,7 +978,7 @@ def _add_list_parser(sub: Any) -> None:
 def _validate_targets(name: str) -> list[Path]:
     """The files `name` stands for in ``fg-tea validate``: itself when it exists or looks like a
     path, else every bundled file of that name (a scenario and a world may share one)."""
-    from fg_tea.resources import KINDS, bundled
+    from fg_tea.common.resources import KINDS, bundled
 
     path = Path(name)
     try:
@@ -988,7 +994,7 @@ def _validate_targets(name: str) -> list[Path]:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="fg-tea", description="A tea-making drone that reasons with exact beliefs.")
-    from fg_tea import __version__
+    from fg_tea._version import __version__
 
     parser.add_argument("--version", action="version", version=f"fg-tea {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND",

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from fg_tea.scenario import parse_scenario
+from fg_tea.world.scenario import parse_scenario
 
 
 def make_scenario(sites, objects, start=(0.0, 0.0)):

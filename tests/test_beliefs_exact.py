@@ -25,7 +25,7 @@ from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.beliefs.factors import Factor
 from fg_tea.beliefs.graph import assemble_graph
 from fg_tea.beliefs.solvers import brute_force_marginals
-from fg_tea.model import Effect, Relation, Sensor, load_model
+from fg_tea.model.spec import Effect, Relation, Sensor, load_model
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = load_model(ROOT / "models" / "joint.toml")

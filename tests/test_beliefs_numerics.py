@@ -18,7 +18,7 @@ import pytest
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.beliefs.factors import collapse_target
 from fg_tea.beliefs.graph import assemble_graph
-from fg_tea.model import Sensor, load_model
+from fg_tea.model.spec import Sensor, load_model
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -115,7 +115,7 @@ def test_joint_model_thousand_misses_then_a_detection(joint, backend):
 def _apartment(order):
     import dataclasses
 
-    from fg_tea.scenario import load_scenario
+    from fg_tea.world.scenario import load_scenario
     scenario = load_scenario("default_apartment")
     return dataclasses.replace(scenario, objects=tuple(
         sorted(scenario.objects, key=lambda o: order.index(o.name))))

@@ -18,9 +18,9 @@ import pytest
 
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.beliefs.graph import assemble_graph
-from fg_tea.errors import ContradictionError
-from fg_tea.model import Effect, Relation, Sensor, load_model
-from fg_tea.scenario import load_scenario
+from fg_tea.common.errors import ContradictionError
+from fg_tea.model.spec import Effect, Relation, Sensor, load_model
+from fg_tea.world.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 TOL = 1e-12

@@ -20,10 +20,10 @@ from hypothesis import strategies as st
 import fg_tea.beliefs.structured as structured
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.beliefs.graph import DENSE_LIMIT, assemble_graph
-from fg_tea.errors import ContradictionError
+from fg_tea.common.errors import ContradictionError
 from fg_tea.beliefs.structured import (NumericalGuardError, PairWeights, StructuredLocationModel,
-                                       SubsetAlgebra)
-from fg_tea.model import Relation, load_model
+    SubsetAlgebra)
+from fg_tea.model.spec import Relation, load_model
 
 ROOT = Path(__file__).resolve().parents[1]
 JOINT = load_model(ROOT / "models" / "joint.toml")

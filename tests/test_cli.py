@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from fg_tea.cli import build_parser, main
-from fg_tea.resources import KINDS, bundled, bundled_names, resolve_model
+from fg_tea.common.resources import KINDS, bundled, bundled_names, resolve_model
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from fg_tea.sweep import read_rows
+from fg_tea.study.sweep import read_rows
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -76,7 +76,7 @@ def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
     _run("experiments/compare_at_scale.py", "--table", "detectability", "--worlds", "2", "--sizes",
          "small", "--half-pixels", "25", "100", "--strengths", "0", "1", "--planners", "nearest",
          "--env", "fake", "--executor", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
-    from fg_tea.model import load_model
+    from fg_tea.model.spec import load_model
 
     model = load_model(table / "models" / "joint_n50_25.toml")
     assert model.structure == "joint" and model.camera_curve.params("teabag").half_pixels == 25.0

@@ -16,8 +16,8 @@ import pytest
 from fg_tea.beliefs.detection import ViewModel, slot_pixels
 from fg_tea.env.fake import FakeHouse
 from fg_tea.episode.runner import env_config_for
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
 
 
 def _table(scenario, value):

@@ -39,8 +39,8 @@ def _calibration_module():
 
 @pytest.fixture(scope="module")
 def calibration():
-    from fg_tea.model import load_model
-    from fg_tea.scenario import load_scenario
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import load_scenario
 
     cal = _calibration_module()
     calibrator = cal.Calibrator(load_scenario("default_apartment"), load_model("factorised"))

@@ -13,9 +13,9 @@ import math
 import pytest
 
 from fg_tea.env.base import EnvConfig
-from fg_tea.interface import ActionRequest, ActionResult, InspectionResult, Pose, StateReading
+from fg_tea.world.interface import ActionRequest, ActionResult, InspectionResult, Pose, StateReading
 from fg_tea.env.fake import FakeHouse
-from fg_tea.scenario import load_scenario
+from fg_tea.world.scenario import load_scenario
 
 SCENARIO = load_scenario("default_apartment")
 OBJECTS = ("mug", "kettle", "teabag")

@@ -10,11 +10,12 @@ import pytest
 
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.house import PyBulletHouse
-from fg_tea.env.navigation import Navigator, follow_path, turn_frames
-from fg_tea.interface import ActionRequest, Pose
-from fg_tea.errors import InputError
-from fg_tea.resources import bundled, resolve_scenario
-from fg_tea.scenario import load_scenario, parse_scenario
+from fg_tea.world.navigation import Navigator
+from fg_tea.env.motion import follow_path, turn_frames
+from fg_tea.world.interface import ActionRequest, Pose
+from fg_tea.common.errors import InputError
+from fg_tea.common.resources import bundled, resolve_scenario
+from fg_tea.world.scenario import load_scenario, parse_scenario
 
 SCENARIO = load_scenario("default_apartment")
 OBJECTS = ("mug", "kettle", "teabag")

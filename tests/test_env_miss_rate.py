@@ -12,7 +12,7 @@ import pytest
 
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.fake import FakeHouse
-from fg_tea.scenario import load_scenario
+from fg_tea.world.scenario import load_scenario
 
 SCENARIO = load_scenario("default_apartment")
 OBJECTS = ("mug", "kettle", "teabag")

@@ -14,8 +14,8 @@ from fg_tea.env.house import PyBulletHouse
 from fg_tea.episode.log import EventLog, read_log
 from fg_tea.episode.metrics import score
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = sorted(p.stem for p in (ROOT / "scenarios").glob("*.json"))

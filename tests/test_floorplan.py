@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from fg_tea.render.floorplan import MiniMap, draw_floor_plan, write_floor_plan
-from fg_tea.scenario import (Doorway, Furniture, House, ObjectSpec, RoomVantage, Scenario, Site, Wall,
-                             load_scenario)
+from fg_tea.world.scenario import (Doorway, Furniture, House, ObjectSpec, RoomVantage, Scenario,
+    Site, Wall, load_scenario)
 
 
 def grid_house(rows: int = 3, cols: int = 4, per_room: int = 4, room_w: float = 5.0,

@@ -15,13 +15,13 @@ from fg_tea.cli import main
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.fake import FakeHouse
 from fg_tea.env.house import PyBulletHouse
-from fg_tea.env.navigation import Navigator
+from fg_tea.world.navigation import Navigator
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.errors import InputError
-from fg_tea.housegen import CATEGORIES, generate_house, house_json
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario, parse_scenario
-from fg_tea.worlds import load_world, parse_world
+from fg_tea.common.errors import InputError
+from fg_tea.world.housegen import CATEGORIES, generate_house, house_json
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario, parse_scenario
+from fg_tea.world.distributions import load_world, parse_world
 
 ROOT = Path(__file__).resolve().parent.parent
 #: One seed per room count (seeds chosen as 7 * rooms + 1, not searched for).
@@ -159,7 +159,7 @@ def test_generated_world_draws_a_house_per_world_seed():
 def test_a_floor_plan_whose_room_cannot_be_furnished_is_replaced_by_the_next_plan():
     # 6 rooms, seed 80: the first floor plan's kitchen cannot hold its furniture in any of its
     # draws, so the generator falls back to the seed's second plan instead of failing the world.
-    from fg_tea import housegen
+    from fg_tea.world import housegen
 
     first, why = housegen._attempt_house(6, 80, 0, housegen.check_arguments(6, 80, housegen.DEFAULT_OBJECTS), None)
     assert first is None and "could not be furnished" in why
@@ -184,6 +184,6 @@ def test_bad_generate_fields_name_the_field(edit, path):
 
 
 def test_the_generator_does_not_import_the_simulator():
-    code = "import sys, fg_tea.housegen, fg_tea.worlds; print('pybullet' in sys.modules)"
+    code = "import sys, fg_tea.world.housegen, fg_tea.world.distributions; print('pybullet' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
     assert out.stdout.strip() == "False"

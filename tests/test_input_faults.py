@@ -26,7 +26,7 @@ from pathlib import Path
 import pytest
 
 from fg_tea.cli import main
-from fg_tea.errors import InputError
+from fg_tea.common.errors import InputError
 from houses import set_at
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -452,7 +452,7 @@ def test_pool_workers_die_with_a_killed_parent(tmp_path):
     script = textwrap.dedent("""
         import os, sys, time
         from concurrent.futures import ProcessPoolExecutor
-        from fg_tea.process import die_with_parent
+        from fg_tea.common.process import die_with_parent
         if __name__ == "__main__":
             pool = ProcessPoolExecutor(1, initializer=die_with_parent, initargs=(os.getpid(),))
             print(pool.submit(os.getpid).result(), flush=True)

@@ -1,9 +1,12 @@
-"""The agent side never imports the simulator (docs/design.md §1: truth lives only in the environment).
+"""The layers of docs/design.md §1, checked from the code's own imports.
 
-Every module under fg_tea/beliefs, fg_tea/planning and fg_tea/tasks, plus fg_tea/scenario.py and
-fg_tea/model.py when present, and the simulator-free environment modules (base, truth,
-navigation, fake), is checked twice: statically (its import statements, parsed with ast) and
-dynamically (imported in a fresh interpreter, after which 'pybullet' must not be in sys.modules).
+1. The agent side never imports the simulator (truth lives only in the environment): every module
+   under common/, world/, model/, beliefs/, planning/ and tasks/, and the simulator-free
+   environment modules (base, truth, adapter, motion, fake), is checked statically (its import
+   statements, parsed with ast) and dynamically (imported in a fresh interpreter, after which
+   'pybullet' must not be in sys.modules).
+2. Folder rules: each folder of fg_tea/ imports only the folders below it (``LAYERS``), the import
+   graph has no cycle, the top of the package holds packages, and no module is over 600 lines.
 """
 
 from __future__ import annotations
@@ -17,9 +20,10 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-AGENT_DIRS = ("fg_tea/beliefs", "fg_tea/planning", "fg_tea/tasks")
-AGENT_FILES = ("fg_tea/scenario.py", "fg_tea/model.py", "fg_tea/learning.py", "fg_tea/env/base.py", "fg_tea/env/truth.py",
-               "fg_tea/env/navigation.py", "fg_tea/env/fake.py")
+AGENT_DIRS = ("fg_tea/common", "fg_tea/world", "fg_tea/model", "fg_tea/beliefs", "fg_tea/planning",
+              "fg_tea/tasks")
+AGENT_FILES = ("fg_tea/env/base.py", "fg_tea/env/truth.py", "fg_tea/env/adapter.py", "fg_tea/env/motion.py",
+               "fg_tea/env/fake.py")
 #: Modules that import pybullet themselves: importing them from the agent side is just as bad.
 FORBIDDEN = ("pybullet", "pybullet_data", "pybullet_utils", "fg_tea.env.house", "fg_tea.env.assets")
 
@@ -80,29 +84,101 @@ def test_agent_modules_do_not_load_pybullet_at_run_time():
     assert out.stdout.strip() == "[]"
 
 
-#: What the agent side (beliefs, planning, tasks) may import from fg_tea: the layers before it
-#: and the agent/environment contract — never the environment, the episode or the renderer.
-AGENT_MAY_IMPORT = ("fg_tea.errors", "fg_tea.resources", "fg_tea.scenario", "fg_tea.model", "fg_tea.learning",
-                    "fg_tea.interface", "fg_tea.beliefs", "fg_tea.planning", "fg_tea.tasks")
+#: Which folders each folder of fg_tea/ may import from (docs/design.md §1). Lower layers never
+#: import higher ones; the agent side (beliefs, planning, tasks) never imports env, episode, render,
+#: study or cli. ``fg_tea/__init__.py`` (the public API) and ``cli`` may import everything.
+LAYERS = {
+    "common": set(),
+    "world": {"common"},
+    "model": {"common", "world"},
+    "beliefs": {"common", "world", "model"},
+    "planning": {"common", "world", "model", "beliefs"},
+    "tasks": {"common", "world", "model", "beliefs"},
+    "env": {"common", "world"},
+    "episode": {"common", "world", "model", "beliefs", "planning", "tasks", "env"},
+    "render": {"common", "world", "env", "episode"},
+    "study": {"common", "world", "model", "beliefs", "planning", "tasks", "env", "episode", "render"},
+    "cli": {"common", "world", "model", "beliefs", "planning", "tasks", "env", "episode", "render",
+            "study"},
+    "_bundle": set(),
+}
+#: Modules at the top of fg_tea/ besides __init__.py: at most two, and small.
+TOP_MODULES = {"_version.py"}
+#: Lines a module may have (docs/design.md §1 names the exceptions and why).
+MAX_LINES = 600
+LONG_MODULES: dict[str, int] = {}
 
 
 def fg_tea_imports(source: str) -> list[str]:
+    """Every fg_tea module `source` imports, at any depth (lazy imports inside functions count)."""
     names = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.Import):
             names += [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom) and node.module:
             names.append(node.module)
+            if node.module == "fg_tea":  # from fg_tea import sweep: a module of the package
+                names += [f"fg_tea.{a.name}" for a in node.names]
     return [n for n in names if n == "fg_tea" or n.startswith("fg_tea.")]
+
+
+def folder_of(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 and (ROOT / "fg_tea" / parts[1]).is_dir() else None
+
+
+def package_files() -> list[Path]:
+    return sorted(p for p in (ROOT / "fg_tea").rglob("*.py") if "__pycache__" not in p.parts)
 
 
 def test_the_layer_check_can_fail():
     assert fg_tea_imports("from fg_tea.env.base import EnvConfig\nimport numpy") == ["fg_tea.env.base"]
+    assert fg_tea_imports("def f():\n    from fg_tea import cli") == ["fg_tea", "fg_tea.cli"]
+    assert folder_of("fg_tea.env.base") == "env" and folder_of("fg_tea._version") is None
 
 
-@pytest.mark.parametrize("folder", AGENT_DIRS)
-def test_agent_side_imports_only_earlier_layers(folder):
-    for path in sorted((ROOT / folder).rglob("*.py")):
-        bad = [n for n in fg_tea_imports(path.read_text())
-               if not any(n == ok or n.startswith(ok + ".") for ok in AGENT_MAY_IMPORT)]
-        assert not bad, f"{path.relative_to(ROOT)} imports {bad}"
+def test_every_folder_has_a_rule():
+    folders = {p.name for p in (ROOT / "fg_tea").iterdir() if p.is_dir() and p.name != "__pycache__"}
+    assert folders == set(LAYERS), f"give {sorted(folders ^ set(LAYERS))} a rule in LAYERS"
+
+
+@pytest.mark.parametrize("folder", sorted(LAYERS))
+def test_folders_import_only_lower_layers(folder):
+    bad = []
+    for path in sorted((ROOT / "fg_tea" / folder).rglob("*.py")):
+        for name in fg_tea_imports(path.read_text()):
+            other = folder_of(name)
+            if name == "fg_tea":
+                bad.append((path.name, name))
+            elif other is not None and other != folder and other not in LAYERS[folder]:
+                bad.append((path.name, name))
+    assert not bad, f"fg_tea/{folder} imports a higher layer: {bad}"
+
+
+def test_the_import_graph_has_no_cycle():
+    import networkx as nx
+
+    graph = nx.DiGraph()
+    for path in package_files():
+        me = _module_name(path)
+        for name in fg_tea_imports(path.read_text()):
+            if name != me and name != "fg_tea" and (ROOT / (name.replace(".", "/") + ".py")).is_file() or \
+                    (ROOT / name.replace(".", "/") / "__init__.py").is_file() and name not in (me, "fg_tea"):
+                graph.add_edge(me, name)
+    cycles = list(nx.simple_cycles(graph))
+    assert not cycles, f"import cycles: {cycles[:5]}"
+
+
+def test_the_top_of_the_package_holds_packages_and_at_most_two_small_modules():
+    loose = {p.name for p in (ROOT / "fg_tea").glob("*.py")} - {"__init__.py"}
+    assert loose <= TOP_MODULES and len(loose) <= 2, f"move {sorted(loose - TOP_MODULES)} into a folder"
+    for name in loose:
+        assert len((ROOT / "fg_tea" / name).read_text().splitlines()) <= 50
+
+
+def test_no_module_is_longer_than_the_limit():
+    long = {str(p.relative_to(ROOT)): n for p in package_files()
+            if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert set(long) <= set(LONG_MODULES), f"split these modules or name them in design §1: {long}"
+    for name, n in long.items():
+        assert n <= LONG_MODULES[name], f"{name} grew to {n} lines (limit {LONG_MODULES[name]})"

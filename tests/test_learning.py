@@ -16,14 +16,14 @@ from fg_tea.beliefs.graph import build_graph
 from fg_tea.env.fake import FakeHouse
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.errors import InputError
-from fg_tea.learning import (Counts, Learning, Source, apply_learning, beta_interval,
-                             counts_from_events, learn, learn_files, learned_prior,
-                             learned_relation_weights, predicted_relation, read_log,
-                             relation_base_rates)
-from fg_tea.model import load_model, parse_model
-from fg_tea.scenario import load_scenario
-from fg_tea.worlds import load_world
+from fg_tea.common.errors import InputError
+from fg_tea.model.learning import (Counts, Learning, beta_interval, learned_prior,
+    learned_relation_weights, predicted_relation, relation_base_rates)
+from fg_tea.study.learn import Source, counts_from_events, learn, learn_files, read_log
+from fg_tea.model.spec import apply_learning
+from fg_tea.model.spec import load_model, parse_model
+from fg_tea.world.scenario import load_scenario
+from fg_tea.world.distributions import load_world
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -269,8 +269,8 @@ def test_learned_detection_converges_to_the_camera(tmp_path):
 def _doc(name):
     import tomllib
 
-    from fg_tea.model import _load_document
-    from fg_tea.resources import resolve_model
+    from fg_tea.model.spec import _load_document
+    from fg_tea.common.resources import resolve_model
 
     path = Path(resolve_model(name))
     return _load_document(path, (path.resolve(),))

@@ -15,10 +15,10 @@ from fg_tea.env.truth import EFFECTS, TeaTruth
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.errors import InputError
-from fg_tea.interface import ActionRequest
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
+from fg_tea.common.errors import InputError
+from fg_tea.world.interface import ActionRequest
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
 from fg_tea.tasks import load_task
 
 TASK = "make_tea_milk_sugar"

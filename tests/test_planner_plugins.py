@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from fg_tea.cli import main
-from fg_tea.model import load_model
+from fg_tea.model.spec import load_model
 from fg_tea.planning import make_planner
 from fg_tea.planning.plugins import PlannerSpecError, check, entry_points
 
@@ -178,7 +178,7 @@ def test_a_planner_that_returns_no_decision_is_named(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(tmp_path))
     from fg_tea.env.fake import FakeHouse
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.scenario import load_scenario
+    from fg_tea.world.scenario import load_scenario
 
     s, m = load_scenario("default_apartment"), load_model("factorised")
     runner = EpisodeRunner(s, m, FakeHouse(s, env_config_for(m)), RunConfig(planner="badplan:Lazy"))

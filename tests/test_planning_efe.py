@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from fg_tea.beliefs.engine import BeliefEngine, entropy
-from fg_tea.model import Relation, load_model
+from fg_tea.model.spec import Relation, load_model
 from fg_tea.planning import (DistanceTable, EFEPlanner, FactorisedEFEPlanner,
-                             GreedyProbabilityPlanner, NearestPlanner, RandomPlanner,
-                             distances_for, euclidean_distances, make_planner, planner_names)
+    GreedyProbabilityPlanner, NearestPlanner, RandomPlanner, distances_for, euclidean_distances,
+    make_planner, planner_names)
 from fg_tea.planning.efe import factorised_information_gain, joint_information_gain
-from fg_tea.scenario import load_scenario
+from fg_tea.world.scenario import load_scenario
 from houses import make_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -454,7 +454,7 @@ def test_zero_travel_reinspection_cannot_win_forever():
     miss. Counting repeats adds w_a per look, so a far site wins within a few looks.
     """
     from fg_tea.beliefs.engine import BeliefEngine
-    from fg_tea.model import load_model
+    from fg_tea.model.spec import load_model
     from fg_tea.planning.base import DistanceTable
 
     names = ["A", "B", "C", "D", "E", "F", "G"]

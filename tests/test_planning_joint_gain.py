@@ -22,7 +22,7 @@ from fg_tea.beliefs.graph import DENSE_LIMIT
 from fg_tea.beliefs.structured import PairWeights, StructuredLocationModel
 from fg_tea.planning import DistanceTable, EFEPlanner
 from fg_tea.planning.efe import (DENSE_GAIN_LIMIT, coupling_strength, joint_information_gain,
-                                 structured_gain, view_joint_information_gain)
+    structured_gain, view_joint_information_gain)
 from fg_tea.planning.joint_gain import JointViewGain
 from test_beliefs_structured import dense_joint, joint_graph, small_models
 from test_views_exact import brute_force_view_gain

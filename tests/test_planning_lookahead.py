@@ -9,14 +9,14 @@ import pytest
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.env.fake import FakeHouse
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.model import load_model
-from fg_tea.planning import (DistanceTable, LookaheadPlanner, LookaheadSettings, check_planner_name,
-                             make_planner, planner_names)
+from fg_tea.model.spec import load_model
+from fg_tea.planning import (DistanceTable, LookaheadPlanner, LookaheadSettings,
+    check_planner_name, make_planner, planner_names)
 from fg_tea.planning.lookahead import build_problem, rollout_values
-from fg_tea.scenario import load_scenario
+from fg_tea.world.scenario import load_scenario
 from fg_tea.episode.log import encode
-from fg_tea.sweep import world_path
-from fg_tea.worlds import load_world
+from fg_tea.study.sweep import world_path
+from fg_tea.world.distributions import load_world
 from houses import make_scenario
 
 
@@ -210,7 +210,7 @@ def test_factorised_belief_is_held_per_object_beyond_the_truth_limit(monkeypatch
 def test_refusal_is_a_row_in_a_sweep_and_one_line_in_run(monkeypatch, capsys, tmp_path):
     from fg_tea import cli
     from fg_tea.planning import lookahead
-    from fg_tea.sweep import Job, run_job
+    from fg_tea.study.sweep import Job, run_job
 
     monkeypatch.setattr(lookahead, "MAX_TRUTHS", 100)
     row = run_job(Job("correlated", 0, model="joint_close", planner="lookahead", env="fake"))

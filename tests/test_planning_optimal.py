@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from fg_tea.beliefs.engine import BeliefEngine
-from fg_tea.model import Relation, load_model
+from fg_tea.model.spec import Relation, load_model
 from fg_tea.planning import OptimalPlanner, euclidean_distances, make_planner, planner_names
 from fg_tea.planning.optimal import expected_travel_table, truth_table
 from houses import make_scenario

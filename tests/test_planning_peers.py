@@ -9,10 +9,10 @@ pytest.importorskip("pomdp_py")
 from fg_tea.env.fake import FakeHouse
 from fg_tea.episode.log import encode
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.model import load_model
+from fg_tea.model.spec import load_model
 from fg_tea.planning import check_planner_name, make_planner, planner_names
-from fg_tea.sweep import Job, check_jobs, world_path
-from fg_tea.worlds import load_world
+from fg_tea.study.sweep import Job, check_jobs, world_path
+from fg_tea.world.distributions import load_world
 
 pytestmark = pytest.mark.peers
 
@@ -57,7 +57,7 @@ def test_refusal_names_the_peer(planner, monkeypatch, capsys, tmp_path):
     sweep and one line with exit status 2 in `fg-tea run`."""
     from fg_tea import cli
     from fg_tea.planning import lookahead, peers
-    from fg_tea.sweep import run_job
+    from fg_tea.study.sweep import run_job
 
     kind = planner.split(":")[0]
     monkeypatch.setattr(peers, "MAX_TRUTHS", 100)

@@ -21,7 +21,7 @@ import pytest
 
 from fg_tea.episode.log import read_log
 from fg_tea.episode.metrics import score
-from fg_tea.provenance import LIBRARIES, bundled_file, git_state, without_git
+from fg_tea.episode.provenance import LIBRARIES, bundled_file, git_state, without_git
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Fixed identity and dates: the same tree then gives the same commit in both copies.
@@ -124,7 +124,7 @@ def test_a_modified_tracked_file_marks_the_log_dirty(two_checkouts, tmp_path):
 
 
 def test_git_state_outside_a_checkout_is_none(monkeypatch, tmp_path):
-    import fg_tea.provenance as provenance
+    import fg_tea.episode.provenance as provenance
 
     git_state.cache_clear()
     monkeypatch.setattr(provenance, "checkout_root", lambda: tmp_path)
@@ -171,9 +171,9 @@ def test_bundled_paths_round_trip():
 def test_sweep_episodes_record_their_world():
     from fg_tea.env.fake import FakeHouse
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.model import load_model
-    from fg_tea.worlds import load_world
-    from fg_tea.sweep import world_path
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.distributions import load_world
+    from fg_tea.study.sweep import world_path
 
     world = load_world(world_path("correlated"))
     scenario, model = world.sample(4), load_model("factorised")

@@ -19,8 +19,8 @@ from fg_tea.beliefs.engine import BeliefEngine, UnknownVariableError
 from fg_tea.env.fake import FakeHouse
 from fg_tea.episode.log import EVENT_KINDS, MERGED_KINDS
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -1,4 +1,4 @@
-"""Belief quality (fg_tea.quality): replay, KL between models, Brier score and calibration.
+"""Belief quality (fg_tea.episode.quality): replay, KL between models, Brier score and calibration.
 
 Hand-checked numbers use a tiny house: sites a (room r1) and b (room r2); the kettle's prior is
 (3, 1) / 4 = (0.75, 0.25), the teabag's (1, 1) / 2 = (0.5, 0.5) (both above the 1e-4 floor);
@@ -17,11 +17,11 @@ import pytest
 from fg_tea.env.fake import FakeHouse
 from fg_tea.episode.log import EventLog, read_log
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.model import load_model
-from fg_tea.quality import (agent_beliefs, brier_scores, calibration, calibration_pairs,
-                            expected_calibration_error, kl_divergence, kl_factorised_from_joint,
-                            quality_summary, replay_location_evidence, true_sites)
-from fg_tea.scenario import load_scenario, parse_scenario
+from fg_tea.model.spec import load_model
+from fg_tea.episode.quality import (agent_beliefs, brier_scores, calibration, calibration_pairs,
+    expected_calibration_error, kl_divergence, kl_factorised_from_joint, quality_summary,
+    replay_location_evidence, true_sites)
+from fg_tea.world.scenario import load_scenario, parse_scenario
 
 TINY = parse_scenario({
     "schema_version": 2, "name": "tiny",

@@ -21,10 +21,10 @@ import pytest
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.env.fake import FakeHouse
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-from fg_tea.interface import ActionResult
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
-from fg_tea.sweep import Job, run_job
+from fg_tea.world.interface import ActionResult
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
+from fg_tea.study.sweep import Job, run_job
 from fg_tea.tasks import TaskExecutor, load_task
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -23,11 +23,11 @@ from pathlib import Path
 
 import pytest
 
-from fg_tea import sweep
-from fg_tea.analysis import (comparison_report, paired_differences, ratio_to_reference,
-                             summary_table, t_interval, wilson_interval)
-from fg_tea.errors import InputError
-from fg_tea.sweep import CsvSink, Job, SweepError, plan_sweep, read_rows, run_sweep
+from fg_tea.study import sweep
+from fg_tea.study.analysis import (comparison_report, paired_differences, ratio_to_reference,
+    summary_table, t_interval, wilson_interval)
+from fg_tea.common.errors import InputError
+from fg_tea.study.sweep import CsvSink, Job, SweepError, plan_sweep, read_rows, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 #: 3 worlds x 2 models x 2 planners = 12 headless PyBullet episodes (~0.2 s each).

@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 
 from fg_tea.beliefs.engine import BeliefEngine
-from fg_tea.interface import ActionRequest, ActionResult
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
-from fg_tea.tasks import (AffordanceError, PreconditionError, TaskError, TaskExecutor, load_task)
+from fg_tea.world.interface import ActionRequest, ActionResult
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
+from fg_tea.tasks import AffordanceError, PreconditionError, TaskError, TaskExecutor, load_task
 
 ROOT = Path(__file__).resolve().parent.parent
 PREP = "dining_table"
@@ -362,16 +362,16 @@ def test_transient_failure_budget_spent_ends_with_the_bound():
 
 
 def test_transient_budget_follows_the_declared_failure_model(tmp_path):
-    from fg_tea.model import RetryModel
+    from fg_tea.model.spec import RetryModel
     assert RetryModel(0.2, 1e-3).tries(42) == 7      # 42 x 0.2^7 = 5.4e-4 <= 1e-3 < 42 x 0.2^6
     assert RetryModel(0.5, 1e-3).tries(42) == 16
     assert RetryModel(0.0, 1e-3).tries(42) == 1
     path = tmp_path / "m.toml"
     path.write_text('extends = "factorised"\nname = "m"\n[recovery]\nfailure_rate = 0.2\n')
-    from fg_tea.model import load_model
+    from fg_tea.model.spec import load_model
     assert load_model(path).retries == RetryModel(0.2, 1e-3)
     path.write_text('extends = "factorised"\nname = "m"\n[recovery]\nfailure_rate = 1.0\n')
-    from fg_tea.errors import InputError
+    from fg_tea.common.errors import InputError
     with pytest.raises(InputError, match="failure_rate"):
         load_model(path)
 

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from fg_tea.errors import InputError
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
+from fg_tea.common.errors import InputError
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
 from fg_tea.tasks import TaskAction, TaskGraph, load_task
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -96,7 +96,7 @@ def test_wall_cutaway_is_for_people_only():
     """Lowered walls change the chase view; the agent's camera and evidence stay as they were."""
     from fg_tea.env.base import EnvConfig
     from fg_tea.env.house import PyBulletHouse
-    from fg_tea.scenario import load_scenario
+    from fg_tea.world.scenario import load_scenario
 
     house = PyBulletHouse(load_scenario("default_apartment"), EnvConfig(ego_width=160, ego_height=120))
     try:
@@ -124,8 +124,8 @@ def _glance_scenario(tmp_path):
     """The default apartment with one room vantage per room, written to a file."""
     import json
 
-    from fg_tea.resources import DEFAULT_SCENARIO
-    from fg_tea.scenario import load_scenario
+    from fg_tea.common.resources import DEFAULT_SCENARIO
+    from fg_tea.world.scenario import load_scenario
 
     data = json.loads(open(load_scenario(DEFAULT_SCENARIO).source).read())
     data["room_vantages"] = ROOM_VANTAGES

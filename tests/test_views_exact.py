@@ -18,9 +18,9 @@ from hypothesis import strategies as st
 
 from fg_tea.beliefs.detection import View
 from fg_tea.beliefs.factors import Factor
-from fg_tea.errors import ContradictionError
+from fg_tea.common.errors import ContradictionError
 from fg_tea.planning.efe import (entropies, factorised_information_gain,
-                                 view_factorised_information_gain, view_joint_information_gain)
+    view_factorised_information_gain, view_joint_information_gain)
 from test_beliefs_exact import Reference, assert_agrees, engine_for, model_for, problems
 
 SETTINGS = settings(max_examples=20, derandomize=True, deadline=None,
@@ -116,7 +116,7 @@ def test_factorised_glances_match_brute_force(data, backend):
     import dataclasses
     from pathlib import Path
 
-    from fg_tea.model import load_model
+    from fg_tea.model.spec import load_model
 
     p = dataclasses.replace(data.draw(problems(max_objects=3, max_sites=5)), relations=())
     factorised = load_model(Path(__file__).resolve().parents[1] / "models" / "factorised.toml")

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fg_tea.errors import InputError
-from fg_tea.worlds import load_world
+from fg_tea.common.errors import InputError
+from fg_tea.world.distributions import load_world
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -13,8 +13,8 @@ from fg_tea.env.house import PyBulletHouse
 from fg_tea.episode.metrics import score
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.episode.yardstick import clairvoyant_route, sees_table, spl
-from fg_tea.model import load_model
-from fg_tea.scenario import load_scenario
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import load_scenario
 
 
 def brute_force(objects, sees, start, legs):

@@ -2,7 +2,7 @@
 
 ``fg_tea._bundle.scenarios`` (with ``tasks`` and ``worlds``) and ``fg_tea._bundle.models`` (with
 ``ablations``) hold the bundled JSON and TOML files, read through :mod:`importlib.resources` by
-:mod:`fg_tea.resources`. In an installed wheel they are folders beside this file (the build maps
+:mod:`fg_tea.common.resources`. In an installed wheel they are folders beside this file (the build maps
 the repository's top-level ``scenarios/`` and ``models/`` here, see ``pyproject.toml``). In a
 source checkout, or an editable install of one, they are the top-level folders themselves: this
 package's search path then also names the checkout's root, so the same import finds them.

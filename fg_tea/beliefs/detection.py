@@ -37,8 +37,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.model import Model
-from fg_tea.scenario import Scenario
+from fg_tea.model.spec import Model
+from fg_tea.world.scenario import Scenario
 
 #: Expected pixels: viewpoint -> site -> object category -> pixels at each placement slot of the
 #: site (a sequence, slot 0 first; a single number counts as one slot).
@@ -208,7 +208,7 @@ def _learned(model: Model, scenario: Scenario, vp, categories: Sequence[str], pr
     probabilities to the Beta posterior mean; cells without counts are left exactly as they are."""
     import math
 
-    from fg_tea.learning import band_of, learned_detection
+    from fg_tea.model.learning import band_of, learned_detection
 
     prob, miss = prob.copy(), miss.copy()
     for c, s in enumerate(vp.sites):

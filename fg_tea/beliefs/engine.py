@@ -29,16 +29,31 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.beliefs.factors import (Evidence, Factor, collapse_factor, collapse_target,
-                                    detection_factor, effect_factor, location_var, merge_evidence,
-                                    miss_factor, state_observation, state_prior, view_miss_factor)
+from fg_tea.beliefs.factors import (
+    Evidence,
+    Factor,
+    collapse_factor,
+    collapse_target,
+    detection_factor,
+    effect_factor,
+    location_var,
+    merge_evidence,
+    miss_factor,
+    state_observation,
+    state_prior,
+    view_miss_factor,
+)
 from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, build_graph
 from fg_tea.beliefs.solvers import GtsamSolver, NumpySolver
-from fg_tea.beliefs.structured import (MAX_OBJECTS, NumericalGuardError, PairWeights,
-                                       StructuredLocationModel)
-from fg_tea.errors import ContradictionError
-from fg_tea.model import Effect, Model, Sensor
-from fg_tea.scenario import MAX_STATES, Scenario  # noqa: F401 - MAX_STATES re-exported
+from fg_tea.beliefs.structured import (
+    MAX_OBJECTS,
+    NumericalGuardError,
+    PairWeights,
+    StructuredLocationModel,
+)
+from fg_tea.common.errors import ContradictionError
+from fg_tea.model.spec import Effect, Model, Sensor
+from fg_tea.world.scenario import MAX_STATES, Scenario  # noqa: F401 - MAX_STATES re-exported
 
 GTSAM_MAP_LIMIT = 1 << 16   # joint states above which MAP uses the structured max-product chain
 DENSE_PREFERRED = 50_000    # joint states up to which "auto" prefers the dense joint table
@@ -602,7 +617,7 @@ class BeliefEngine:
         R_o = sum over sites j not in `excluded` of q0(L_o = j) x P(every look so far missed o |
         L_o = j): the probability, under o's prior (eq. 2) and the detection model (eqs. 5-6),
         that o stands at a reachable site and is still unseen (the search give-up rule of
-        :class:`fg_tea.model.PlanningWeights`). Computed from the merged log evidence, so it is
+        :class:`fg_tea.model.spec.PlanningWeights`). Computed from the merged log evidence, so it is
         exact however many looks there were.
 
         Returns:

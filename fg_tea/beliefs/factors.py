@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fg_tea.errors import ContradictionError
+from fg_tea.common.errors import ContradictionError
 
 
 @dataclass(frozen=True, eq=False)

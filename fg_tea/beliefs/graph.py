@@ -21,12 +21,17 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.beliefs.factors import (Factor, capacity_factor, location_prior, location_var,
-                                    pair_factor, state_prior)
-from fg_tea.learning import learned_relation_weights, location_weights
-from fg_tea.model import Model
-from fg_tea.scenario import Scenario
-
+from fg_tea.beliefs.factors import (
+    Factor,
+    capacity_factor,
+    location_prior,
+    location_var,
+    pair_factor,
+    state_prior,
+)
+from fg_tea.model.learning import learned_relation_weights, location_weights
+from fg_tea.model.spec import Model
+from fg_tea.world.scenario import Scenario
 
 DENSE_LIMIT = 1 << 22  # largest joint location table (K^N entries) ever held densely
 

@@ -17,7 +17,7 @@ from typing import Iterable, Mapping, Sequence
 import numpy as np
 
 from fg_tea.beliefs.factors import Factor
-from fg_tea.errors import ContradictionError
+from fg_tea.common.errors import ContradictionError
 
 
 def _variables(factors: Iterable[Factor]) -> list[str]:

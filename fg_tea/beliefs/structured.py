@@ -45,7 +45,7 @@ from typing import Sequence
 
 import numpy as np
 
-from fg_tea.errors import ContradictionError
+from fg_tea.common.errors import ContradictionError
 
 MAX_OBJECTS = 11  # 3^11 = 177,147 disjoint pairs; memory grows as rows x 3^N
 GUARD_TOLERANCE = 1e-9

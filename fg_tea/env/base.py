@@ -2,7 +2,7 @@
 
 This is the boundary of the project's scientific point (docs/design.md eq. (1), §1): truth lives
 only behind an :class:`EnvAdapter`, which answers with the observation types of
-:mod:`fg_tea.interface` and never with the hidden truth itself.
+:mod:`fg_tea.world.interface` and never with the hidden truth itself.
 """
 
 from __future__ import annotations
@@ -11,8 +11,14 @@ import abc
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
-from fg_tea.detector import VisibilityCurve
-from fg_tea.interface import (ActionRequest, ActionResult, InspectionResult, Pose, StateReading)
+from fg_tea.world.interface import (
+    ActionRequest,
+    ActionResult,
+    InspectionResult,
+    Pose,
+    StateReading,
+)
+from fg_tea.world.visibility import VisibilityCurve
 
 
 @dataclass(frozen=True)

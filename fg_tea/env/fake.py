@@ -19,9 +19,9 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
-from fg_tea.interface import Pose
-from fg_tea.env.navigation import follow_path
+from fg_tea.env.motion import follow_path
 from fg_tea.env.truth import TruthBackedAdapter
+from fg_tea.world.interface import Pose
 
 #: Pixel count reported for an object that truly stands at the inspected site.
 FAKE_PIXELS = 100

@@ -5,7 +5,7 @@ in DIRECT mode (CPU, no window, no GPU) in place of Habitat-Sim:
 
 * the scene: floor, walls with doorway gaps, furniture boxes whose tops are the semantic sites,
   distinct mug, kettle and teabag bodies on their true sites, and a drone body for the agent;
-* navigation on the occupancy grid of :mod:`fg_tea.env.navigation` (geodesic distance d_j of
+* navigation on the occupancy grid of :mod:`fg_tea.world.navigation` (geodesic distance d_j of
   eq. 12 as a lookup; Euclidean as the ablation);
 * perception: at a site's vantage the agent turns to face the surface and renders one
   egocentric segmentation image; n_o counts the pixels of object o [28]; o is detected iff
@@ -31,15 +31,16 @@ from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
-from fg_tea.env._pybullet import pybullet
 
+from fg_tea.common.files import atomic_write_text
 from fg_tea.env import assets
+from fg_tea.env._pybullet import pybullet
 from fg_tea.env.base import EnvConfig
-from fg_tea.interface import Pose
-from fg_tea.env.navigation import Navigator, follow_path, path_length, wall_boxes
+from fg_tea.env.motion import follow_path
 from fg_tea.env.truth import TruthBackedAdapter, held_position
-from fg_tea.files import atomic_write_text
-from fg_tea.scenario import Scenario
+from fg_tea.world.interface import Pose
+from fg_tea.world.navigation import Navigator, path_length, wall_boxes
+from fg_tea.world.scenario import Scenario
 
 #: Fixed downward tilt (deg) of the egocentric camera, so surfaces from 0.45 m to 1.05 m high are
 #: all in view from their vantage points.

@@ -26,9 +26,14 @@ from typing import Iterable, Mapping, Sequence
 import numpy as np
 
 from fg_tea.env.base import EnvAdapter, EnvConfig
-from fg_tea.interface import (ActionRequest, ActionResult, InspectionResult, Pose,
-                              StateReading)
-from fg_tea.scenario import ObjectSpec, Scenario
+from fg_tea.world.interface import (
+    ActionRequest,
+    ActionResult,
+    InspectionResult,
+    Pose,
+    StateReading,
+)
+from fg_tea.world.scenario import ObjectSpec, Scenario
 
 EFFECTS = ("fill", "boil", "pour", "steep", "serve", "add_milk", "add_sugar")
 
@@ -373,7 +378,7 @@ class TruthBackedAdapter(EnvAdapter):
 
     def _sweep_order(self, sites: Sequence[int]) -> list[int]:
         """In-view sites in the order a glance faces them: each time the one needing the least turn."""
-        from fg_tea.env.navigation import wrap_deg
+        from fg_tea.env.motion import wrap_deg
 
         left, order, yaw = list(sites), [], self._pose.yaw_deg
         while left:
@@ -647,7 +652,7 @@ class TruthBackedAdapter(EnvAdapter):
         return float(total)
 
     def _face(self, target: Sequence[float]) -> list[Pose]:
-        from fg_tea.env.navigation import turn_frames
+        from fg_tea.env.motion import turn_frames
 
         yaw = math.degrees(math.atan2(target[1] - self._pose.y, target[0] - self._pose.x))
         frames = turn_frames(self._pose, yaw, self.config)

@@ -123,7 +123,7 @@ class EventLog:
 
 def read_log(path: str | Path) -> list[dict]:
     """Read a log back; a truncated last line (a crash mid-write) is ignored."""
-    from fg_tea.errors import read_text
+    from fg_tea.common.inputs import read_text
 
     events = []
     for line in read_text(path, max_bytes=LOG_MAX_BYTES).splitlines():

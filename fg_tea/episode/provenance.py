@@ -58,7 +58,7 @@ def _stat_key(path: str | Path) -> tuple | None:
 
 @lru_cache(maxsize=1)
 def _bundle_dirs() -> tuple[tuple[str, Path], ...]:
-    from fg_tea.resources import data_dir
+    from fg_tea.common.resources import data_dir
 
     out = []
     for kind in BUNDLE_KINDS:
@@ -86,7 +86,7 @@ def bundled_path(path: str | Path) -> str | None:
 
 def bundled_file(ref: str) -> Path | None:
     """The file a bundle-relative path (as :func:`bundled_path` writes it) names, if it exists."""
-    from fg_tea.resources import data_dir
+    from fg_tea.common.resources import data_dir
 
     parts = Path(ref).parts
     if len(parts) < 2 or parts[0] not in BUNDLE_KINDS or ".." in parts:
@@ -134,7 +134,7 @@ _CHAINS: dict[str, tuple[list[Path], list[tuple | None]]] = {}
 def model_chain(path: str | Path) -> list[Path]:
     """The model file and every file its ``extends`` chain reads, child first.
 
-    The chain is walked as :func:`fg_tea.model.load_model` walks it; a model that loaded has a
+    The chain is walked as :func:`fg_tea.model.spec.load_model` walks it; a model that loaded has a
     valid chain, so faults here only mean the files changed in between (the walk then stops).
     A chain is walked again only when one of its files changed.
     """
@@ -147,8 +147,8 @@ def model_chain(path: str | Path) -> list[Path]:
 
 
 def _walk_chain(path: str | Path) -> list[Path]:
-    from fg_tea.errors import read_toml
-    from fg_tea.model import MAX_EXTENDS_DEPTH, _parent_path
+    from fg_tea.common.inputs import read_toml
+    from fg_tea.model.spec import MAX_EXTENDS_DEPTH, _parent_path
 
     chain = [Path(path)]
     current = Path(path)
@@ -212,7 +212,7 @@ def _version(dist: str) -> str | None:
 @lru_cache(maxsize=1)
 def versions() -> dict[str, str | None]:
     """fg_tea's, Python's and :data:`LIBRARIES`' versions (None for one not installed)."""
-    from fg_tea import __version__
+    from fg_tea._version import __version__
 
     out: dict[str, str | None] = {"fg_tea": __version__, "python": platform.python_version()}
     for dist in LIBRARIES:

@@ -43,8 +43,8 @@ import numpy as np
 from fg_tea.beliefs.detection import found_from_log, view_from_log
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.episode.log import iter_events
-from fg_tea.model import Model, load_model
-from fg_tea.scenario import Scenario, load_scenario
+from fg_tea.model.spec import Model, load_model
+from fg_tea.world.scenario import Scenario, load_scenario
 
 #: Bundled models used as the KL references when none are given.
 FACTORISED_REFERENCE = "factorised"
@@ -71,7 +71,7 @@ def true_sites(scenario: Scenario) -> dict[str, str]:
     """The true start site of every object of `scenario` (environment truth, for scoring only).
 
     Args:
-        scenario: a scenario or a sampled world (:meth:`fg_tea.worlds.WorldDistribution.sample`).
+        scenario: a scenario or a sampled world (:meth:`fg_tea.world.distributions.WorldDistribution.sample`).
 
     Returns:
         object name -> site name.
@@ -99,7 +99,7 @@ def replay_location_evidence(events: Sequence[Mapping], scenario: Scenario | str
         posterior after each inspection.
 
     Raises:
-        fg_tea.errors.ContradictionError: the evidence has probability zero under `model`.
+        fg_tea.common.errors.ContradictionError: the evidence has probability zero under `model`.
     """
     model = _model(model)
     engine = BeliefEngine(_scenario(scenario), model)

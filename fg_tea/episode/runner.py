@@ -33,15 +33,20 @@ import numpy as np
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
 from fg_tea.env.base import EnvAdapter, EnvConfig
-from fg_tea.interface import ActionRequest
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
-from fg_tea.model import Model
+from fg_tea.episode.provenance import episode_provenance, portable_ref
+from fg_tea.model.spec import Model
 from fg_tea.planning import Decision, distances_for, make_planner
-from fg_tea.provenance import episode_provenance, portable_ref
-from fg_tea.scenario import Scenario
-from fg_tea.tasks.executor import MAX_REOPENINGS, NOT_FOUND, PreconditionError, TaskExecutor
+from fg_tea.tasks.executor import (
+    MAX_REOPENINGS,
+    NOT_FOUND,
+    PreconditionError,
+    TaskExecutor,
+)
 from fg_tea.tasks.load import load_task
+from fg_tea.world.interface import ActionRequest
+from fg_tea.world.scenario import Scenario
 
 REASON_COMPLETE = "complete"
 REASON_FRAME_LIMIT = "frame_limit"
@@ -233,7 +238,7 @@ class EpisodeRunner:
              "sites": list(v.sites), "room": v.room}
             for v in self.scenario.viewpoints if v.name in self.views.names]
         self._viewpoints_logged = viewpoints
-        from fg_tea.resources import _resolve, resolve_task
+        from fg_tea.common.resources import _resolve, resolve_task
 
         world = None if self.world is None else _resolve(self.world, "scenarios/worlds", ".json")
         provenance = episode_provenance(self.scenario.source, model.source,

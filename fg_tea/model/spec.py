@@ -4,7 +4,7 @@ A model is a TOML file in ``models/`` (one file per variant). It is separate fro
 the scenario says what the house *is*; the model says what the agent *believes about how
 observations and actions work*. A model may ``extends = "other"`` and override keys (ablations are
 a few lines each). Parsed once into frozen dataclasses; faults are
-:class:`~fg_tea.errors.InputError` naming the file, the key path and what is wrong.
+:class:`~fg_tea.common.errors.InputError` naming the file, the key path and what is wrong.
 """
 
 from __future__ import annotations
@@ -15,9 +15,10 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
 
-from fg_tea.detector import DETECTORS, CurveParams, VisibilityCurve
-from fg_tea.errors import InputError, Reader, read_toml
-from fg_tea.learning import Learning, apply_to_sensors, read_learning
+from fg_tea.common.errors import InputError
+from fg_tea.common.inputs import Reader, read_toml
+from fg_tea.model.learning import Learning, apply_to_sensors, read_learning
+from fg_tea.world.visibility import DETECTORS, CurveParams, VisibilityCurve
 
 STRUCTURES = ("factorised", "joint")
 #: Longest chain of ``extends`` (the bundled ablations use two levels).
@@ -405,7 +406,7 @@ def _record(data: dict, file: str, path: str, origins: dict[str, str]) -> None:
 
 def _parent_path(path: Path, parent: object) -> Path:
     """The file that `extends = parent` in model `path` names, or an :class:`InputError`."""
-    from fg_tea.resources import resolve_model
+    from fg_tea.common.resources import resolve_model
 
     if not isinstance(parent, str):
         raise InputError(path, "$.extends", "expected the name or path of another model")
@@ -458,7 +459,7 @@ def _load_document(path: Path, seen: tuple[Path, ...],
 
 def load_model(path: str | Path) -> Model:
     """Load and validate a model TOML file (a path, or the name of a bundled model)."""
-    from fg_tea.resources import resolve_model
+    from fg_tea.common.resources import resolve_model
 
     path = Path(resolve_model(path))
     origins: dict[str, str] = {}
@@ -467,3 +468,17 @@ def load_model(path: str | Path) -> Model:
     except (OSError, RuntimeError):  # a symlink loop
         seen = ()
     return parse_model(_load_document(path, seen, origins), path, origins)
+
+
+def apply_learning(model: "Model", learning: Learning) -> "Model":
+    """`model` with `learning` as its experience (sensors updated by eq. 52), for code that learns
+    in memory (the lifelong sweep) rather than through files."""
+    from fg_tea.common.inputs import Reader
+
+    sensors = apply_to_sensors(learning, _declared_sensors(model), Reader({}, model.source, "$.learning"))
+    return replace(model, learning=learning, sensors=MappingProxyType(sensors))
+
+
+def _declared_sensors(model: "Model") -> Mapping[str, "Sensor"]:
+    """The sensors before any learning was applied (kept on the model for in-memory learning)."""
+    return model.declared_sensors if model.declared_sensors is not None else model.sensors

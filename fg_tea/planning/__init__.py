@@ -4,7 +4,7 @@ All planners share one interface (:class:`~fg_tea.planning.base.Planner`) and ar
 from a model file, so every ablation (docs/design.md §11) is a switch in the TOML, not a code edit:
 
 - ``information_weight = 0`` (w_e), ``relevance_weight = 0`` (lambda) and ``repeat_penalty = 0``
-  (w_a) reach the EFE score through :class:`~fg_tea.model.PlanningWeights`;
+  (w_a) reach the EFE score through :class:`~fg_tea.model.spec.PlanningWeights`;
 - ``miss_likelihood`` near 1 weakens negative evidence in the belief and in I(o, j), which the
   planners read from ``belief.model``;
 - ``distance = "euclidean"`` selects the distances the caller builds (the planners take any
@@ -29,14 +29,24 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from fg_tea.model import Model
-from fg_tea.planning.base import (Candidate, Decision, DistanceModel, DistanceTable, Planner,
-                                  euclidean_distances)
-from fg_tea.planning.baselines import GreedyProbabilityPlanner, NearestPlanner, RandomPlanner
+from fg_tea.model.spec import Model
+from fg_tea.planning.base import (
+    Candidate,
+    Decision,
+    DistanceModel,
+    DistanceTable,
+    Planner,
+    euclidean_distances,
+)
+from fg_tea.planning.baselines import (
+    GreedyProbabilityPlanner,
+    NearestPlanner,
+    RandomPlanner,
+)
 from fg_tea.planning.efe import EFEPlanner, FactorisedEFEPlanner
 from fg_tea.planning.lookahead import LookaheadPlanner, LookaheadSettings
 from fg_tea.planning.optimal import OptimalPlanner
-from fg_tea.scenario import Scenario
+from fg_tea.world.scenario import Scenario
 
 
 class MutualInformationEFEPlanner(EFEPlanner):

@@ -26,7 +26,7 @@ from typing import Mapping, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-from fg_tea.scenario import Scenario
+from fg_tea.world.scenario import Scenario
 
 
 # ---------------------------------------------------------------------------------- distances

@@ -21,8 +21,15 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.planning.base import (Candidate, Decision, DistanceModel, check_inputs,
-                                  distance_vector, most_relevant, repeat_counts)
+from fg_tea.planning.base import (
+    Candidate,
+    Decision,
+    DistanceModel,
+    check_inputs,
+    distance_vector,
+    most_relevant,
+    repeat_counts,
+)
 from fg_tea.planning.efe import FactorisedEFEPlanner
 
 

@@ -8,7 +8,7 @@ and the decision is (o*, j*) = argmin G (eq. 17); exact ties go to the earlier o
 caller's order, then the earlier site in belief order. d_j is the travel distance (metres) from
 the caller's :class:`~fg_tea.planning.base.DistanceModel`; q is the location marginal; n_j is the
 number of earlier inspections of site j with negative evidence in this search; r_o is the task
-relevance of eq. 15. Weights come from the model file (:class:`~fg_tea.model.PlanningWeights`).
+relevance of eq. 15. Weights come from the model file (:class:`~fg_tea.model.spec.PlanningWeights`).
 
 The repeat term deviates from eq. 12 on purpose. Eq. 12's original indicator [j already inspected]
 equals n_j for the first repeat, but a flat penalty lets a zero-travel re-inspection win forever:
@@ -64,9 +64,15 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from fg_tea.beliefs.structured import NumericalGuardError
-from fg_tea.model import PlanningWeights
-from fg_tea.planning.base import (Candidate, Decision, DistanceModel, check_inputs,
-                                  distance_vector, repeat_counts)
+from fg_tea.model.spec import PlanningWeights
+from fg_tea.planning.base import (
+    Candidate,
+    Decision,
+    DistanceModel,
+    check_inputs,
+    distance_vector,
+    repeat_counts,
+)
 from fg_tea.planning.joint_gain import JointViewGain
 
 INFORMATION_MODES = ("auto", "factorised", "joint")

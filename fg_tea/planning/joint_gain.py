@@ -54,7 +54,11 @@ from typing import Sequence
 
 import numpy as np
 
-from fg_tea.beliefs.structured import StructuredLocationModel, SubsetAlgebra, subset_index
+from fg_tea.beliefs.structured import (
+    StructuredLocationModel,
+    SubsetAlgebra,
+    subset_index,
+)
 
 CHUNK_ENTRIES = 1 << 16  # looks per step of the out-of-view tables: about this many entries (half
                          # a megabyte, a core's L2 cache here; larger batches measured slower)

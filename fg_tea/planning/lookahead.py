@@ -66,7 +66,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.model import PlanningWeights
+from fg_tea.model.spec import PlanningWeights
 from fg_tea.planning.base import Candidate, Decision, DistanceModel, check_inputs
 from fg_tea.planning.efe import EFEPlanner, entropies
 

@@ -50,8 +50,15 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.planning.base import (Candidate, Decision, DistanceModel, check_inputs,
-                                  distance_matrix, distance_vector, repeat_counts)
+from fg_tea.planning.base import (
+    Candidate,
+    Decision,
+    DistanceModel,
+    check_inputs,
+    distance_matrix,
+    distance_vector,
+    repeat_counts,
+)
 
 MAX_SITES = 10
 MAX_TRUTHS = 20_000

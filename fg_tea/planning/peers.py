@@ -42,9 +42,14 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.model import Model
+from fg_tea.model.spec import Model
 from fg_tea.planning.base import Candidate, Decision, DistanceModel, check_inputs
-from fg_tea.planning.lookahead import LOOK_COST, MAX_TRUTHS, SearchProblem, build_problem
+from fg_tea.planning.lookahead import (
+    LOOK_COST,
+    MAX_TRUTHS,
+    SearchProblem,
+    build_problem,
+)
 
 EXPLORATION = 20.0  # metres: UCB1 exploration constant (rewards are metres)
 

@@ -1,7 +1,7 @@
 """Planner plug-ins: how does a search planner written outside fg_tea get into an episode?
 
 A planner is named by a string, and only the string travels (in :class:`~fg_tea.episode.runner.
-RunConfig`, in a sweep's :class:`~fg_tea.sweep.Job`, to worker processes); each process builds
+RunConfig`, in a sweep's :class:`~fg_tea.study.sweep.Job`, to worker processes); each process builds
 its own planner from it. Three kinds of name are accepted, tried in this order:
 
 1. a built-in name (:func:`fg_tea.planning.planner_names`: ``efe``, ``factorised_efe``,
@@ -19,7 +19,7 @@ its own planner from it. Three kinds of name are accepted, tried in this order:
 What the name points at (the entry point's object, or the attribute) may be
 
 - a class or any other callable: it is called with those of the keyword arguments ``model``
-  (the agent's :class:`~fg_tea.model.Model`) and ``rng`` (a ``numpy.random.Generator`` seeded
+  (the agent's :class:`~fg_tea.model.spec.Model`) and ``rng`` (a ``numpy.random.Generator`` seeded
   from the episode seed; use it for every random draw so episodes stay reproducible) that its
   signature names, and must return a planner;
 - an object that already has a ``choose`` method: it is used as it is (shared by every episode
@@ -30,7 +30,7 @@ The planner must satisfy :class:`~fg_tea.planning.base.Planner`: a ``choose`` me
 :class:`~fg_tea.planning.base.Decision` naming one of the candidate viewpoints. A ``name``
 attribute is optional for plug-ins (the spec string is logged as the episode's planner either
 way). A name that cannot be resolved, or an object that does not satisfy the protocol, raises
-:class:`PlannerSpecError` (an :class:`~fg_tea.errors.InputError`, so the CLI prints one line and
+:class:`PlannerSpecError` (an :class:`~fg_tea.common.errors.InputError`, so the CLI prints one line and
 exits with status 2).
 """
 
@@ -43,7 +43,7 @@ import sys
 from importlib import metadata
 from typing import Any, Callable
 
-from fg_tea.errors import InputError
+from fg_tea.common.errors import InputError
 
 #: The entry-point group in which installed packages register planners by name.
 ENTRY_POINT_GROUP = "fg_tea.planners"

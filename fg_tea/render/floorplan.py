@@ -1,6 +1,6 @@
 """What does this house look like from above, and where can the agent look from?
 
-A top-down floor plan drawn from the :class:`~fg_tea.scenario.Scenario` alone (no simulator):
+A top-down floor plan drawn from the :class:`~fg_tea.world.scenario.Scenario` alone (no simulator):
 floor, walls with their doorway gaps, furniture boxes, every site (numbered dot and name), every
 site vantage (the site's number) and room vantage (a labelled diamond, with lines to the sites
 its glance covers), room names at the centroid of their sites, the start pose, and the objects'
@@ -23,8 +23,8 @@ from typing import Iterable, Mapping, Sequence
 import cv2
 import numpy as np
 
-from fg_tea.env.navigation import wall_boxes
-from fg_tea.scenario import Scenario
+from fg_tea.world.navigation import wall_boxes
+from fg_tea.world.scenario import Scenario
 
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 #: Pixels per metre of the floor plan for houses up to PLAN_MAX_SIDE_PX / PLAN_PX_PER_M metres;
@@ -377,7 +377,7 @@ def _legend(img: np.ndarray, y: int, r: int, scale: float, show_truth: bool) -> 
 
 def write_floor_plan(scenario: Scenario, path: str | Path, **kwargs) -> FloorPlan:
     """Draw the floor plan (see :func:`draw_floor_plan`) and write it as a PNG, atomically."""
-    from fg_tea.files import atomic_path
+    from fg_tea.common.files import atomic_path
 
     plan = draw_floor_plan(scenario, **kwargs)
     with atomic_path(Path(path), ".png") as tmp:

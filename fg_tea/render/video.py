@@ -27,9 +27,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from fg_tea.common.files import atomic_path
 from fg_tea.env.base import EnvConfig
 from fg_tea.episode.log import read_log
-from fg_tea.files import atomic_path
 from fg_tea.render.overlay import OverlayState, draw_overlays
 
 VIEWS = ("multi", "first", "third")
@@ -260,8 +260,8 @@ def _load_scenario(plan: FramePlan):
     """
     import warnings
 
-    from fg_tea.provenance import bundled_file, sha256_file
-    from fg_tea.scenario import load_scenario
+    from fg_tea.episode.provenance import bundled_file, sha256_file
+    from fg_tea.world.scenario import load_scenario
 
     recorded = plan.scenario_input or {}
     path = Path(plan.scenario_file) if plan.scenario_file else None
@@ -374,7 +374,6 @@ def _render_segment(args: tuple) -> tuple[int, str, int]:
     plan, options, lo, hi, path, index, done = args
     from fg_tea.env.house import PyBulletHouse
     from fg_tea.render.encoder import Mp4Writer
-
     from fg_tea.render.floorplan import MiniMap
 
     scenario = _load_scenario(plan)
@@ -482,7 +481,7 @@ def render_video(events: list[dict], out: str | Path, options: VideoOptions = Vi
             from concurrent.futures import FIRST_COMPLETED, wait
             from multiprocessing.managers import SyncManager
 
-            from fg_tea.process import die_with_parent
+            from fg_tea.common.process import die_with_parent
 
             manager = SyncManager()
             manager.start(die_with_parent, (os.getpid(),))

@@ -1,7 +1,7 @@
 """Analysis of sweep rows: means with confidence intervals, paired differences, tables and plots.
 
 This module answers the second half of the experiment question ("which model searches better, and
-by how much, with what uncertainty?") over the rows written by :mod:`fg_tea.sweep`.
+by how much, with what uncertainty?") over the rows written by :mod:`fg_tea.study.sweep`.
 
 **Intervals.** A mean is reported with a two-sided 95 % Student-t interval,
 ``mean ± t_{0.975, n-1} · s / sqrt(n)`` with the sample standard deviation s (ddof = 1); with
@@ -35,8 +35,8 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.files import atomic_path, atomic_write_text
-from fg_tea.sweep import REFUSED, STEP_LIMIT, write_csv_atomic
+from fg_tea.common.files import atomic_path, atomic_write_text
+from fg_tea.study.sweep import REFUSED, STEP_LIMIT, write_csv_atomic
 
 #: Metrics summarised by default (search travel first: it is what the planners optimise).
 METRICS = ("search_distance", "total_distance", "inspections", "spl")
@@ -606,7 +606,7 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
     quality = [c for c in ("quality_kl_mean", "quality_brier_mean", "quality_brier_final", "quality_ece")
                if any(r.get(c) is not None for r in rows)]
     if quality:
-        lines += ["## Belief quality (from fg_tea.quality)", "",
+        lines += ["## Belief quality (from fg_tea.episode.quality)", "",
                   "Per episode, then averaged: KL of the factorised from the joint posterior on the same "
                   "evidence (nats, mean over steps), Brier score of the agent's location beliefs against "
                   "the true sites (mean over steps, and after the last inspection), expected calibration "

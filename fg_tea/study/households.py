@@ -39,7 +39,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.errors import InputError
+from fg_tea.common.errors import InputError
 
 #: The arms of a lifelong sweep (docs/design.md §12): the written model, learning with the
 #: hand-set correlations, learning the correlations too.
@@ -116,8 +116,8 @@ def arms_of(model: Any, forgetting: Sequence[float | None] = (None,)) -> list[tu
 
 
 def _placements(spec: HouseholdSpec, k: int):
-    from fg_tea.scenario import load_scenario
-    from fg_tea.worlds import load_world
+    from fg_tea.world.distributions import load_world
+    from fg_tea.world.scenario import load_scenario
 
     seed = SEED_STRIDE * spec.household + k
     if spec.fixed:
@@ -134,8 +134,7 @@ def _placements(spec: HouseholdSpec, k: int):
 def _episode(spec: HouseholdSpec, model, scenario, seed: int, path: Path | None = None):
     from fg_tea.episode.log import EventLog
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-
-    from fg_tea.sweep import _make_env
+    from fg_tea.study.sweep import _make_env
 
     env = _make_env(spec.env, scenario, env_config_for(model))
     log = EventLog(path) if path is not None else None
@@ -207,14 +206,15 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
     """K episodes of one household for every arm of one model (same placements and seeds).
 
     Episode k of a learned arm uses the model learned, in memory, from the arm's own episodes
-    before k (:func:`fg_tea.learning.learn`, one log at a time, eq. 53 between logs).
+    before k (:func:`fg_tea.study.learn.learn`, one log at a time, eq. 53 between logs).
 
     Returns:
         One row per (arm, episode): the :data:`FIELDS` columns plus ``_calibration`` (the start
         belief's (probability, outcome) pairs, for the pooled calibration error; not written).
     """
-    from fg_tea.learning import Learning, Source, apply_learning, learn
-    from fg_tea.model import load_model
+    from fg_tea.model.learning import Learning
+    from fg_tea.model.spec import apply_learning, load_model
+    from fg_tea.study.learn import Source, learn
 
     base = load_model(spec.model)
     rows = []
@@ -299,7 +299,7 @@ def t_interval(values: Iterable[Any]) -> tuple[float, float, float]:
 def pooled_ece(records: Sequence[np.ndarray], seed: int = 0) -> tuple[float, float, float]:
     """Expected calibration error (10 bins) of the pooled (probability, outcome) pairs of
     several households, with a 95 % percentile interval from resampling households."""
-    from fg_tea.quality import calibration, expected_calibration_error
+    from fg_tea.episode.quality import calibration, expected_calibration_error
 
     if not records:
         return math.nan, math.nan, math.nan

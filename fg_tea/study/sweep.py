@@ -1,7 +1,7 @@
 """Sweeps: many seeded episodes over sampled worlds, models and planners, one CSV row each.
 
 This module answers the experiment question ("which model searches better, and why?",
-docs/design.md §11) at the level of single episodes; :mod:`fg_tea.analysis`
+docs/design.md §11) at the level of single episodes; :mod:`fg_tea.study.analysis`
 turns the rows into tables and plots.
 
 - A :class:`Job` names one episode completely: world distribution and its knobs, world seed,
@@ -30,7 +30,7 @@ CPU per worker and shut down afterwards. Nothing in a row depends on where it ra
 
 Per-step belief entropy is kept as a list column, ``entropy_trace``: the summed location entropy
 (nats, eq. 7) of the searched objects at the start and after each inspection, joined by ``;``.
-When :mod:`fg_tea.quality` is importable, the scalars of its ``quality_summary(events, world)``
+When :mod:`fg_tea.episode.quality` is importable, the scalars of its ``quality_summary(events, world)``
 (KL of the factorised from the joint posterior on the same evidence, Brier scores, expected
 calibration error) are added as ``quality_*`` columns.
 """
@@ -49,8 +49,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
-from fg_tea.files import atomic_path
-from fg_tea.errors import InputError
+from fg_tea.common.errors import InputError
+from fg_tea.common.files import atomic_path
 
 BACKENDS = ("serial", "process", "ray")
 ENVIRONMENTS = ("pybullet", "fake")
@@ -171,49 +171,49 @@ class Job:
 # ---------------------------------------------------------------------------------- resolving
 def ablation_names() -> tuple[str, ...]:
     """Names of the bundled ablation models (``models/ablations/*.toml``), sorted."""
-    from fg_tea.resources import bundled_names
+    from fg_tea.common.resources import bundled_names
 
     return tuple(bundled_names("ablations"))
 
 
 def model_names() -> tuple[str, ...]:
     """Names of the bundled models (``models/*.toml``), sorted."""
-    from fg_tea.resources import bundled_names
+    from fg_tea.common.resources import bundled_names
 
     return tuple(bundled_names("models"))
 
 
 def world_names() -> tuple[str, ...]:
     """Names of the bundled world distributions (``scenarios/worlds/*.json``), sorted."""
-    from fg_tea.resources import bundled_names
+    from fg_tea.common.resources import bundled_names
 
     return tuple(bundled_names("worlds"))
 
 
 def world_path(ref: str) -> Path:
     """The file of a world reference: a bundled world distribution or a path."""
-    from fg_tea.resources import resolve_world
+    from fg_tea.common.resources import resolve_world
 
     return resolve_world(ref)
 
 
 def model_path(ref: str) -> Path:
     """The file of a model reference: a bundled model, a bundled ablation, or a path."""
-    from fg_tea.resources import resolve_model
+    from fg_tea.common.resources import resolve_model
 
     return resolve_model(ref)
 
 
 @lru_cache(maxsize=64)
 def _world(ref: str, knobs: tuple[tuple[str, float], ...]):
-    from fg_tea.worlds import load_world
+    from fg_tea.world.distributions import load_world
 
     return load_world(ref).with_knobs(**dict(knobs))
 
 
 @lru_cache(maxsize=64)
 def _model(ref: str, overrides: tuple[tuple[str, Any], ...]):
-    from fg_tea.model import load_model
+    from fg_tea.model.spec import load_model
 
     model = load_model(model_path(ref))
     return model.with_overrides(**dict(overrides)) if overrides else model
@@ -227,7 +227,7 @@ def check_jobs(jobs: Sequence[Job]) -> None:
             planner or environment, unknown override field, or invalid knob combination.
     """
     from fg_tea.env.base import EnvConfig
-    from fg_tea.model import Model
+    from fg_tea.model.spec import Model
     from fg_tea.planning.plugins import check as check_planner
 
     env_fields = {f.name for f in dataclasses.fields(EnvConfig)}
@@ -352,13 +352,13 @@ def flatten_metrics(metrics: Mapping[str, Any]) -> dict[str, Any]:
 
 def _quality_columns(events: Sequence[Mapping], scenario, overrides: tuple[tuple[str, Any], ...]
                      ) -> dict[str, Any]:
-    """``quality_*`` columns from :func:`fg_tea.quality.quality_summary`, when that module exists.
+    """``quality_*`` columns from :func:`fg_tea.episode.quality.quality_summary`, when that module exists.
 
     The KL references (the bundled factorised and joint models) get the job's model overrides, so
     they assume the same detector as the agent.
     """
     try:
-        from fg_tea import quality
+        from fg_tea.episode import quality
     except ImportError:
         return {}
     hook = getattr(quality, "quality_summary", None)
@@ -654,7 +654,7 @@ def _process(jobs: Sequence[Job], workers: int | None, address: str | None) -> I
 
     workers = workers or os.cpu_count() or 1
     context = multiprocessing.get_context("spawn")  # no inherited simulator or BLAS state
-    from fg_tea.process import die_with_parent
+    from fg_tea.common.process import die_with_parent
 
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=die_with_parent,
                                initargs=(os.getpid(),))  # no orphans if this process is killed
@@ -747,7 +747,7 @@ def add_execution_arguments(parser, csv_name: str) -> None:
     """
     import argparse
 
-    from fg_tea.options import DeprecatedAlias
+    from fg_tea.common.options import DeprecatedAlias
 
     parser.add_argument("--executor", choices=BACKENDS, default="process",
                         help="job runner: serial, a process pool over every core, or Ray "

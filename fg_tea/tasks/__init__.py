@@ -8,8 +8,15 @@ and belief preconditions [20], applies belief effects [25-27] and recovers from 
 """
 
 from fg_tea.tasks.actions import RecoveryPolicy, TaskAction
-from fg_tea.tasks.executor import (AffordanceError, ObjectState, PreconditionError,
-                                   RecoveryDecision, TaskError, TaskExecutor, Violation)
+from fg_tea.tasks.executor import (
+    AffordanceError,
+    ObjectState,
+    PreconditionError,
+    RecoveryDecision,
+    TaskError,
+    TaskExecutor,
+    Violation,
+)
 from fg_tea.tasks.graph import STATUSES, TaskGraph
 from fg_tea.tasks.load import load_task, parse_task
 

@@ -20,14 +20,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from fg_tea.model import Condition, Effect, Sensor
+from fg_tea.model.spec import Condition, Effect, Sensor
 
 #: Failure reasons (``ActionResult.reason``) that mean a site cannot be reached.
 UNREACHABLE_REASONS = ("unreachable", "site_unreachable")
 
 #: Failure reasons that say the action did not happen and nothing changed, with no cause the agent
 #: could act on: retrying is the same draw again. Their retries follow the model's failure model
-#: (:class:`fg_tea.model.RetryModel`) instead of the action's ``max_retries``.
+#: (:class:`fg_tea.model.spec.RetryModel`) instead of the action's ``max_retries``.
 TRANSIENT_REASONS = ("injected_failure",)
 
 

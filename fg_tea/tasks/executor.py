@@ -74,11 +74,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fg_tea.beliefs.engine import BeliefEngine
-from fg_tea.interface import ActionRequest, ActionResult
-from fg_tea.model import Condition, Model, Sensor
-from fg_tea.scenario import Scenario
+from fg_tea.model.spec import Condition, Model, Sensor
 from fg_tea.tasks.actions import TRANSIENT_REASONS, UNREACHABLE_REASONS, TaskAction
 from fg_tea.tasks.graph import TaskGraph
+from fg_tea.world.interface import ActionRequest, ActionResult
+from fg_tea.world.scenario import Scenario
 
 #: Failure reasons that are evidence about where an object is not (a miss at the site).
 NOT_AT_SITE_REASONS = {"object_not_at_site": "object", "destination_not_at_site": "destination"}
@@ -351,7 +351,7 @@ class TaskExecutor:
 
         ``model.planning.max_inspections_per_object``, or when it is 0, K x (ceil(log p /
         log mu) + 1) with p the give-up probability and mu the miss likelihood (see
-        :class:`fg_tea.model.PlanningWeights`).
+        :class:`fg_tea.model.spec.PlanningWeights`).
         """
         planning = self.model.planning
         if planning.max_inspections_per_object > 0:
@@ -779,7 +779,7 @@ class TaskExecutor:
     def transient_tries(self) -> int:
         """k, the tries of one action before a run of transient failures ends the episode.
 
-        From the model's failure model (:class:`fg_tea.model.RetryModel`): the smallest k with
+        From the model's failure model (:class:`fg_tea.model.spec.RetryModel`): the smallest k with
         M x failure_rate^k <= tolerance for M = :meth:`practical_runs`.
         """
         return self.model.retries.tries(self.practical_runs())

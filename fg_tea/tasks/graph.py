@@ -18,7 +18,7 @@ one whose result was "already true"). Task relevance of each object's search nod
 
 where "unfinished" means not complete and not skipped, and the maximum runs over objects whose
 search node is unfinished. The graph is validated when it is created: a dependency on an
-undefined action and a dependency cycle are :class:`~fg_tea.errors.InputError` naming the
+undefined action and a dependency cycle are :class:`~fg_tea.common.errors.InputError` naming the
 offending actions.
 """
 
@@ -29,7 +29,7 @@ from typing import Mapping, Sequence
 
 import networkx as nx
 
-from fg_tea.errors import InputError
+from fg_tea.common.errors import InputError
 from fg_tea.tasks.actions import TaskAction
 
 STATUSES = ("pending", "active", "complete", "skipped", "failed")

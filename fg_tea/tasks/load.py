@@ -57,7 +57,7 @@ section (object -> state -> prior q(z = true)); the graph carries the latter and
 adds them to the belief with ``BeliefEngine.ensure_state`` when it starts. Declaring at load
 time, rather than creating states silently when first used, keeps a misspelt state a load error.
 
-Every fault is an :class:`~fg_tea.errors.InputError` naming the task file, the JSON path and
+Every fault is an :class:`~fg_tea.common.errors.InputError` naming the task file, the JSON path and
 what is wrong; dangling dependencies and cycles name the actions involved.
 """
 
@@ -66,13 +66,14 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from fg_tea.interface import VERBS
-from fg_tea.errors import InputError, Reader, _suggest, read_json
-from fg_tea.model import Condition, Effect, Model
-from fg_tea.resources import resolve_task
-from fg_tea.scenario import Scenario
+from fg_tea.common.errors import InputError
+from fg_tea.common.inputs import Reader, _suggest, read_json
+from fg_tea.common.resources import resolve_task
+from fg_tea.model.spec import Condition, Effect, Model
 from fg_tea.tasks.actions import RecoveryPolicy, TaskAction
 from fg_tea.tasks.graph import TaskGraph
+from fg_tea.world.interface import VERBS
+from fg_tea.world.scenario import Scenario
 
 PREPARATION_SITE = "$preparation_site"
 

@@ -3,7 +3,7 @@
 A world distribution is a JSON data file (``scenarios/worlds/*.json``) over one base scenario
 (``"base_scenario"``), or over a fresh generated house per world (``"generate": {"rooms": N or
 [min, max], "objects": [...]}``; the house of world seed s is ``fg-tea house --rooms R --seed s``
-with R drawn uniformly from [min, max] by the world seed, see :mod:`fg_tea.housegen`). It
+with R drawn uniformly from [min, max] by the world seed, see :mod:`fg_tea.world.housegen`). It
 declares how the environment's hidden truth is drawn — never what the agent believes:
 
 - objects are placed one by one, in ``placement.order``;
@@ -30,8 +30,9 @@ from typing import Mapping
 
 import numpy as np
 
-from fg_tea.errors import InputError, Reader, read_json
-from fg_tea.scenario import Scenario, load_scenario, parse_scenario
+from fg_tea.common.errors import InputError
+from fg_tea.common.inputs import Reader, read_json
+from fg_tea.world.scenario import Scenario, load_scenario, parse_scenario
 
 #: Entropy tag of the random stream that draws a generated world's room count.
 _ROOMS_STREAM = 0x726F6F6D73
@@ -65,7 +66,7 @@ class GeneratedHouses:
 
 @lru_cache(maxsize=32)
 def _generated_house(rooms: int, seed: int, objects: tuple[str, ...], source: str) -> Scenario:
-    from fg_tea.housegen import generate_house
+    from fg_tea.world.housegen import generate_house
 
     return parse_scenario(generate_house(rooms, seed, objects), f"{source} (house seed {seed})")
 
@@ -170,7 +171,12 @@ class WorldDistribution:
 
 
 def _read_generate(r: Reader) -> GeneratedHouses:
-    from fg_tea.housegen import DEFAULT_OBJECTS, MAX_ROOMS, MIN_ROOMS, check_arguments
+    from fg_tea.world.housegen import (
+        DEFAULT_OBJECTS,
+        MAX_ROOMS,
+        MIN_ROOMS,
+        check_arguments,
+    )
 
     g = r.child("generate")
     raw = g.req("rooms", (int, list))
@@ -196,7 +202,7 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         if r.has("base_scenario"):
             raise r.fail("give either base_scenario or generate, not both", "generate")
         generate = _read_generate(r)
-        from fg_tea.housegen import OBJECT_TEMPLATES
+        from fg_tea.world.housegen import OBJECT_TEMPLATES
 
         base = None
         what = "the generated houses"
@@ -261,7 +267,7 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
 
 def load_world(path: str | Path) -> WorldDistribution:
     """Load a world distribution (a path, or the name of a bundled one in scenarios/worlds)."""
-    from fg_tea.resources import resolve_world
+    from fg_tea.common.resources import resolve_world
 
     path = resolve_world(path)
     return parse_world(read_json(path), path)

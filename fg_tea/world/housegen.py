@@ -21,7 +21,7 @@ a seed alone:
 4. **Room vantages.** ``<room>_centre`` (the free point nearest the room centre that sees every
    site of the room past all other furniture) and, for some rooms, ``<room>_door`` (0.75 m inside
    a doorway, when it too sees every site).
-5. **Check.** The floor is rasterised with :class:`~fg_tea.env.navigation.OccupancyGrid` (the
+5. **Check.** The floor is rasterised with :class:`~fg_tea.world.navigation.OccupancyGrid` (the
    navigator's own grid, agent radius 0.22 m, 0.05 m cells); every site vantage, room vantage and
    the start must be free and in the start's 4-connected free component (the navigator's 8-moves
    never cut corners, so this is exactly its reachability). A room that fails is refurnished with
@@ -513,8 +513,8 @@ def _unreachable_rooms(doc: dict, rooms: list[Room]) -> set[int]:
     """Rooms with a site vantage, room vantage or the start off the free floor or unreachable."""
     from scipy import ndimage
 
-    from fg_tea.env.navigation import OccupancyGrid
-    from fg_tea.scenario import parse_scenario
+    from fg_tea.world.navigation import OccupancyGrid
+    from fg_tea.world.scenario import parse_scenario
 
     scenario = parse_scenario(doc, "<generated house>")
     grid = OccupancyGrid(scenario.house, GRID, AGENT_RADIUS)
@@ -567,7 +567,7 @@ def generate_house(rooms: int, seed: int, objects=DEFAULT_OBJECTS, name: str | N
         name: the scenario name (default ``generated_<rooms>r_seed<seed>``).
 
     Returns:
-        A JSON-ready dict that :func:`fg_tea.scenario.parse_scenario` accepts and whose every
+        A JSON-ready dict that :func:`fg_tea.world.scenario.parse_scenario` accepts and whose every
         vantage is free and reachable from the start on the navigator's grid.
 
     Raises:
@@ -685,7 +685,7 @@ def house_json(doc: dict) -> str:
 
 def write_house(path, rooms: int, seed: int, objects=DEFAULT_OBJECTS, name: str | None = None) -> dict:
     """Generate a house and write it to `path` atomically; return the document."""
-    from fg_tea.files import atomic_write_text
+    from fg_tea.common.files import atomic_write_text
 
     doc = generate_house(rooms, seed, objects, name)
     atomic_write_text(path, house_json(doc))

@@ -1,7 +1,7 @@
 """Navigation: where can the agent go, how far is each site, and which poses does it pass through?
 
 This module answers the travel-cost question of the planner (docs/design.md §8.2; the distance
-d_j of eq. (12)) and produces the motion of §8.2 without any simulator:
+d_j of eq. (12)) without any simulator (the poses of each frame along a path are :mod:`fg_tea.env.motion`'s):
 
 1. an occupancy grid of the floor plan (walls with doorway gaps, furniture boxes, everything
    outside the floor bounds blocked), inflated by the agent radius;
@@ -10,10 +10,8 @@ d_j of eq. (12)) and produces the motion of §8.2 without any simulator:
    may not cut the corner of a blocked cell);
 3. shortest paths by following the Dijkstra predecessors, then string-pulling them to corner
    points with an exact line-of-sight test over the grid cells a segment crosses;
-4. a path follower: turn in place while the heading error exceeds ``turn_before_move_deg``, turn at
-   most ``turn_step_deg`` and move at most ``movement_step`` per frame (docs/design.md §8.6);
-5. a load-time check that each vantage lies on free floor and is reachable from the start, which
-   raises :class:`~fg_tea.errors.InputError` naming the site and the nearest usable free cell.
+4. a load-time check that each vantage lies on free floor and is reachable from the start, which
+   raises :class:`~fg_tea.common.errors.InputError` naming the site and the nearest usable free cell.
 
 Geodesic grid distance is never shorter than the Euclidean distance (an 8-connected path is at
 least as long as the straight line); Euclidean distance is kept as the ablation
@@ -24,18 +22,26 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Protocol, Sequence
 
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from fg_tea.env.base import EnvConfig
-from fg_tea.interface import Pose
-from fg_tea.errors import InputError
-from fg_tea.scenario import House, Scenario
+from fg_tea.common.errors import InputError
+from fg_tea.world.scenario import House, Scenario
 
 Point = tuple[float, float]
+
+
+class GridConfig(Protocol):
+    """What the grid needs of the embodiment (:class:`fg_tea.env.base.EnvConfig` has both)."""
+
+    @property
+    def grid_resolution(self) -> float: ...  # m per grid cell
+
+    @property
+    def agent_radius(self) -> float: ...  # m, the inflation of every obstacle
 
 
 @dataclass(frozen=True)
@@ -207,7 +213,7 @@ class Navigator:
             reachable from the start; the message names the nearest usable free cell.
     """
 
-    def __init__(self, scenario: Scenario, config: EnvConfig) -> None:
+    def __init__(self, scenario: Scenario, config: GridConfig) -> None:
         self.scenario = scenario
         self.grid = grid = OccupancyGrid(scenario.house, config.grid_resolution, config.agent_radius)
         self._node = np.full((grid.rows, grid.cols), -1, dtype=np.int64)
@@ -329,63 +335,6 @@ class Navigator:
 
 def _fmt(p: Point | None) -> str:
     return "(none)" if p is None else f"({p[0]:.2f}, {p[1]:.2f})"
-
-
-def wrap_deg(angle: float) -> float:
-    """Angle in degrees wrapped to (-180, 180]."""
-    a = math.fmod(angle + 180.0, 360.0)
-    if a <= 0:
-        a += 360.0
-    return a - 180.0
-
-
-def follow_path(pose: Pose, corners: Sequence[Point], config: EnvConfig) -> list[Pose]:
-    """Per-frame poses that drive the agent from `pose` through `corners` (docs/design.md §8.2).
-
-    Each frame either turns in place (heading error > ``turn_before_move_deg``) or turns and moves
-    along the straight segment to the next corner. Turns are at most ``turn_step_deg`` and moves
-    at most ``movement_step`` per frame. Positions stay on the segments between corners, so a path
-    that is collision-free on the grid stays collision-free when followed.
-
-    Args:
-        pose: the starting pose; `corners[0]` is normally its position and is skipped if so.
-        corners: floor points (m) to visit in order.
-        config: movement parameters.
-
-    Returns:
-        The poses after each frame; the last is at the final corner.
-    """
-    frames: list[Pose] = []
-    x, y, yaw = pose.x, pose.y, wrap_deg(pose.yaw_deg)
-    for tx, ty in corners:
-        while True:
-            dx, dy = tx - x, ty - y
-            dist = math.hypot(dx, dy)
-            if dist < 1e-9:
-                break
-            err = wrap_deg(math.degrees(math.atan2(dy, dx)) - yaw)
-            turn = max(-config.turn_step_deg, min(config.turn_step_deg, err))
-            yaw = wrap_deg(yaw + turn)
-            if abs(err) <= config.turn_before_move_deg:
-                if dist <= config.movement_step:
-                    x, y = tx, ty
-                else:
-                    x += dx / dist * config.movement_step
-                    y += dy / dist * config.movement_step
-            frames.append(Pose(x, y, yaw))
-    return frames
-
-
-def turn_frames(pose: Pose, target_yaw_deg: float, config: EnvConfig) -> list[Pose]:
-    """Per-frame poses turning in place until within ``face_tolerance_deg`` of the target yaw."""
-    frames: list[Pose] = []
-    yaw = wrap_deg(pose.yaw_deg)
-    while True:
-        err = wrap_deg(target_yaw_deg - yaw)
-        if abs(err) <= config.face_tolerance_deg:
-            return frames
-        yaw = wrap_deg(yaw + max(-config.turn_step_deg, min(config.turn_step_deg, err)))
-        frames.append(Pose(pose.x, pose.y, yaw))
 
 
 def path_length(points: Sequence[Point]) -> float:

@@ -2,7 +2,7 @@
 
 A scenario is a JSON file (schema version 2: site priors docs/design.md §3.1, sites §8.1, room
 vantages §5; version 1 with one target object still loads). It is parsed once, at the boundary,
-into frozen dataclasses; every fault is an :class:`~fg_tea.errors.InputError` naming the file,
+into frozen dataclasses; every fault is an :class:`~fg_tea.common.errors.InputError` naming the file,
 the JSON path and what is wrong.
 
 Coordinates are metres, z up. A site's ``position`` is the point on its surface where objects
@@ -17,7 +17,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
-from fg_tea.errors import InputError, Reader, read_json
+from fg_tea.common.errors import InputError
+from fg_tea.common.inputs import Reader, read_json
 
 SCHEMA_VERSIONS = (1, 2)
 #: Farthest a site's vantage point may stand from the site (horizontal distance, m). Chosen
@@ -398,7 +399,7 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
 
 def load_scenario(path: str | Path) -> Scenario:
     """Load and validate a scenario JSON file (a path, or the name of a bundled scenario)."""
-    from fg_tea.resources import resolve_scenario
+    from fg_tea.common.resources import resolve_scenario
 
     path = resolve_scenario(path)
     return parse_scenario(read_json(path), path)
