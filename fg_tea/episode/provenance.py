@@ -222,7 +222,7 @@ def versions() -> dict[str, str | None]:
 
 def checkout_root() -> Path:
     """The folder above the fg_tea package: the top of the work tree when run from a checkout."""
-    return Path(__file__).resolve().parent.parent
+    return Path(__file__).resolve().parents[2]
 
 
 @lru_cache(maxsize=1)
