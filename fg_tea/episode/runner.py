@@ -24,12 +24,11 @@ which (``terminated`` vs ``truncated``).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-import numpy as np
-
+from fg_tea.agent.agent import Agent
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
 from fg_tea.env.base import EnvAdapter, EnvConfig
@@ -37,14 +36,13 @@ from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.episode.provenance import episode_provenance, portable_ref
 from fg_tea.model.spec import Model
-from fg_tea.planning import Decision, distances_for, make_planner
+from fg_tea.planning import Decision
 from fg_tea.tasks.executor import (
     MAX_REOPENINGS,
     NOT_FOUND,
     PreconditionError,
     TaskExecutor,
 )
-from fg_tea.tasks.load import load_task
 from fg_tea.world.interface import ActionRequest
 from fg_tea.world.scenario import Scenario
 
@@ -104,7 +102,6 @@ class EpisodeState:
 
     frame: int = 0
     steps: int = 0
-    inspected: dict[str, int] = field(default_factory=dict)
     done: bool = False
     reason: str | None = None
     terminated: bool = False
@@ -143,29 +140,42 @@ class EpisodeRunner:
 
     def _setup(self, config: RunConfig, log: EventLog | None) -> None:
         """Fresh agent state for an episode with `config` (the environment is reset at start)."""
-        scenario, model = self.scenario, self.model
         self.config = config
         self.log = log if log is not None else EventLog()
-        self.belief = BeliefEngine(scenario, model, backend=config.belief_backend)
-        self.graph = load_task(config.task, model, scenario, config.preparation_site)
-        self.executor = TaskExecutor(self.graph, self.belief, scenario, model,
-                                     max_reopenings=config.max_reopenings)
-        self.planner = make_planner(config.planner, model,
-                                    rng=np.random.default_rng([config.seed, 0x9E7]))
-        check_size = getattr(self.planner, "check_size", None)
-        if check_size is not None:  # the optimal planner refuses too large a house up front
-            check_size(len(scenario.sites), len(self.executor.pending_search_objects()))
-        check_belief = getattr(self.planner, "check_belief", None)
-        if check_belief is not None:  # the lookahead planner refuses a correlated joint too large
-            check_belief(self.belief, self.executor.pending_search_objects())
+        self.agent = Agent(self.scenario, self.model, config.planner, config.task,
+                           seed=config.seed, preparation_site=config.preparation_site,
+                           solver=config.belief_backend, max_reopenings=config.max_reopenings)
         self.state = EpisodeState()
-        self.views: ViewModel | None = None  # built at start, from the environment's geometry
-        self.last_decision: Decision | None = None
         self._seen_executor_events = 0
         self._started = False
         # For the clairvoyant yardstick only (written in episode_end, never read by the agent):
         # the start floor point and the objects' true start sites, as the environment reports them.
         self._yardstick_start: tuple[tuple[float, float], dict] | None = None
+
+    # The agent's parts, for scripts that inspect a runner between steps.
+    @property
+    def belief(self) -> BeliefEngine:
+        return self.agent.belief
+
+    @property
+    def executor(self) -> TaskExecutor:
+        return self.agent.executor
+
+    @property
+    def graph(self):
+        return self.agent.graph
+
+    @property
+    def planner(self):
+        return self.agent.planner
+
+    @property
+    def views(self) -> ViewModel | None:
+        return self.agent.views
+
+    @property
+    def last_decision(self) -> Decision | None:
+        return self.agent.last_decision
 
     # ------------------------------------------------------------------ properties
     @property
@@ -227,10 +237,11 @@ class EpisodeRunner:
         self._started = True
         model = self.model
         expected = None
+        assert self.views is None or model.close_looks_only
         if not model.close_looks_only:
             categories = sorted({self.scenario.object(o).category for o in self.belief.objects})
             expected = self.env.expected_pixel_counts(categories)
-        self.views = ViewModel(self.scenario, model, self.belief.objects, expected)
+        self.agent.set_view_geometry(expected)
         self._yardstick_start = ((pose.x, pose.y), dict(self.env.truth_report().get("sites") or {}))
         # JSON records of the log (mixed value types); the yardstick reads them back.
         viewpoints: list[dict[str, Any]] = [
@@ -304,7 +315,7 @@ class EpisodeRunner:
         if self.state.frame >= self.config.max_frames:
             self._end(REASON_FRAME_LIMIT, truncated=True)
             return self.log.events[first:]
-        action = self.executor.next_action()
+        action = self.agent.next_action()
         self._flush_executor()
         if action is None:
             if self.executor.done:
@@ -340,46 +351,30 @@ class EpisodeRunner:
 
     # ------------------------------------------------------------------ search
     def _search(self, action) -> None:
+        agent = self.agent
         objects = self.executor.pending_search_objects()
         relevance = self.executor.search_relevance()
-        pose = self.env.agent_pose()
-        distances = distances_for(self.model, self.scenario, (pose.x, pose.y),
-                                  geodesic=_EnvDistances(self.env))
         excluded = frozenset(self.executor.excluded_sites)
-        learned = self.model.learning is not None and self.model.learning.detection_active
-        # A close-looks model scores sites with its miss likelihood; once it has learned
-        # per-category reliabilities (eq. 51) the planner scores them through the views.
-        views = None if self.model.close_looks_only and not learned else self.views
-        extra = {"views": views} if views is not None else {}
-        decision = self.planner.choose(self.belief, objects, relevance, distances,
-                                       dict(self.state.inspected), excluded, **extra)
-        if not isinstance(decision, Decision):
-            raise TypeError(f"planner {self.config.planner!r} returned a "
-                            f"{type(decision).__name__}, not a fg_tea.planning.Decision")
-        assert self.views is not None  # built by start()
-        if decision.site not in self.views.names:
-            raise ValueError(f"planner {self.config.planner!r} chose viewpoint {decision.site!r}, "
-                             f"which this house does not have (known: {', '.join(self.views.names)})")
-        self.last_decision = decision
-        viewpoint = decision.site
+        inspected = dict(agent.inspected)
+        pose = self.env.agent_pose()
+        decision = agent.decide(action, (pose.x, pose.y), _EnvDistances(self.env))
+        viewpoint = decision.viewpoint
         assert self.views is not None, "built when the episode starts"
         view = self.views.view(viewpoint)
         self._write({"event": "decision", "serving": action.id, "objects": objects,
-                     "relevance": relevance, "inspected": dict(self.state.inspected),
+                     "relevance": relevance, "inspected": inspected,
                      "excluded": sorted(excluded), **decision.to_json()})
         result = self.env.inspect_viewpoint(viewpoint, objects)
         moved = self._advance(result)
         if not result.reachable:
-            self.executor.fail(action, "unreachable", site=viewpoint)
+            agent.failed(action, "unreachable", site=viewpoint)
             event = self._flush_executor(merge_last=True) or {}
             self._write({**event, "event": "action_failed", "action": action.id,
                          "site": viewpoint, "reason": "unreachable", **moved})
             return
-        found = {o: (result.found_at.get(o) if seen else None)
-                 for o, seen in result.detections.items()}
-        update = self.belief.observe_view(view, found)
-        if any(v is False for v in result.detections.values()):
-            self.state.inspected[viewpoint] = self.state.inspected.get(viewpoint, 0) + 1
+        update = agent.observe_look(viewpoint, result)
+        pending_confirms = self.executor.events[self._seen_executor_events:]
+        self._seen_executor_events = len(self.executor.events)
         in_view = [self.belief.sites[j] for j in view.sites]
         probability = self.views.probabilities(viewpoint)
         self._write({
@@ -397,22 +392,18 @@ class EpisodeRunner:
             "entropy_before": {o: entropy(update.before[o]) for o in objects},
             "entropy_after": {o: entropy(update.after[o]) for o in objects},
             **moved})
-        for obj in update.detected:
-            self.executor.confirm_search(obj, found[obj] or viewpoint)
-        self._flush_executor()
+        for event in pending_confirms:  # the searches this look confirmed, after the look itself
+            self._write(event)
 
     # ------------------------------------------------------------------ state inspections
     def _read_state(self, state: str, purpose: str, action=None) -> dict:
         obj = state.partition(".")[0]
-        sensor = action.sensor if action is not None else self.model.sensor("state")
-        site = self.executor.inspection_site(obj)
+        sensor = self.agent.sensor_for(action)
+        site = self.agent.reading_site(obj)
         reading = self.env.observe_state(obj, state.partition(".")[2], site,
                                          sensor.sensitivity, sensor.specificity)
         moved = self._advance(reading)
-        if action is not None:
-            self.executor.observe(action, reading.value)
-        else:
-            self.executor.observe_state(state, reading.value, sensor, purpose=purpose)
+        self.agent.observe_state(state, reading.value, action, purpose)
         event = self._flush_executor(merge_last=True) or {}
         return self._write({**event, "event": "state_reading", "purpose": purpose,
                             "executor_event": event.get("event"), "site": site, **moved})
@@ -422,15 +413,15 @@ class EpisodeRunner:
 
     # ------------------------------------------------------------------ practical actions
     def _practical(self, action) -> None:
-        while states := self.executor.verification_inspections(action):
+        while states := self.agent.verification_states(action):
             for state in states:
                 self._read_state(state, "verification")
-        violations = self.executor.check(action)
+        violations = self.agent.violations(action)
         if violations:
             kind = "precondition_unmet" if all(v.kind == "belief" for v in violations) else "affordance"
             self._fail(action, kind, detail=[v.to_json() for v in violations])
             return
-        request: ActionRequest = self.executor.request(action)
+        request: ActionRequest = self.agent.act(action)
         result = self.env.execute(request)
         moved = self._advance(result)
         env_fields = {"request": {"verb": request.verb, "object": request.object, "site": request.site,
@@ -441,7 +432,7 @@ class EpisodeRunner:
             self._fail(action, result.reason, env_fields=env_fields)
             return
         try:
-            self.executor.complete(action, result)
+            self.agent.outcome(action, result)
         except PreconditionError as exc:
             self._fail(action, "precondition_unmet", detail=[str(exc)], env_fields=env_fields)
             return
@@ -449,7 +440,7 @@ class EpisodeRunner:
         self._write({**event, "event": "action", **env_fields})
 
     def _fail(self, action, reason: str, detail=None, env_fields: Mapping | None = None) -> None:
-        decision = self.executor.fail(action, reason)
+        decision = self.agent.failed(action, reason)
         event = self._flush_executor(merge_last=True) or {}
         self._write({**event, "event": "action_failed", "action": action.id, "reason": reason,
                      "detail": detail or [], **(env_fields or {"distance": 0.0, "frames": 0, "motion": []})})

@@ -1,0 +1,262 @@
+"""The agent: one object that holds the belief, the planner and the task executor (docs/design.md §1).
+
+This module answers *what does the agent believe, what does it do next, and how does it take in
+what happened?* It is the agent side of the loop of eq. (1),
+
+    observation o  ->  belief q(s)  ->  decision pi,
+
+with three verbs in the spirit of pomdp-py's ``Agent`` and pymdp's ``Agent``:
+
+- :meth:`Agent.next_action` and :meth:`Agent.decide`: the next task action, and for a SEARCH the
+  viewpoint to look from, with its full decision record (every candidate and its terms, §6);
+- :meth:`Agent.observe_look` and :meth:`Agent.observe_state`: absorb an observation, an
+  inspection result (eqs. 4-6, 30) or a noisy state reading (eqs. 23-24);
+- :meth:`Agent.act` / :meth:`Agent.outcome`: what to ask the world to do for a practical action,
+  and absorb its outcome (the action's transition, eq. 27, or its recovery, §10).
+
+The agent never sees the world's truth and never imports the simulator: observations are plain
+:mod:`fg_tea.world.interface` records, which an environment, a Gymnasium wrapper or a script
+that makes them up can supply alike. ``agent.belief`` is the labelled belief (sites, objects and
+states by name).
+"""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from fg_tea.beliefs.detection import PixelTable, ViewModel
+from fg_tea.beliefs.engine import BeliefEngine, SiteUpdate
+from fg_tea.model.spec import Model
+from fg_tea.planning import Decision, DistanceModel, distances_for, make_planner
+from fg_tea.planning.base import Planner
+from fg_tea.tasks.actions import TaskAction
+from fg_tea.tasks.executor import (
+    MAX_REOPENINGS,
+    RecoveryDecision,
+    TaskExecutor,
+    Violation,
+)
+from fg_tea.tasks.load import load_task
+from fg_tea.world.interface import ActionRequest, ActionResult, InspectionResult
+from fg_tea.world.navigation import Navigator
+from fg_tea.world.scenario import Scenario
+
+#: Grid used for geodesic distances when no environment supplies them (metres): the embodiment
+#: defaults of docs/design.md §8.6.
+_GRID_RESOLUTION, _AGENT_RADIUS = 0.05, 0.22
+
+
+class _Grid:
+    grid_resolution = _GRID_RESOLUTION
+    agent_radius = _AGENT_RADIUS
+
+
+class _GridDistances:
+    """Geodesic distances on the floor plan's occupancy grid, from one floor point."""
+
+    def __init__(self, navigator: Navigator, xy: Sequence[float]) -> None:
+        self._nav, self._xy = navigator, (float(xy[0]), float(xy[1]))
+        self._index = {v.name: k for k, v in enumerate(navigator.scenario.viewpoints)}
+
+    def from_agent(self, site: str) -> float:
+        return self._nav.distance(self._index[site], self._xy)
+
+    def between(self, a: str, b: str) -> float:
+        return self._nav.distance(self._index[b], self._nav.vantages[self._index[a]])
+
+
+class Agent:
+    """The tea-making agent: belief, planner and task executor, driven by observations.
+
+    Args:
+        scenario: the house as the agent may know it (sites, viewpoints, priors; never truth).
+        model: the agent's generative model.
+        planner: a planner spec (``"efe"``, ``"lookahead:nodes=60"``, ``"module:attr"``...) or a
+            planner object satisfying :class:`fg_tea.planning.Planner`.
+        task: a task file or bundled task name.
+        seed: seeds the planner's random generator (random and sampling planners only).
+        preparation_site: where the tea is made (default: the scenario's).
+        solver: the exact belief solver, ``"numpy"`` or ``"gtsam"`` (docs/design.md §4).
+        max_reopenings: task-level reopenings allowed (docs/design.md §10).
+        expected_pixels: what each viewpoint would see of each category (from an environment's
+            ``expected_pixel_counts``); needed unless the model makes close looks only. It can also
+            be given later, with :meth:`set_view_geometry`.
+
+    Raises:
+        fg_tea.PlannerRefused: the planner cannot plan for this house or belief (too many sites
+            for the exact planner, a correlated joint too large for the lookahead).
+    """
+
+    def __init__(self, scenario: Scenario, model: Model, planner: str | Planner = "efe",
+                 task: str = "make_tea", *, seed: int = 0, preparation_site: str | None = None,
+                 solver: str = "numpy", max_reopenings: int = MAX_REOPENINGS,
+                 expected_pixels: PixelTable | None = None) -> None:
+        self.scenario, self.model = scenario, model
+        self.belief = BeliefEngine(scenario, model, backend=solver)
+        self.graph = load_task(task, model, scenario, preparation_site)
+        self.executor = TaskExecutor(self.graph, self.belief, scenario, model,
+                                     max_reopenings=max_reopenings)
+        self.planner_spec = planner if isinstance(planner, str) else type(planner).__name__
+        self.planner: Planner = (make_planner(planner, model, rng=np.random.default_rng([seed, 0x9E7]))
+                                 if isinstance(planner, str) else planner)
+        check_size = getattr(self.planner, "check_size", None)
+        if check_size is not None:  # the optimal planner refuses too large a house up front
+            check_size(len(scenario.sites), len(self.executor.pending_search_objects()))
+        check_belief = getattr(self.planner, "check_belief", None)
+        if check_belief is not None:  # the lookahead planner refuses a correlated joint too large
+            check_belief(self.belief, self.executor.pending_search_objects())
+        #: Looks per viewpoint that missed something (the repeat term of eq. 12).
+        self.inspected: dict[str, int] = {}
+        self.last_decision: Decision | None = None
+        self.views: ViewModel | None = None
+        self._navigator: Navigator | None = None
+        if expected_pixels is not None or model.close_looks_only:
+            self.set_view_geometry(expected_pixels)
+
+    # ------------------------------------------------------------------ set-up
+    def set_view_geometry(self, expected_pixels: PixelTable | None) -> ViewModel:
+        """Build the viewpoints' detection probabilities from what each one would see.
+
+        Args:
+            expected_pixels: viewpoint -> site -> category -> expected pixels per placement slot
+                (an environment's ``expected_pixel_counts``); None for a close-looks model.
+        """
+        self.views = ViewModel(self.scenario, self.model, self.belief.objects, expected_pixels)
+        return self.views
+
+    # ------------------------------------------------------------------ deciding
+    @property
+    def done(self) -> bool:
+        """Every task action is complete or skipped."""
+        return self.executor.done
+
+    @property
+    def stuck_reason(self) -> str | None:
+        """Why no action is ready although the task is not done (None otherwise)."""
+        return self.executor.stuck_reason
+
+    def next_action(self) -> TaskAction | None:
+        """The next ready task action (skipping what the belief says is done), or None."""
+        return self.executor.next_action()
+
+    def decide(self, action: TaskAction, position: Sequence[float],
+               distances: DistanceModel | None = None) -> Decision:
+        """Choose where to look next for a SEARCH action (docs/design.md §6).
+
+        Args:
+            action: the SEARCH action being served.
+            position: the agent's floor position (x, y), metres.
+            distances: travel distances from `position` (an environment's geodesic lookups);
+                None computes them on the scenario's floor plan.
+
+        Returns:
+            The decision: the chosen viewpoint and every candidate with its terms.
+
+        Raises:
+            TypeError / ValueError: a planner returned something that is not a decision among
+                this house's viewpoints.
+        """
+        if self.views is None:
+            raise ValueError(f"model {self.model.name!r} needs the view geometry before deciding: "
+                             "call set_view_geometry(env.expected_pixel_counts(...))")
+        objects = self.executor.pending_search_objects()
+        distances = distances_for(self.model, self.scenario, position,
+                                  geodesic=distances or self._grid_distances(position))
+        learned = self.model.learning is not None and self.model.learning.detection_active
+        # A close-looks model scores sites with its miss likelihood; once it has learned
+        # per-category reliabilities (eq. 51) the planner scores them through the views.
+        views = None if self.model.close_looks_only and not learned else self.views
+        extra = {"views": views} if views is not None else {}
+        decision = self.planner.choose(self.belief, objects, self.executor.search_relevance(),
+                                       distances, dict(self.inspected),
+                                       frozenset(self.executor.excluded_sites), **extra)
+        if not isinstance(decision, Decision):
+            raise TypeError(f"planner {self.planner_spec!r} returned a "
+                            f"{type(decision).__name__}, not a fg_tea.planning.Decision")
+        if decision.viewpoint not in self.views.names:
+            raise ValueError(f"planner {self.planner_spec!r} chose viewpoint {decision.viewpoint!r}, "
+                             f"which this house does not have (known: {', '.join(self.views.names)})")
+        self.last_decision = decision
+        return decision
+
+    def _grid_distances(self, position: Sequence[float]) -> DistanceModel:
+        if self._navigator is None:
+            self._navigator = Navigator(self.scenario, _Grid())
+        return _GridDistances(self._navigator, position)
+
+    # ------------------------------------------------------------------ observing
+    def observe_look(self, viewpoint: str, result: InspectionResult | Mapping[str, str | None]
+                     ) -> SiteUpdate:
+        """Absorb one look from `viewpoint` (docs/design.md eqs. 4-6, 30).
+
+        Args:
+            viewpoint: the viewpoint looked from.
+            result: the environment's :class:`~fg_tea.world.interface.InspectionResult`, or a
+                plain mapping object -> the in-view site it was seen at, or None for "looked and
+                not seen"; objects left out are "no observation".
+
+        Returns:
+            The belief update: marginals before and after, and the objects now found. Each found
+            object's SEARCH is confirmed, whichever search was being served (§6.1).
+        """
+        assert self.views is not None, "set_view_geometry first"
+        if isinstance(result, InspectionResult):
+            found = {o: (result.found_at.get(o) if seen else None)
+                     for o, seen in result.detections.items()}
+        else:
+            found = dict(result)
+        update = self.belief.observe_view(self.views.view(viewpoint), found)
+        if any(v is None for v in found.values()):
+            self.inspected[viewpoint] = self.inspected.get(viewpoint, 0) + 1
+        for obj in update.detected:
+            self.executor.confirm_search(obj, found[obj] or viewpoint)
+        return update
+
+    def observe_state(self, state: str, value: bool, action: TaskAction | None = None,
+                      purpose: str = "task") -> dict:
+        """Absorb a noisy reading of a hidden state (eqs. 23-24).
+
+        Args:
+            state: ``"object.state"``, e.g. ``"kettle.contains_water"``.
+            value: what the sensor read.
+            action: the INSPECT action the reading serves, if any (it then completes).
+            purpose: why it was read (``"task"``, ``"verification"``, ``"recovery"``), for the log.
+        """
+        if action is not None:
+            return self.executor.observe(action, value)
+        return self.executor.observe_state(state, value, self.model.sensor("state"), purpose=purpose)
+
+    def sensor_for(self, action: TaskAction | None = None):
+        """The sensor whose sensitivity and specificity a reading for `action` has."""
+        return action.sensor if action is not None else self.model.sensor("state")
+
+    def reading_site(self, obj: str) -> str | None:
+        """Where the agent would read `obj`'s states: the site it believes `obj` is at."""
+        return self.executor.inspection_site(obj)
+
+    # ------------------------------------------------------------------ acting
+    def verification_states(self, action: TaskAction) -> list[str]:
+        """States to read before `action`, because the belief is unsure of its preconditions."""
+        return self.executor.verification_inspections(action)
+
+    def violations(self, action: TaskAction) -> list[Violation]:
+        """Belief preconditions and affordances `action` does not meet (empty: it may go ahead)."""
+        return self.executor.check(action)
+
+    def act(self, action: TaskAction) -> ActionRequest:
+        """What to ask the world to do for a practical `action` (verb, object, sites)."""
+        return self.executor.request(action)
+
+    def outcome(self, action: TaskAction, result: ActionResult) -> dict:
+        """Absorb a successful action's outcome: its transition is applied to the belief (eq. 27).
+
+        Raises:
+            fg_tea.tasks.executor.PreconditionError: the outcome violates a precondition.
+        """
+        return self.executor.complete(action, result)
+
+    def failed(self, action: TaskAction, reason: str, site: str | None = None) -> RecoveryDecision:
+        """Absorb a failed action: its recovery (retry, reopen or give up, docs/design.md §10)."""
+        return self.executor.fail(action, reason, site=site)
