@@ -158,12 +158,52 @@ def test_event_kinds_seen_in_episodes_are_the_documented_ones():
             "action_failed"} <= seen
 
 
-def _readme_python_example() -> str:
+def _readme_python_examples() -> list[str]:
     text = (ROOT / "README.md").read_text()
     section = text[text.index("## Python API"):]
-    match = re.search(r"```python\n(.*?)```", section, re.S)
-    assert match, "no python block under ## Python API"
-    return match.group(1)
+    blocks = re.findall(r"```python\n(.*?)```", section, re.S)
+    assert len(blocks) >= 2, "the stepping example and the made-up-observations example"
+    return blocks
+
+
+def _readme_python_example() -> str:
+    return _readme_python_examples()[0]
+
+
+def test_readme_examples_use_only_the_public_api():
+    for code in _readme_python_examples():
+        imports = re.findall(r"^\s*(?:from|import) (fg_tea\S*)", code, re.M)
+        assert imports and set(imports) == {"fg_tea"}, imports
+        assert "from fg_tea" not in code
+
+
+def test_readme_made_up_observations_example_runs_without_a_simulator(capsys):
+    import subprocess
+    import sys
+
+    code = _readme_python_examples()[1] + "\nimport sys\nprint(sorted(m for m in sys.modules if m.startswith('pybullet')))\n"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.strip().splitlines()
+    assert lines[-1] == "[]"  # no simulator was loaded
+    assert lines[0].startswith("search_mug -> ")
+    q_sideboard, next_action = lines[-2].split()
+    assert float(q_sideboard) > 0.99 and next_action == "pick_mug"
+
+
+def test_public_api_lists_every_name_and_loads_lazily():
+    import subprocess
+    import sys
+
+    code = ("import sys, fg_tea as fg\n"
+            "assert 'numpy' not in sys.modules, 'import fg_tea loads numpy'\n"
+            "missing = [n for n in fg.__all__ if getattr(fg, n, None) is None]\n"
+            "assert not missing, missing\n"
+            "import pydoc\ntext = pydoc.render_doc(fg, renderer=pydoc.plaintext)\n"
+            "print(all(n in text for n in fg.__all__ if not n.startswith('_')))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "True"
 
 
 def test_readme_python_example_runs_unchanged(tmp_path, monkeypatch, capsys):
@@ -175,6 +215,7 @@ def test_readme_python_example_runs_unchanged(tmp_path, monkeypatch, capsys):
     png = tmp_path / "runs" / "mug_belief.png"
     assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     history, runner = namespace["history"], namespace["runner"]
+    assert namespace["agent"] is runner.agent
     assert runner.done and runner.reason == "complete" and "complete" in out
     assert len(history) == runner.state.steps + 2  # the prior, each action step, the end step
     assert history[0] == pytest.approx(dict(zip(runner.events[0]["belief"]["sites"],

@@ -135,3 +135,9 @@ class EnvAdapter(abc.ABC):
 
     def close(self) -> None:
         """Release simulator resources."""
+
+    def __enter__(self) -> "EnvAdapter":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

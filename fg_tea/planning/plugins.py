@@ -127,6 +127,8 @@ def resolve(name: str) -> Any:
         if not module or not attribute:
             raise PlannerSpecError(name, f"{name!r}: expected module:attribute, e.g. mymod:MyPlanner")
         return _attribute(name, _import_module(name, module), attribute)
+    if name in _REGISTERED:
+        return _REGISTERED[name]
     points = entry_points()
     if name in points:
         try:
@@ -233,4 +235,35 @@ def build(name: str, model, rng) -> Any:
 
 
 __all__ = ["ENTRY_POINT_GROUP", "FACTORY_ARGUMENTS", "PlannerSpecError", "is_module_spec",
-           "entry_points", "resolve", "check", "build"]
+           "entry_points", "resolve", "check", "build", "register_planner"]
+
+
+#: Planners registered in this process by :func:`register_planner` (name -> factory or planner).
+_REGISTERED: dict[str, Any] = {}
+
+
+def register_planner(name: str, planner: Any) -> None:
+    """Make `planner` available by `name` in this process (``Agent(..., planner=name)``).
+
+    Args:
+        name: a new name: not a built-in planner's, and without ``:``.
+        planner: a factory (class or callable taking any of ``model`` and ``rng``) or an object
+            with a ``choose`` method, as for an entry point (see the module docstring).
+
+    A registration lives in this process only: sweeps that run episodes in worker processes
+    (``compare --executor process`` or ``ray``) do not see it; name the planner there by an entry
+    point or ``module:attribute`` instead.
+
+    Raises:
+        PlannerSpecError: the name is taken or malformed, or the object is not a planner.
+    """
+    from fg_tea.planning import planner_names
+
+    if not isinstance(name, str) or not name.strip() or ":" in name or name in planner_names():
+        raise PlannerSpecError(str(name), f"cannot register a planner as {name!r}: use a new "
+                               "name without ':' (built-in names are taken)")
+    if hasattr(planner, "choose"):
+        _check_choose(name, planner.choose, bound=not inspect.isclass(planner))
+    elif not callable(planner):
+        raise PlannerSpecError(name, "expected a planner (an object with choose) or a factory")
+    _REGISTERED[name] = planner
