@@ -2,7 +2,7 @@
 
 This module answers *how do the task and episode layers behave, given a world that obeys the
 adapter contract*, without PyBullet. It shares all verb semantics, hidden truth, failure reasons
-and fault injection with the PyBullet house (:class:`~fg_tea.env.truth.TruthBackedAdapter`) and
+and fault injection with the PyBullet house (:class:`~fg_tea.env.adapter.TruthBackedAdapter`) and
 replaces geometry and perception by the simplest stand-ins:
 
 * distance d_j (eq. 12): Euclidean, from the agent to the site's vantage point;
@@ -20,7 +20,7 @@ import math
 from typing import Sequence
 
 from fg_tea.env.motion import follow_path
-from fg_tea.env.truth import TruthBackedAdapter
+from fg_tea.env.adapter import TruthBackedAdapter
 from fg_tea.world.interface import Pose
 
 #: Pixel count reported for an object that truly stands at the inspected site.

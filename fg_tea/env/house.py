@@ -11,7 +11,7 @@ in DIRECT mode (CPU, no window, no GPU) in place of Habitat-Sim:
   egocentric segmentation image; n_o counts the pixels of object o [28]; o is detected iff
   n_o >= ``min_visible_pixels`` and o lies within ``site_association_radius`` of the site [29].
   Occlusion is real: the image is rendered, so a body in front of an object hides it;
-* kinematic manipulation and hidden truth through :class:`~fg_tea.env.truth.TruthBackedAdapter`
+* kinematic manipulation and hidden truth through :class:`~fg_tea.env.adapter.TruthBackedAdapter`
   (docs/design.md §8.5); cameras for people: the egocentric view and a chase camera (defaults:
   docs/design.md §8.6).
 
@@ -37,7 +37,7 @@ from fg_tea.env import assets
 from fg_tea.env._pybullet import pybullet
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.motion import follow_path
-from fg_tea.env.truth import TruthBackedAdapter, held_position
+from fg_tea.env.adapter import TruthBackedAdapter, held_position
 from fg_tea.world.interface import Pose
 from fg_tea.world.navigation import Navigator, path_length, wall_boxes
 from fg_tea.world.scenario import Scenario

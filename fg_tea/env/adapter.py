@@ -1,0 +1,617 @@
+"""The environment adapter over the hidden truth: how a declarative verb happens in the house.
+
+This module answers *given a task verb, what happens in the house, and what does the agent get
+back?* (docs/design.md §8). :class:`TruthBackedAdapter` implements the
+:class:`~fg_tea.env.base.EnvAdapter` contract over :class:`~fg_tea.env.truth.TeaTruth` and the
+floor plan: walking (:mod:`fg_tea.env.motion`), looking (eqs. 28-29, with the pixel counts a
+subclass supplies), reading states (eqs. 23-24) and carrying out actions with their effects.
+The PyBullet house and the fake house are its two subclasses.
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from fg_tea.env.base import EnvAdapter, EnvConfig
+from fg_tea.env.truth import EFFECTS, TeaTruth
+from fg_tea.world.interface import (
+    ActionRequest,
+    ActionResult,
+    InspectionResult,
+    Pose,
+    StateReading,
+)
+from fg_tea.world.scenario import ObjectSpec, Scenario
+
+#: Truth effect a verb applies when the request names none.
+DEFAULT_EFFECT = {"FILL": "fill", "POUR": "pour"}
+
+
+#: Horizontal reach (m) of the kinematic gripper: an object closer than this to the agent can be
+#: used, filled or poured into without moving. Vantage points stand 1.0-1.3 m from their surface.
+REACH_M = 1.6
+
+
+#: Lateral spacing (m) of the deterministic slots on a surface, perpendicular to the view direction.
+SLOT_SPACING_M = 0.16
+
+
+#: Edge margin (m) kept between a slot and the edge of its furniture top.
+SLOT_MARGIN_M = 0.06
+
+
+#: Where a held object rides, in the agent frame: metres forward and metres below the body centre.
+#: Low enough to stay below the egocentric camera's field of view.
+HELD_FORWARD_M = 0.16
+
+
+HELD_BELOW_M = 0.46
+
+
+class TruthBackedAdapter(EnvAdapter):
+    """Verb semantics shared by every adapter: truth, relations, failures, reasons.
+
+    A subclass supplies geometry and perception through hooks: :meth:`_build` (reset the world),
+    :meth:`_route` (the per-frame poses of a move to a floor point), :meth:`_distance` (travel
+    distance for the planner), :meth:`_pixel_counts` (segmentation pixels per object, eq. 28),
+    :meth:`_sync` (mirror object positions into the simulator after they change) and
+    :meth:`_on_frames` (see every frame of motion, e.g. to render it).
+
+    Failure reasons (``ActionResult.reason``): ``injected_failure`` (seeded fault injection,
+    ``config.failure_rates[verb]``), ``unreachable``, ``object_not_at_site``, ``not_graspable``,
+    ``hands_full``, ``not_held``, ``not_a_container``, ``destination_not_at_site``,
+    ``destination_out_of_reach``, ``object_out_of_reach``, ``site_full``. A failed action has no
+    truth effect. A malformed request (unknown verb, object, site or effect, or a missing field the
+    verb needs) raises ``ValueError``: that is a caller bug, not a world event.
+
+    Randomness: one ``numpy.random.Generator`` seeded in :meth:`reset`; a state reading draws once,
+    an action draws once for fault injection only when its verb has a non-zero failure rate, and
+    an inspection draws once per would-be detection only when ``config.detection_miss_rate`` is
+    non-zero (a dropped detection is reported as False, "looked and not seen").
+    """
+
+    def __init__(self, scenario: Scenario, config: EnvConfig = EnvConfig()) -> None:
+        if config.distance not in ("geodesic", "euclidean"):
+            raise ValueError(f"EnvConfig.distance must be 'geodesic' or 'euclidean', got {config.distance!r}")
+        if not 0.0 <= float(config.detection_miss_rate) <= 1.0:
+            raise ValueError(f"EnvConfig.detection_miss_rate must lie in [0, 1], got "
+                             f"{config.detection_miss_rate!r}")
+        self.scenario = scenario
+        self.config = config
+        self._specs = {spec.name: spec for spec in scenario.objects}
+        # Set by reset(); before it, _require_reset raises.
+        self._rng: np.random.Generator
+        self._truth: TeaTruth
+        self._pose: Pose
+        self._start: Pose | None = None  # agent pose when the current call began
+        self._positions: dict[str, tuple[float, float, float]] = {}
+        # Navigation targets: every viewpoint's floor point, sites' close vantages first (index k
+        # of site k), then room vantages (scenario.viewpoints order).
+        self._viewpoints = scenario.viewpoints
+        self._target_of = {v.name: i for i, v in enumerate(self._viewpoints)}
+
+    # --- hooks -----------------------------------------------------------------------------
+
+    @abc.abstractmethod
+    def _build(self) -> None:
+        """Rebuild the world for a new episode (called by reset after truth and RNG exist)."""
+
+    @abc.abstractmethod
+    def _route(self, k: int) -> list[Pose] | None:
+        """Per-frame poses from the current pose to target k's floor point; None if unreachable.
+
+        Target k is viewpoint k of ``scenario.viewpoints`` (site k's close vantage for k < K).
+        Must not change state: the caller moves the agent along the returned frames.
+        """
+
+    @abc.abstractmethod
+    def _distance_from(self, goal: int, xy: Sequence[float]) -> float:
+        """Planner travel distance (m) from floor point `xy` to target `goal`; inf if none."""
+
+    def _walk_length(self, goal: int, xy: Sequence[float]) -> float:
+        """Length (m) of the path :meth:`_route` would follow from `xy` to target `goal`.
+
+        The default is :meth:`_distance_from`, exact for adapters that move in straight lines.
+        """
+        return self._distance_from(goal, xy)
+
+    @abc.abstractmethod
+    def _pixel_counts(self, k: int, objects: Sequence[str]) -> dict[str, int]:
+        """Segmentation pixels n_o [28] of each object, looking at site k from the current pose."""
+
+    @abc.abstractmethod
+    def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, list[float]]:
+        """Pixels an object of each category would cover standing alone at each placement slot of
+        `site` (slots 0 .. :meth:`slot_count` - 1, in order), seen from target `target`'s floor
+        point facing the site (house geometry only)."""
+
+    def slot_count(self, site: str) -> int:
+        """How many placement slots an object standing on `site` may occupy (>= 1).
+
+        An object put on a site takes the site's first free slot (:meth:`_free_slot`): with m
+        objects already there, one of slots 0 .. m (its arrival rank when none has left). At most
+        every object stands on one site, and never more than the site's capacity, so the slots
+        used are 0 .. S - 1 with S = min(number of objects, capacity). Known from the scenario
+        alone (its object list and site capacities), not from where objects stand.
+        """
+        capacity = self.scenario.site(site).capacity
+        n = len(self.scenario.objects)
+        return max(1, min(n, capacity) if capacity is not None else n)
+
+    def _sync(self) -> None:
+        """Mirror `_positions` and the agent pose into the simulator (no-op without one)."""
+
+    def _on_frames(self, frames: Sequence[Pose], start: Pose) -> None:
+        """See the frames of a move or turn that started at `start` (renderers hook here)."""
+
+    # --- EnvAdapter ------------------------------------------------------------------------
+
+    def reset(self, seed: int) -> Pose:
+        self._rng = np.random.default_rng(seed)
+        self._truth = TeaTruth(self.scenario.objects)
+        self._pose = Pose(float(self.scenario.start_position[0]), float(self.scenario.start_position[1]),
+                          float(self.scenario.start_yaw_deg))
+        self._build()
+        self._positions = {}
+        by_site: dict[str, list[str]] = {}
+        for spec in self.scenario.objects:
+            by_site.setdefault(spec.true_site, []).append(spec.name)
+        for site, names in by_site.items():
+            for slot, name in enumerate(names):
+                self._positions[name] = self._slot_position(site, slot)
+        self._sync()
+        return self._pose
+
+    def agent_pose(self) -> Pose:
+        self._require_reset()
+        return self._pose
+
+    def distance_to_site(self, site: str) -> float:
+        self._require_reset()
+        k = self._target_index(site)
+        if self.config.distance == "euclidean":
+            vx, vy = self._viewpoints[k].position
+            return math.hypot(vx - self._pose.x, vy - self._pose.y)
+        return self._distance_from(k, (self._pose.x, self._pose.y))
+
+    def distance_between_sites(self, a: str, b: str) -> float:
+        self._require_reset()
+        ka, kb = self._target_index(a), self._target_index(b)
+        start = self._viewpoints[ka].position
+        if self.config.distance == "euclidean":
+            vx, vy = self._viewpoints[kb].position
+            return math.hypot(vx - start[0], vy - start[1])
+        return self._distance_from(kb, start)
+
+    def walking_distance(self, target: str, xy: Sequence[float]) -> float:
+        return float(self._walk_length(self._target_index(target), xy))
+
+    def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
+        return self.inspect_viewpoint(site, objects)
+
+    def inspect_viewpoint(self, viewpoint: str, objects: Sequence[str]) -> InspectionResult:
+        self._require_reset()
+        self._start = self._pose
+        k = self._target_index(viewpoint)
+        view = self._viewpoints[k]
+        considered = tuple(dict.fromkeys(objects))
+        for name in considered:
+            self._spec(name)
+        size = (self.config.ego_width, self.config.ego_height)
+        frames, arrived = self._go_to(k)
+        if not arrived:
+            return InspectionResult(viewpoint, {}, {}, reachable=False, distance=self._travelled(frames),
+                                    frames=len(frames), motion=_motion(frames), image_size=size,
+                                    kind=view.kind, sites=view.sites)
+        in_view = [self._site_index(s) for s in view.sites]
+        # Which in-view site each considered object stands at (eq. 29's association), if any.
+        at_site = {name: next((j for j in in_view if self._associated(name, j)), None)
+                   for name in considered}
+        counts = {name: 0 for name in considered}
+        for j in self._sweep_order(in_view):
+            frames += self._face(self.scenario.sites[j].position)
+            frames += [self._pose] * int(self.config.look_frames)  # hold still to take the image
+            if view.kind == "site":
+                # A close look counts every considered object in its one image, as eq. 28 reads.
+                counts = self._pixel_counts(j, considered)
+            else:
+                here = [name for name in considered if at_site[name] == j]
+                if here:
+                    counts.update(self._pixel_counts(j, here))
+        detections = self._detect(considered, counts, at_site)
+        site_name = {name: self.scenario.sites[at].name for name in considered
+                     if (at := at_site[name]) is not None}
+        found_at = {name: site_name[name] for name in considered
+                    if detections[name] and name in site_name}
+        view_pixels = {name: {s: (int(counts[name]) if site_name.get(name) == s else 0)
+                              for s in view.sites} for name in considered}
+        return InspectionResult(viewpoint, detections, {n: int(counts[n]) for n in considered},
+                                reachable=True, distance=self._travelled(frames), frames=len(frames),
+                                motion=_motion(frames), image_size=size, kind=view.kind,
+                                sites=view.sites, found_at=found_at, view_pixels=view_pixels)
+
+    def _sweep_order(self, sites: Sequence[int]) -> list[int]:
+        """In-view sites in the order a glance faces them: each time the one needing the least turn."""
+        from fg_tea.env.motion import wrap_deg
+
+        left, order, yaw = list(sites), [], self._pose.yaw_deg
+        while left:
+            def turn(j: int) -> float:
+                px, py, _ = self.scenario.sites[j].position
+                return abs(wrap_deg(math.degrees(math.atan2(py - self._pose.y, px - self._pose.x)) - yaw))
+            j = min(left, key=lambda j: (turn(j), j))
+            px, py, _ = self.scenario.sites[j].position
+            yaw = math.degrees(math.atan2(py - self._pose.y, px - self._pose.x))
+            left.remove(j)
+            order.append(j)
+        return order
+
+    def _detect(self, considered: Sequence[str], counts: Mapping[str, int],
+                at_site: Mapping[str, int | None]) -> dict[str, bool]:
+        """The detector's verdict per object (eqs. 29, 30), drawn from the episode's RNG.
+
+        Threshold detector (``config.camera_curve`` None): seen iff n_o >= min_visible_pixels and
+        o stands at an in-view site; then the optional injected misses, one draw per would-be
+        detection in `considered` order. Visibility detector: one draw per object standing at an
+        in-view site, seen with probability P(seen | n_o) of the camera's curve.
+        """
+        curve = self.config.camera_curve
+        if curve is None:
+            detections = {name: bool(counts[name] >= self.config.min_visible_pixels
+                                     and (at_site[name] is not None
+                                          or not self.config.site_association))
+                          for name in considered}
+            miss_rate = float(self.config.detection_miss_rate)
+            if miss_rate > 0.0:
+                # The pixel counts stay as rendered; only the detector's verdict is dropped.
+                for name in considered:
+                    if detections[name] and float(self._rng.random()) < miss_rate:
+                        detections[name] = False
+            return detections
+        detections = {}
+        for name in considered:
+            if at_site[name] is None:
+                detections[name] = False
+                continue
+            p = curve.probability(self._specs[name].category, counts[name])
+            detections[name] = bool(float(self._rng.random()) < p)
+        return detections
+
+    def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, list[float]]]]:
+        """Pixels an object of each category would cover on each in-view site of each viewpoint,
+        one count per placement slot of the site.
+
+        Computed from the house geometry and the object models alone (one object of the category
+        standing alone at each of the site's :meth:`slot_count` slots in turn, seen from the
+        viewpoint facing the site), never from where objects truly are. Returns viewpoint -> site
+        -> category -> [pixels at slot 0, slot 1, ...]; the agent weighs the slots
+        (:class:`~fg_tea.beliefs.detection.ViewModel`).
+        """
+        self._require_reset()
+        out: dict[str, dict[str, dict[str, list[float]]]] = {}
+        for k, view in enumerate(self._viewpoints):
+            out[view.name] = {s: self._expected_pixels(k, self._site_index(s), list(categories))
+                              for s in view.sites}
+        return out
+
+    def observe_state(self, obj: str, state: str, site: str | None,
+                      sensitivity: float, specificity: float) -> StateReading:
+        self._require_reset()
+        self._start = self._pose
+        self._spec(obj)
+        name = state if state.startswith(f"{obj}.") else f"{obj}.{state}"
+        frames: list[Pose] = []
+        if site is not None:
+            k = self._site_index(site)
+            frames, arrived = self._go_to(k)
+            if not arrived:
+                raise RuntimeError(f"site {site!r} became unreachable after the load-time check")
+            frames += self._face(self.scenario.sites[k].position)
+        frames += [self._pose] * int(self.config.look_frames)  # reading a state takes time too
+        value = self._truth.read_state(name, sensitivity, specificity, self._rng)
+        return StateReading(name, value, sensitivity, specificity, distance=self._travelled(frames),
+                            frames=len(frames), motion=_motion(frames))
+
+    def execute(self, request: ActionRequest) -> ActionResult:
+        self._require_reset()
+        self._start = self._pose
+        verb = request.verb.upper()
+        handler = {"NAVIGATE": self._navigate, "PICK": self._pick, "PLACE": self._place,
+                   "INSERT": self._insert, "FILL": self._effect_action, "USE": self._effect_action,
+                   "POUR": self._pour, "WAIT": self._wait}.get(verb)
+        if handler is None:
+            raise ValueError(f"verb {request.verb!r} is not an executable action here "
+                             "(SEARCH and INSPECT go through inspect_site and observe_state)")
+        self._spec(request.object)
+        if request.site is not None:
+            self._site_index(request.site)
+        if request.destination is not None:
+            self._spec(request.destination)
+        effect = request.effect if request.effect is not None else DEFAULT_EFFECT.get(verb)
+        if effect is not None and effect not in EFFECTS:
+            raise ValueError(f"unknown truth effect {effect!r} (known: {', '.join(EFFECTS)})")
+        rate = float(self.config.failure_rates.get(verb, 0.0))
+        if rate > 0.0 and float(self._rng.random()) < rate:
+            return self._result(False, "injected_failure", [])
+        return handler(request, effect)
+
+    def truth_report(self) -> dict:
+        self._require_reset()
+        truth = self._truth
+        return {"states": dict(sorted(truth.states.items())), "sites": dict(sorted(truth.site_of.items())),
+                "held": truth.held, "contained_in": dict(sorted(truth.contained_in.items()))}
+
+    def placements(self) -> Mapping[str, tuple[float, float, float]]:
+        self._require_reset()
+        return {name: (round(x, 4), round(y, 4), round(z, 4))
+                for name, (x, y, z) in sorted(self._positions.items())}
+
+    def move_object(self, name: str, site: str) -> None:
+        """Environment-side setup: put object `name` (truth and body) on `site` at a free slot.
+
+        For tests and counterfactual set-ups only; the agent side never calls it.
+        """
+        self._require_reset()
+        self._spec(name)
+        self._site_index(site)
+        self._truth.contained_in.pop(name, None)
+        if self._truth.held == name:
+            self._truth.held = None
+        self._truth.site_of[name] = None
+        position = self._free_slot(site)
+        self._truth.place(name, site)
+        self._positions[name] = position
+        self._sync()
+
+    # --- verbs -----------------------------------------------------------------------------
+
+    def _navigate(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        frames, arrived = self._go_to_site(self._needs_site(request))
+        if not arrived:
+            return self._result(False, "unreachable", frames)
+        return self._finish(effect, request, frames)
+
+    def _pick(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        k = self._needs_site(request)
+        site = self.scenario.sites[k]
+        if "graspable" not in self._spec(request.object).affordances:
+            return self._result(False, "not_graspable", [])
+        if self._truth.held is not None:
+            return self._result(False, "hands_full", [])
+        frames, arrived = self._go_to_site(k)
+        if not arrived:
+            return self._result(False, "unreachable", frames)
+        frames += self._face(site.position)
+        if self._truth.site_of.get(request.object) != site.name:
+            return self._result(False, "object_not_at_site", frames)
+        self._truth.pick(request.object)
+        self._carry()
+        return self._finish(effect, request, frames)
+
+    def _place(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        k = self._needs_site(request)
+        site = self.scenario.sites[k]
+        if self._truth.held != request.object:
+            return self._result(False, "not_held", [])
+        frames, arrived = self._go_to_site(k)
+        if not arrived:
+            return self._result(False, "unreachable", frames)
+        frames += self._face(site.position)
+        occupants = self._occupants(site.name)
+        if site.capacity is not None and len(occupants) >= site.capacity:
+            return self._result(False, "site_full", frames)
+        position = self._free_slot(site.name)
+        self._truth.place(request.object, site.name)
+        self._positions[request.object] = position
+        self._carry()
+        return self._finish(effect, request, frames)
+
+    def _insert(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        dest = request.destination
+        if dest is None:
+            raise ValueError("INSERT needs a destination object")
+        if self._truth.held != request.object:
+            return self._result(False, "not_held", [])
+        if "container" not in self._spec(dest).affordances:
+            return self._result(False, "not_a_container", [])
+        frames, ok, reason = self._approach(request.site, dest, "destination")
+        if not ok:
+            return self._result(False, reason, frames)
+        self._truth.insert(request.object, dest)
+        self._positions[request.object] = self._inside_position(request.object, dest)
+        self._carry()
+        return self._finish(effect, request, frames)
+
+    def _pour(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        dest = request.destination
+        if dest is None:
+            raise ValueError("POUR needs a destination object")
+        if self._truth.held != request.object:
+            return self._result(False, "not_held", [])
+        if "container" not in self._spec(dest).affordances:
+            return self._result(False, "not_a_container", [])
+        frames, ok, reason = self._approach(request.site, dest, "destination")
+        if not ok:
+            return self._result(False, reason, frames)
+        return self._finish(effect, request, frames)
+
+    def _effect_action(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        frames, ok, reason = self._approach(request.site, request.object, "object")
+        if not ok:
+            return self._result(False, reason, frames)
+        return self._finish(effect, request, frames)
+
+    def _wait(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        return self._finish(effect, request, [])
+
+    # --- helpers ---------------------------------------------------------------------------
+
+    def _approach(self, site: str | None, obj: str, role: str) -> tuple[list[Pose], bool, str]:
+        """Go to `site` if given, then check `obj` is held, at that site, or within reach."""
+        frames: list[Pose] = []
+        if self._truth.held == obj:
+            return frames, True, ""
+        if site is not None:
+            k = self._site_index(site)
+            frames, arrived = self._go_to_site(k)
+            if not arrived:
+                return frames, False, "unreachable"
+            frames += self._face(self.scenario.sites[k].position)
+            if self._truth.site_of.get(obj) != site:
+                return frames, False, f"{role}_not_at_site"
+            return frames, True, ""
+        x, y, _ = self._positions[obj]
+        if math.hypot(x - self._pose.x, y - self._pose.y) > REACH_M:
+            return frames, False, f"{role}_out_of_reach"
+        return frames, True, ""
+
+    def _finish(self, effect: str | None, request: ActionRequest, frames: list[Pose]) -> ActionResult:
+        if effect is not None:
+            self._truth.apply_effect(effect, request.object, request.destination, self._rng)
+        return self._result(True, "", frames)
+
+    def _result(self, ok: bool, reason: str, frames: list[Pose]) -> ActionResult:
+        self._sync()
+        return ActionResult(ok, reason, distance=self._travelled(frames), frames=len(frames),
+                            motion=_motion(frames), placements=self.placements())
+
+    def _go_to_site(self, k: int) -> tuple[list[Pose], bool]:
+        return self._go_to(k)
+
+    def _go_to(self, k: int) -> tuple[list[Pose], bool]:
+        """Walk to target k's floor point (site k's vantage for k < K); (frames, arrived)."""
+        vx, vy = self._viewpoints[k].position
+        if math.hypot(vx - self._pose.x, vy - self._pose.y) < 1e-9:
+            return [], True
+        frames = self._route(k)
+        if frames is None:
+            return [], False
+        self._advance(frames)
+        return frames, True
+
+    def _advance(self, frames: list[Pose]) -> None:
+        if frames:
+            start = self._pose
+            self._pose = frames[-1]
+            self._carry()
+            self._on_frames(frames, start)
+
+    def _travelled(self, frames: Sequence[Pose]) -> float:
+        """Path length (m) of `frames`, starting from the pose the current call began at."""
+        total, prev = 0.0, self._start
+        assert prev is not None, "set when the current call began"
+        for pose in frames:
+            total += math.hypot(pose.x - prev.x, pose.y - prev.y)
+            prev = pose
+        return float(total)
+
+    def _face(self, target: Sequence[float]) -> list[Pose]:
+        from fg_tea.env.motion import turn_frames
+
+        yaw = math.degrees(math.atan2(target[1] - self._pose.y, target[0] - self._pose.x))
+        frames = turn_frames(self._pose, yaw, self.config)
+        self._advance(frames)
+        return frames
+
+    def _carry(self) -> None:
+        """Move the held object (and its contents) to its riding position in front of the agent."""
+        held = self._truth.held
+        if held is not None:
+            self._positions[held] = held_position(self._pose, self.config)
+            for inner in self._truth.contents_of(held):
+                self._positions[inner] = self._inside_position(inner, held)
+
+    def _inside_position(self, obj: str, container: str) -> tuple[float, float, float]:
+        x, y, z = self._positions[container]
+        return (x, y, z + 0.035)
+
+    def _occupants(self, site: str) -> list[str]:
+        return sorted(o for o, s in self._truth.site_of.items()
+                      if s == site and o not in self._truth.contained_in)
+
+    def _free_slot(self, site: str) -> tuple[float, float, float]:
+        """The first slot of `site` that no object standing there occupies."""
+        occupants = self._occupants(site)
+        taken = {self._positions[o][:2] for o in occupants}
+        for slot in range(2 * len(occupants) + 1):
+            position = self._slot_position(site, slot)
+            if position[:2] not in taken:
+                return position
+        return self._slot_position(site, len(occupants))
+
+    def _slot_position(self, site: str, slot: int) -> tuple[float, float, float]:
+        """Deterministic stand point of the `slot`-th object on a site's surface (x, y, z in m).
+
+        Slot 0 is the site position; further slots alternate right and left of it, perpendicular
+        to the vantage's view direction, SLOT_SPACING_M apart, clipped to the furniture top.
+        """
+        s = self.scenario.site(site)
+        px, py, pz = s.position
+        dx, dy = px - s.vantage[0], py - s.vantage[1]
+        norm = math.hypot(dx, dy) or 1.0
+        ux, uy = -dy / norm, dx / norm
+        offset = SLOT_SPACING_M * ((slot + 1) // 2) * (1 if slot % 2 else -1)
+        x, y = px + ux * offset, py + uy * offset
+        if s.furniture is not None:
+            box = self.scenario.house.furniture_named(s.furniture)
+            hx = max(box.size[0] / 2 - SLOT_MARGIN_M, 0.0)
+            hy = max(box.size[1] / 2 - SLOT_MARGIN_M, 0.0)
+            x = min(max(x, box.center[0] - hx), box.center[0] + hx)
+            y = min(max(y, box.center[1] - hy), box.center[1] + hy)
+        return (float(x), float(y), float(pz))
+
+    def _associated(self, obj: str, k: int) -> bool:
+        """Spatial association of eq. (29): the object stands within the radius of site k."""
+        if not self.config.site_association:
+            return True
+        x, y, z = self._positions[obj]
+        px, py, pz = self.scenario.sites[k].position
+        return math.dist((x, y, z), (px, py, pz)) <= self.config.site_association_radius
+
+    def _needs_site(self, request: ActionRequest) -> int:
+        if request.site is None:
+            raise ValueError(f"{request.verb} needs a site")
+        return self._site_index(request.site)
+
+    def _target_index(self, name: str) -> int:
+        try:
+            return self._target_of[name]
+        except KeyError:
+            raise ValueError(f"no site or viewpoint named {name!r} in scenario "
+                             f"{self.scenario.name!r}") from None
+
+    def _site_index(self, site: str) -> int:
+        try:
+            return self.scenario.site_index(site)
+        except KeyError as exc:
+            raise ValueError(str(exc.args[0])) from None
+
+    def _spec(self, name: str) -> ObjectSpec:
+        try:
+            return self._specs[name]
+        except KeyError:
+            raise ValueError(f"no object named {name!r} in scenario {self.scenario.name!r}") from None
+
+    def _require_reset(self) -> None:
+        if not hasattr(self, "_truth"):
+            raise RuntimeError("call reset(seed) before using the environment")
+
+
+def held_position(pose: Pose, config: EnvConfig) -> tuple[float, float, float]:
+    """Where a held object's base rides for agent pose `pose` (x, y, z in m; z from the floor).
+
+    The agent's body hovers at ``config.sensor_height``; the object hangs HELD_BELOW_M under it
+    and HELD_FORWARD_M ahead of it, below the egocentric camera's field of view.
+    """
+    yaw = math.radians(pose.yaw_deg)
+    return (pose.x + HELD_FORWARD_M * math.cos(yaw), pose.y + HELD_FORWARD_M * math.sin(yaw),
+            config.sensor_height - HELD_BELOW_M)
+
+
+def _motion(frames: Sequence[Pose]) -> tuple[tuple[float, float, float], ...]:
+    rows = [p.as_list() for p in frames]  # rounded as the log keeps them
+    return tuple((x, y, yaw) for x, y, yaw in rows)
