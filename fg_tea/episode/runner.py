@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from fg_tea.agent.agent import Agent
+from fg_tea.common.errors import InputError
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
 from fg_tea.env.base import EnvAdapter, EnvConfig
@@ -70,14 +71,28 @@ class RunConfig:
 
 
 def env_config_for(model: Model, base: EnvConfig | None = None, **overrides) -> EnvConfig:
-    """The embodiment config with the model's perception switches (eq. 29) applied."""
-    from dataclasses import replace
+    """The embodiment config with the model's perception switches (eq. 29) applied.
 
+    Which file sets what (docs/design.md §1.2): the model file says what the agent assumes; its
+    ``[perception]`` switches also choose the camera's detector here, so that the world's camera
+    is the one the model describes (the detectability experiments set the camera's curve apart,
+    through ``camera_curve``). Everything else about the embodiment is :class:`EnvConfig`'s.
+
+    Raises:
+        InputError: an override that would have no effect under this model's detector:
+            ``detection_miss_rate`` drops would-be detections of the threshold detector only.
+    """
     base = base or EnvConfig()
     fields = {"min_visible_pixels": model.min_visible_pixels, "site_association": model.site_association,
               "camera_curve": model.camera_curve if model.detector == "visibility" else None,
               **overrides}
-    return replace(base, **fields)
+    config = replace(base, **fields)
+    if config.detection_miss_rate and config.camera_curve is not None:
+        raise InputError(model.source or model.name, "detection_miss_rate",
+                         f"has no effect with model {model.name!r}: its visibility detector draws "
+                         "each detection from the camera's curve (docs/design.md §3.4); use a "
+                         "threshold-detector model (e.g. factorised_close) or change the curve")
+    return config
 
 
 class _EnvDistances:
