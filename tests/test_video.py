@@ -242,3 +242,18 @@ def test_belief_panel_keeps_the_sites_in_view_among_many():
     assert names == sorted(names, key=sites.index)  # scenario order
     small = OverlayState(sites=sites[:8], focus_object="mug", locations={"mug": q[:8]})
     assert [s for s, _ in belief_rows(small)] == sites[:8]
+
+
+def test_task_panel_draws_the_current_action_as_active(close_logged):
+    """From the first search on, the task panel shows the action being carried out as active."""
+    events = read_log(close_logged)
+    plan = plan_frames(events, VideoOptions(hold_seconds=0.1))
+    active = [[n for n, s in plan.overlays[f.overlay].tasks if s == "active"] for f in plan.frames]
+    # The first held frame after the start is the first decision, serving the first search.
+    first_decision = next(i for i, f in enumerate(plan.frames) if f.repeat > 1 and i > 0)
+    first_search = next(e["action"] for e in events if e.get("event") == "activate")
+    assert active[first_decision] == [first_search]
+    # Every practical action the log activated is active in some frame of the video.
+    activated = {e["action"] for e in events if e.get("event") == "activate"}
+    shown = {n for names in active for n in names}
+    assert activated <= shown, activated - shown

@@ -237,6 +237,9 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
             emit([], repeat_last=hold)
         elif kind == "belief":
             ov.locations, ov.states = e["locations"], e["states"]
+        elif kind == "activate":  # the action now being carried out is drawn as active
+            status[e["action"]] = "active"
+            ov.tasks = [(n, status[n]) for n, _ in tasks]
         if "graph" in e or "graph_after" in e:
             graph = e.get("graph_after") or e.get("graph")
             if isinstance(graph, dict):
