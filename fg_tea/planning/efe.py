@@ -464,7 +464,7 @@ class EFEPlanner:
 
 
 class FactorisedEFEPlanner(EFEPlanner):
-    """The original design's agent: docs/design.md eqs. (10)-(11) on the marginals, even if joint."""
+    """The original design's information gain: docs/design.md eqs. (10)-(11) on the marginals, even if joint."""
 
     name = "factorised_efe"
 
