@@ -213,10 +213,10 @@ def main(argv: list[str] | None = None) -> int:
         planners = [x for x in planners if x not in skipped]
     if args.worlds < 1:
         raise InputError("<command line>", "--worlds", f"{args.worlds}: must be at least 1")
-    if not world_path(args.world).exists():
+    if not world_path(args.world, "--world").exists():
         raise InputError("<command line>", "--world", f"unknown world {args.world!r}")
     for model in args.models:
-        load_model(model_path(model))  # InputError naming the file and the fault
+        load_model(model_path(model, "--models"))  # InputError naming the file and the fault
     for name in planners:
         check_planner(name)
     out = Path(args.out)

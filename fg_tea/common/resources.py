@@ -13,9 +13,12 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import difflib
 import importlib.resources
 from importlib.resources.abc import Traversable
 from pathlib import Path
+
+from fg_tea.common.errors import InputError
 
 DEFAULT_SCENARIO = "default_apartment"
 DEFAULT_MODEL = "factorised"
@@ -103,27 +106,53 @@ def _resolve(name: str | Path, kind: str, suffix: str) -> Path:
     return found if found is not None else path
 
 
+def _bare(name: str | Path) -> bool:
+    """A name that can only mean a bundled file: one part, no suffix, no such file here."""
+    path = Path(name)
+    return (not _exists(path) and not path.suffix and len(path.parts) == 1
+            and str(name) not in ("", ".", ".."))
+
+
+def _not_bundled(name: str | Path, what: str, kinds: tuple[str, ...]) -> InputError:
+    """One line for a bare name that is no file and no bundled name, with the nearest names."""
+    known = [n for k in kinds for n in bundled_names(k)]
+    close = difflib.get_close_matches(str(name), known, n=3, cutoff=0.6)
+    hint = (f"; did you mean {' or '.join(repr(c) for c in close)}?" if close
+            else f" (bundled: {', '.join(known)})")
+    return InputError(name, "$", f"no such file, nor a bundled {what} of that name{hint}")
+
+
+def _resolve_named(name: str | Path, what: str, kinds: tuple[str, ...]) -> Path:
+    for kind in kinds:
+        folder, suffix, _ = KINDS[kind]
+        path = _resolve(name, folder, suffix)
+        if _exists(path) or not _bare(name):
+            return path
+    raise _not_bundled(name, what, kinds)
+
+
 def resolve_scenario(name: str | Path) -> Path:
-    """A scenario path, or the bundled scenario of that name."""
-    return _resolve(name, "scenarios", ".json")
+    """A scenario path, or the bundled scenario of that name.
+
+    Raises:
+        InputError: a bare name that is neither a file nor a bundled scenario ("did you mean").
+    """
+    return _resolve_named(name, "scenario", ("scenarios",))
 
 
 def resolve_model(name: str | Path) -> Path:
     """A model path, or the bundled model of that name, or else the bundled ablation of that name."""
-    path = _resolve(name, "models", ".toml")
-    if path == Path(name) and not _exists(path):
-        return _resolve(name, "models/ablations", ".toml")
-    return path
+    return _resolve_named(name, "model or ablation", ("models", "ablations"))
 
 
 def resolve_task(name: str | Path) -> Path:
     """A task path, or the bundled task of that name."""
-    return _resolve(name, "scenarios/tasks", ".json")
+    return _resolve_named(name, "task", ("tasks",))
 
 
 def resolve_world(name: str | Path) -> Path:
     """A world-distribution path, or the bundled world distribution of that name."""
-    return _resolve(name, "scenarios/worlds", ".json")
+    return _resolve_named(name, "world distribution", ("worlds",))
 
 
 def bundled(kind: str, suffix: str) -> list[Path]:

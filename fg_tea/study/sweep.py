@@ -190,18 +190,37 @@ def world_names() -> tuple[str, ...]:
     return tuple(bundled_names("worlds"))
 
 
-def world_path(ref: str) -> Path:
-    """The file of a world reference: a bundled world distribution or a path."""
+def _unknown(option: str, what: str, ref: str, exc: InputError) -> InputError:
+    file = "<command line>" if option.startswith("--") else _CLI
+    return InputError(file, option, f"unknown {what} {ref!r}: {exc.fault}")
+
+
+def world_path(ref: str, option: str = "world") -> Path:
+    """The file of a world reference: a bundled world distribution or a path.
+
+    Raises:
+        InputError: naming `option`, for a bare name that is no file and no bundled world.
+    """
     from fg_tea.common.resources import resolve_world
 
-    return resolve_world(ref)
+    try:
+        return resolve_world(ref)
+    except InputError as exc:
+        raise _unknown(option, "world", ref, exc) from None
 
 
-def model_path(ref: str) -> Path:
-    """The file of a model reference: a bundled model, a bundled ablation, or a path."""
+def model_path(ref: str, option: str = "model") -> Path:
+    """The file of a model reference: a bundled model, a bundled ablation, or a path.
+
+    Raises:
+        InputError: naming `option`, for a bare name that is no file, model or ablation.
+    """
     from fg_tea.common.resources import resolve_model
 
-    return resolve_model(ref)
+    try:
+        return resolve_model(ref)
+    except InputError as exc:
+        raise _unknown(option, "model", ref, exc) from None
 
 
 @lru_cache(maxsize=64)
