@@ -44,6 +44,7 @@ import math
 import os
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -674,38 +675,61 @@ def _process(jobs: Sequence[Job], workers: int | None, address: str | None) -> I
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _ray(jobs: Sequence[Job], workers: int | None, address: str | None) -> Iterator[dict]:
+def _import_ray():
     try:
         import ray
     except ImportError:
         raise InputError("<command line>", "--executor ray", "Ray is not installed; install it with "
                          "pip install -e \".[ray]\" (or pip install \"ray[default]>=2.9\")") from None
+    return ray
+
+
+def _ray_options() -> dict[str, Any]:
     import logging
 
-    started = not ray.is_initialized()
-    if started:
-        options: dict[str, Any] = {"include_dashboard": False, "logging_level": logging.WARNING,
-                                   "log_to_driver": False}
-        if address:
-            _check_reachable(address)
-            ray.init(address=address, **options)
-        else:
-            ray.init(num_cpus=workers or os.cpu_count() or 1, **options)
+    return {"include_dashboard": False, "logging_level": logging.WARNING, "log_to_driver": False}
+
+
+@contextmanager
+def local_ray(workers: int | None = None) -> Iterator[Any]:
+    """Start a local Ray instance with `workers` CPUs (None or 0: every core), yield the ray
+    module, and shut Ray down afterwards."""
+    ray = _import_ray()
+    ray.init(num_cpus=workers or os.cpu_count() or 1, **_ray_options())
     try:
-        remote = ray.remote(num_cpus=1)(run_job)
-        refs = {remote.remote(job): job for job in jobs}
-        pending = list(refs)
-        while pending:
-            finished, pending = ray.wait(pending, num_returns=1)
-            try:
-                yield ray.get(finished[0])
-            except Exception as exc:
-                for ref in pending:
-                    ray.cancel(ref)
-                raise SweepError(refs[finished[0]], exc) from exc
+        yield ray
     finally:
-        if started:
+        ray.shutdown()
+
+
+def _ray_tasks(ray, jobs: Sequence[Job]) -> Iterator[dict]:
+    remote = ray.remote(num_cpus=1)(run_job)
+    refs = {remote.remote(job): job for job in jobs}
+    pending = list(refs)
+    while pending:
+        finished, pending = ray.wait(pending, num_returns=1)
+        try:
+            yield ray.get(finished[0])
+        except Exception as exc:
+            for ref in pending:
+                ray.cancel(ref)
+            raise SweepError(refs[finished[0]], exc) from exc
+
+
+def _ray(jobs: Sequence[Job], workers: int | None, address: str | None) -> Iterator[dict]:
+    ray = _import_ray()
+    if ray.is_initialized():  # a caller's own Ray (e.g. :func:`local_ray`): used as it is
+        yield from _ray_tasks(ray, jobs)
+    elif address:
+        _check_reachable(address)
+        ray.init(address=address, **_ray_options())
+        try:
+            yield from _ray_tasks(ray, jobs)
+        finally:
             ray.shutdown()
+    else:
+        with local_ray(workers):
+            yield from _ray_tasks(ray, jobs)
 
 
 #: Seconds to wait for a Ray head to accept a connection before giving up.

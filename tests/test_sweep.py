@@ -17,6 +17,7 @@ import csv
 import json
 import math
 import os
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -94,16 +95,48 @@ def test_serial_and_process_pool_write_identical_csvs(process_csv, tmp_path):
     assert [r["key"] for r in rows] == sorted(r["key"] for r in rows)
 
 
-def test_ray_local_instance_writes_the_process_pool_csv(process_csv, tmp_path):
+LOOPBACK = {"127.0.0.1", "::1", "::ffff:127.0.0.1"}
+
+
+def sockets_of_children() -> list[tuple[str, str, str, str, str]]:
+    """Every TCP and UDP socket (IPv4 and IPv6, listening or connected) of this process's children.
+
+    As (process name, kind, status, local address, remote address); unix sockets are not listed.
+    """
+    import ray  # noqa: F401  # Ray vendors psutil; the test extra also names it
+    import psutil
+
+    found = []
+    for proc in psutil.Process().children(recursive=True):
+        try:
+            name, conns = proc.name(), proc.net_connections(kind="inet")
+        except (psutil.NoSuchProcess, psutil.ZombieProcess):
+            continue
+        for c in conns:
+            kind = ("tcp" if c.type == socket.SOCK_STREAM else "udp") + ("6" if c.family == socket.AF_INET6 else "4")
+            found.append((name, kind, c.status, c.laddr.ip if c.laddr else "", c.raddr.ip if c.raddr else ""))
+    return found
+
+
+def test_local_ray_binds_and_talks_on_loopback_only_and_writes_the_process_pool_csv(process_csv, tmp_path):
     import ray  # installed by the test extra; a missing Ray is a failure, not a skip
 
     path = tmp_path / "episodes.csv"
     try:
-        run_sweep(tiny_jobs(), path, "ray", workers=2, progress=False)
+        with sweep.local_ray(workers=2):
+            run_sweep(tiny_jobs(), path, "ray", workers=2, progress=False)
+            node_ip = ray.util.get_node_ip_address()
+            found = sockets_of_children()  # while Ray is up: its servers and their connections
     finally:
         if ray.is_initialized():
             ray.shutdown()
     assert path.read_bytes() == process_csv
+    names = {name for name, *_ in found}
+    assert {"gcs_server", "raylet"} <= names  # the snapshot saw Ray's processes
+    assert any(status == "LISTEN" for _, _, status, _, _ in found)
+    outside = [s for s in found if s[3] not in LOOPBACK or (s[4] and s[4] not in LOOPBACK)]
+    assert outside == []
+    assert node_ip == "127.0.0.1"
 
 
 def test_unknown_backend_is_an_input_error(tmp_path):
