@@ -194,6 +194,33 @@ def test_local_ray_binds_and_talks_on_loopback_only_and_writes_the_process_pool_
     assert node_ip == "127.0.0.1"
 
 
+def _can_unshare_network() -> bool:
+    try:
+        return subprocess.run(["unshare", "-n", "--", "ip", "link", "set", "lo", "up"],
+                              capture_output=True, timeout=30).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+
+
+@pytest.mark.slow
+def test_compare_on_a_local_ray_runs_in_a_network_namespace_with_only_loopback(tmp_path):
+    """No interface but loopback, no route, no DNS: the local Ray needs none of them.
+
+    A plain ``ray.init`` passes here too (without an interface Ray falls back to 127.0.0.1); this
+    guards the token and proxy settings. The socket test above is what pins the binding."""
+    pytest.importorskip("ray")
+    if not sys.platform.startswith("linux") or not _can_unshare_network():
+        pytest.skip("unshare -n (a private network namespace) is not permitted here")
+    out = tmp_path / "out"
+    script = (f"ip link set lo up && exec {sys.executable} -m fg_tea.cli compare --executor ray "
+              f"--quick --env fake --worlds 2 --out {out}")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    done = subprocess.run(["unshare", "-n", "--", "bash", "-c", script], capture_output=True, text=True,
+                          timeout=300, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert len(read_rows(out / "episodes.csv")) == 16
+
+
 def fg_tea(argv) -> tuple[int, str]:
     """Run ``fg-tea argv`` in-process; return (exit status, stderr)."""
     import contextlib
