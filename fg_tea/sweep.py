@@ -838,10 +838,9 @@ def connected_ray(address: str) -> Iterator[Any]:
             ray.init(address=address, **_ray_options())
         except Exception as exc:
             ray.shutdown()
-            hint = ""
-            if "auth" in f"{type(exc).__name__} {exc}".lower():
-                hint = ("; the cluster wants its token: set RAY_AUTH_MODE=token and RAY_AUTH_TOKEN "
-                        "(or ~/.ray/auth_token) as for its ray start")
+            # Something answered at the address, so a refusal is most often authentication.
+            hint = ("; a cluster with token authentication needs RAY_AUTH_MODE=token and its "
+                    "RAY_AUTH_TOKEN (or ~/.ray/auth_token) here as for its ray start")
             raise InputError("<command line>", f"--address {address}",
                              f"cannot connect to Ray ({_cause(exc)}){hint}") from None
         try:
