@@ -745,12 +745,15 @@ def loopback_ray_env() -> dict[str, str]:
 def _reload_ray_config() -> None:
     """Make this process's Ray read its configuration (authentication mode, token) from the
     environment again: Ray caches both on first use, possibly before the variables were set."""
-    try:
-        from ray._raylet import AuthenticationTokenLoader, Config
-    except ImportError:  # a Ray without token authentication
+    import importlib
+
+    raylet = importlib.import_module("ray._raylet")  # its stubs lack these two
+    config = getattr(raylet, "Config", None)
+    loader = getattr(raylet, "AuthenticationTokenLoader", None)
+    if config is None or loader is None:  # a Ray without token authentication
         return
-    Config.initialize("")
-    AuthenticationTokenLoader.instance().reset_cache()
+    config.initialize("")
+    loader.instance().reset_cache()
 
 
 @contextmanager
