@@ -17,6 +17,7 @@ import csv
 import json
 import math
 import os
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -94,16 +95,190 @@ def test_serial_and_process_pool_write_identical_csvs(process_csv, tmp_path):
     assert [r["key"] for r in rows] == sorted(r["key"] for r in rows)
 
 
-def test_ray_local_instance_writes_the_process_pool_csv(process_csv, tmp_path):
+LOOPBACK = {"127.0.0.1", "::1", "::ffff:127.0.0.1"}
+
+
+def sockets_of_children() -> list[tuple[str, str, str, str, str]]:
+    """Every TCP and UDP socket (IPv4 and IPv6, listening or connected) of this process's children.
+
+    As (process name, kind, status, local address, remote address); unix sockets are not listed.
+    """
+    import ray  # noqa: F401  # Ray vendors psutil; the test extra also names it
+    import psutil
+
+    found = []
+    for proc in psutil.Process().children(recursive=True):
+        try:
+            name, conns = proc.name(), proc.net_connections(kind="inet")
+        except (psutil.NoSuchProcess, psutil.ZombieProcess):
+            continue
+        for c in conns:
+            kind = ("tcp" if c.type == socket.SOCK_STREAM else "udp") + ("6" if c.family == socket.AF_INET6 else "4")
+            found.append((name, kind, c.status, c.laddr.ip if c.laddr else "", c.raddr.ip if c.raddr else ""))
+    return found
+
+
+class HttpTrap:
+    """A loopback TCP listener that records the first line of every request made to it."""
+
+    def __init__(self) -> None:
+        import threading
+
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.server.settimeout(0.2)
+        self.url = f"http://127.0.0.1:{self.server.getsockname()[1]}"
+        self.requests: list[str] = []
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def _serve(self) -> None:
+        while not self.stop.is_set():
+            try:
+                conn, _ = self.server.accept()
+            except OSError:
+                continue
+            with conn:
+                conn.settimeout(2)
+                try:
+                    self.requests.append(conn.recv(4096).decode("latin-1").split("\r\n")[0])
+                except OSError:
+                    pass
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join()
+        self.server.close()
+
+
+def test_local_ray_binds_and_talks_on_loopback_only_and_writes_the_process_pool_csv(process_csv, tmp_path,
+                                                                                     monkeypatch):
+    import time
+
     import ray  # installed by the test extra; a missing Ray is a failure, not a skip
+    from ray._raylet import AuthenticationTokenLoader
 
     path = tmp_path / "episodes.csv"
+    before = {k: os.environ.get(k) for k in sweep.loopback_ray_env()}
+    trap = HttpTrap()  # stands in for the dead proxy, to see what Ray's processes send there
+    monkeypatch.setattr(sweep, "RAY_DEAD_PROXY", trap.url)
     try:
-        run_sweep(tiny_jobs(), path, "ray", workers=2, progress=False)
+        with sweep.local_ray(workers=2):
+            run_sweep(tiny_jobs(), path, "ray", workers=2, progress=False)
+            deadline = time.monotonic() + 15
+            while not trap.requests and time.monotonic() < deadline:
+                time.sleep(0.2)
+            node_ip = ray.util.get_node_ip_address()
+            found = sockets_of_children()  # while Ray is up: its servers and their connections
+            token = os.environ["RAY_AUTH_TOKEN"]
+            worker_token = ray.get(ray.remote(lambda: os.environ.get("RAY_AUTH_TOKEN")).remote())
+            driver_token = AuthenticationTokenLoader.instance().get_raw_token()
     finally:
+        trap.close()
         if ray.is_initialized():
             ray.shutdown()
     assert path.read_bytes() == process_csv
+    # Ray's cloud detection (169.254.169.254, metadata.google.internal) went to the proxy on
+    # loopback, not out; if Ray stops probing, this fails and the proxy can go.
+    assert trap.requests and all("169.254.169.254" in r or "metadata.google.internal" in r
+                                 for r in trap.requests), trap.requests
+    # Token authentication, one random token shared by driver and workers; the driver's
+    # environment is as it was afterwards.
+    assert len(token) == 64 and driver_token == worker_token == token
+    assert {k: os.environ.get(k) for k in before} == before
+    names = {name for name, *_ in found}
+    assert {"gcs_server", "raylet"} <= names  # the snapshot saw Ray's processes
+    assert any(status == "LISTEN" for _, _, status, _, _ in found)
+    outside = [s for s in found if s[3] not in LOOPBACK or (s[4] and s[4] not in LOOPBACK)]
+    assert outside == []
+    assert node_ip == "127.0.0.1"
+
+
+def _can_unshare_network() -> bool:
+    try:
+        return subprocess.run(["unshare", "-n", "--", "ip", "link", "set", "lo", "up"],
+                              capture_output=True, timeout=30).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+
+
+@pytest.mark.slow
+def test_compare_on_a_local_ray_runs_in_a_network_namespace_with_only_loopback(tmp_path):
+    """No interface but loopback, no route, no DNS: the local Ray needs none of them.
+
+    A plain ``ray.init`` passes here too (without an interface Ray falls back to 127.0.0.1); this
+    guards the token and proxy settings. The socket test above is what pins the binding."""
+    pytest.importorskip("ray")
+    if not sys.platform.startswith("linux") or not _can_unshare_network():
+        pytest.skip("unshare -n (a private network namespace) is not permitted here")
+    out = tmp_path / "out"
+    script = (f"ip link set lo up && exec {sys.executable} -m fg_tea.cli compare --executor ray "
+              f"--quick --env fake --worlds 2 --out {out}")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    done = subprocess.run(["unshare", "-n", "--", "bash", "-c", script], capture_output=True, text=True,
+                          timeout=300, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert len(read_rows(out / "episodes.csv")) == 16
+
+
+def fg_tea(argv) -> tuple[int, str]:
+    """Run ``fg-tea argv`` in-process; return (exit status, stderr)."""
+    import contextlib
+    import io
+
+    from fg_tea.cli import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        status = main([str(a) for a in argv])
+    return status, err.getvalue()
+
+
+def compare_on_ray(tmp_path, *address: str) -> list[str]:
+    return ["compare", "--executor", "ray", *(["--address", *address] if address else []), "--quick",
+            "--env", "fake", "--worlds", "1", "--planners", "nearest", "--out", tmp_path / "out"]
+
+
+def one_line_error(status: int, err: str) -> str:
+    assert status == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert err.startswith("fg-tea: error: ") and "<output>" not in err, err
+    return err.strip()
+
+
+def test_ray_address_with_a_port_that_is_not_a_number_is_one_line(tmp_path):
+    pytest.importorskip("ray")
+    line = one_line_error(*fg_tea(compare_on_ray(tmp_path, "127.0.0.1:notaport")))
+    assert "--address" in line and "'notaport' is not a number" in line, line
+
+
+def test_ray_that_cannot_start_or_connect_names_the_address_and_the_cause(tmp_path, monkeypatch):
+    """Ray's own failures (a ConnectionError is an OSError) name the executor or the address and
+    Ray's reason, not the ``<output>`` of a failed write; the driver's environment is restored."""
+    ray = pytest.importorskip("ray")
+    from ray._private import ray_constants
+
+    def refuse(*args, **kwargs):
+        raise ConnectionError(f"Failed to connect to Ray cluster at {kwargs.get('address')}.\nDetails")
+
+    monkeypatch.setattr(ray, "init", refuse)
+    before = {k: os.environ.get(k) for k in sweep.loopback_ray_env()}
+    cluster = ray_constants.ENABLE_RAY_CLUSTER
+    line = one_line_error(*fg_tea(compare_on_ray(tmp_path)))
+    assert line == ("fg-tea: error: <command line>: --executor ray: cannot start a local Ray instance "
+                    "on 127.0.0.1 (ConnectionError: Failed to connect to Ray cluster at None.)")
+    with socket.socket() as head:  # something answering on loopback, so the address is tried
+        head.bind(("127.0.0.1", 0))
+        head.listen()
+        address = f"127.0.0.1:{head.getsockname()[1]}"
+        line = one_line_error(*fg_tea(compare_on_ray(tmp_path, address)))
+        assert line.startswith(f"fg-tea: error: <command line>: --address {address}: cannot connect to "
+                               f"Ray (ConnectionError: Failed to connect to Ray cluster at {address}.); "), line
+        monkeypatch.setattr(ray, "init", lambda **kw: (_ for _ in ()).throw(
+            RuntimeError("Authentication token is missing or incorrect")))
+        line = one_line_error(*fg_tea(compare_on_ray(tmp_path, address)))
+        assert "RAY_AUTH_MODE=token" in line and "RAY_AUTH_TOKEN" in line, line
+    assert {k: os.environ.get(k) for k in before} == before
+    assert ray_constants.ENABLE_RAY_CLUSTER == cluster
 
 
 def test_unknown_backend_is_an_input_error(tmp_path):
