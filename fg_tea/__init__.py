@@ -40,8 +40,8 @@ _API = {
     "Planner": "fg_tea.planning.base",
     "register_planner": "fg_tea.planning.plugins",
     "planner_names": "fg_tea.planning",
-    "make_env": "fg_tea.episode.runner",
-    "run_episode": "fg_tea.episode.runner",
+    "make_env": "fg_tea.episode.run",
+    "run_episode": "fg_tea.episode.run",
     "EpisodeRunner": "fg_tea.episode.runner",
     "RunConfig": "fg_tea.episode.runner",
     "EventLog": "fg_tea.episode.log",
@@ -72,7 +72,8 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load o
     from fg_tea.agent.agent import Agent
     from fg_tea.common.errors import ContradictionError, InputError
     from fg_tea.episode.log import EventLog, read_log
-    from fg_tea.episode.runner import EpisodeRunner, RunConfig, make_env, run_episode
+    from fg_tea.episode.run import make_env, run_episode
+    from fg_tea.episode.runner import EpisodeRunner, RunConfig
     from fg_tea.model.spec import load_model
     from fg_tea.planning import planner_names
     from fg_tea.planning.base import Candidate, Decision, Planner

@@ -17,6 +17,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from fg_tea.env.base import EnvAdapter, EnvConfig
+from fg_tea.env.motion import held_position, motion_of
 from fg_tea.env.truth import EFFECTS, TeaTruth
 from fg_tea.world.interface import (
     ActionRequest,
@@ -42,14 +43,6 @@ SLOT_SPACING_M = 0.16
 
 #: Edge margin (m) kept between a slot and the edge of its furniture top.
 SLOT_MARGIN_M = 0.06
-
-
-#: Where a held object rides, in the agent frame: metres forward and metres below the body centre.
-#: Low enough to stay below the egocentric camera's field of view.
-HELD_FORWARD_M = 0.16
-
-
-HELD_BELOW_M = 0.46
 
 
 class TruthBackedAdapter(EnvAdapter):
@@ -205,7 +198,7 @@ class TruthBackedAdapter(EnvAdapter):
         frames, arrived = self._go_to(k)
         if not arrived:
             return InspectionResult(viewpoint, {}, {}, reachable=False, distance=self._travelled(frames),
-                                    frames=len(frames), motion=_motion(frames), image_size=size,
+                                    frames=len(frames), motion=motion_of(frames), image_size=size,
                                     kind=view.kind, sites=view.sites)
         in_view = [self._site_index(s) for s in view.sites]
         # Which in-view site each considered object stands at (eq. 29's association), if any.
@@ -231,7 +224,7 @@ class TruthBackedAdapter(EnvAdapter):
                               for s in view.sites} for name in considered}
         return InspectionResult(viewpoint, detections, {n: int(counts[n]) for n in considered},
                                 reachable=True, distance=self._travelled(frames), frames=len(frames),
-                                motion=_motion(frames), image_size=size, kind=view.kind,
+                                motion=motion_of(frames), image_size=size, kind=view.kind,
                                 sites=view.sites, found_at=found_at, view_pixels=view_pixels)
 
     def _sweep_order(self, sites: Sequence[int]) -> list[int]:
@@ -314,7 +307,7 @@ class TruthBackedAdapter(EnvAdapter):
         frames += [self._pose] * int(self.config.look_frames)  # reading a state takes time too
         value = self._truth.read_state(name, sensitivity, specificity, self._rng)
         return StateReading(name, value, sensitivity, specificity, distance=self._travelled(frames),
-                            frames=len(frames), motion=_motion(frames))
+                            frames=len(frames), motion=motion_of(frames))
 
     def execute(self, request: ActionRequest) -> ActionResult:
         self._require_reset()
@@ -477,7 +470,7 @@ class TruthBackedAdapter(EnvAdapter):
     def _result(self, ok: bool, reason: str, frames: list[Pose]) -> ActionResult:
         self._sync()
         return ActionResult(ok, reason, distance=self._travelled(frames), frames=len(frames),
-                            motion=_motion(frames), placements=self.placements())
+                            motion=motion_of(frames), placements=self.placements())
 
     def _go_to_site(self, k: int) -> tuple[list[Pose], bool]:
         return self._go_to(k)
@@ -601,17 +594,3 @@ class TruthBackedAdapter(EnvAdapter):
             raise RuntimeError("call reset(seed) before using the environment")
 
 
-def held_position(pose: Pose, config: EnvConfig) -> tuple[float, float, float]:
-    """Where a held object's base rides for agent pose `pose` (x, y, z in m; z from the floor).
-
-    The agent's body hovers at ``config.sensor_height``; the object hangs HELD_BELOW_M under it
-    and HELD_FORWARD_M ahead of it, below the egocentric camera's field of view.
-    """
-    yaw = math.radians(pose.yaw_deg)
-    return (pose.x + HELD_FORWARD_M * math.cos(yaw), pose.y + HELD_FORWARD_M * math.sin(yaw),
-            config.sensor_height - HELD_BELOW_M)
-
-
-def _motion(frames: Sequence[Pose]) -> tuple[tuple[float, float, float], ...]:
-    rows = [p.as_list() for p in frames]  # rounded as the log keeps them
-    return tuple((x, y, yaw) for x, y, yaw in rows)

@@ -19,8 +19,8 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
-from fg_tea.env.motion import follow_path
 from fg_tea.env.adapter import TruthBackedAdapter
+from fg_tea.env.motion import follow_path
 from fg_tea.world.interface import Pose
 
 #: Pixel count reported for an object that truly stands at the inspected site.

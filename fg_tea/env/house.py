@@ -35,9 +35,9 @@ import numpy as np
 from fg_tea.common.files import atomic_write_text
 from fg_tea.env import assets
 from fg_tea.env._pybullet import pybullet
+from fg_tea.env.adapter import TruthBackedAdapter
 from fg_tea.env.base import EnvConfig
-from fg_tea.env.motion import follow_path
-from fg_tea.env.adapter import TruthBackedAdapter, held_position
+from fg_tea.env.motion import follow_path, held_position
 from fg_tea.world.interface import Pose
 from fg_tea.world.navigation import Navigator, path_length, wall_boxes
 from fg_tea.world.scenario import Scenario

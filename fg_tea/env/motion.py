@@ -68,3 +68,25 @@ def turn_frames(pose: Pose, target_yaw_deg: float, config: EnvConfig) -> list[Po
             return frames
         yaw = wrap_deg(yaw + max(-config.turn_step_deg, min(config.turn_step_deg, err)))
         frames.append(Pose(pose.x, pose.y, yaw))
+
+
+#: Where a held object rides, in the agent frame: metres forward and metres below the body centre.
+#: Low enough to stay below the egocentric camera's field of view.
+HELD_FORWARD_M = 0.16
+HELD_BELOW_M = 0.46
+
+
+def held_position(pose: Pose, config: EnvConfig) -> tuple[float, float, float]:
+    """Where a held object's base rides for agent pose `pose` (x, y, z in m; z from the floor).
+
+    The agent's body hovers at ``config.sensor_height``; the object hangs HELD_BELOW_M under it
+    and HELD_FORWARD_M ahead of it, below the egocentric camera's field of view.
+    """
+    yaw = math.radians(pose.yaw_deg)
+    return (pose.x + HELD_FORWARD_M * math.cos(yaw), pose.y + HELD_FORWARD_M * math.sin(yaw),
+            config.sensor_height - HELD_BELOW_M)
+
+
+def motion_of(frames: Sequence[Pose]) -> tuple[tuple[float, float, float], ...]:
+    rows = [p.as_list() for p in frames]  # rounded as the log keeps them
+    return tuple((x, y, yaw) for x, y, yaw in rows)

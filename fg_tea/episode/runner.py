@@ -29,9 +29,9 @@ from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from fg_tea.agent.agent import Agent
-from fg_tea.common.errors import InputError
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
+from fg_tea.common.errors import InputError
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
@@ -256,13 +256,13 @@ class EpisodeRunner:
         if not model.close_looks_only:
             categories = sorted({self.scenario.object(o).category for o in self.belief.objects})
             expected = self.env.expected_pixel_counts(categories)
-        self.agent.set_view_geometry(expected)
+        views = self.agent.set_view_geometry(expected)
         self._yardstick_start = ((pose.x, pose.y), dict(self.env.truth_report().get("sites") or {}))
         # JSON records of the log (mixed value types); the yardstick reads them back.
         viewpoints: list[dict[str, Any]] = [
             {"name": v.name, "kind": v.kind, "position": list(v.position),
              "sites": list(v.sites), "room": v.room}
-            for v in self.scenario.viewpoints if v.name in self.views.names]
+            for v in self.scenario.viewpoints if v.name in views.names]
         self._viewpoints_logged = viewpoints
         from fg_tea.common.resources import _resolve, resolve_task
 
@@ -544,67 +544,3 @@ def _env_params(config: EnvConfig) -> dict:
     out["failure_rates"] = dict(config.failure_rates)
     out["camera_curve"] = config.camera_curve.to_json() if config.camera_curve else None
     return out
-
-
-# ---------------------------------------------------------------------------------- front door
-ENVIRONMENTS = ("pybullet", "fake")
-
-
-def make_env(scenario: Scenario, model: Model, kind: str = "pybullet", **config: Any) -> EnvAdapter:
-    """An environment for `scenario`, with the camera `model` assumes (docs/design.md §8).
-
-    Args:
-        scenario: the house (the environment reads its hidden truth; the agent never does).
-        model: the agent's model; its perception settings (detector, minimum pixels, site
-            association) configure the environment's camera so that what the agent assumes
-            matches what it sees (:func:`env_config_for`).
-        kind: ``"pybullet"`` (the rendered house with a segmentation camera) or ``"fake"`` (the
-            same geometry and truth without rendering: fast, for tests and sweeps).
-        **config: :class:`~fg_tea.env.base.EnvConfig` fields to override (``failure_rates``,
-            ``detection_miss_rate``, ``movement_step``...).
-
-    Returns:
-        An :class:`~fg_tea.env.base.EnvAdapter`; call ``close()`` when done (or use ``with``).
-    """
-    if kind not in ENVIRONMENTS:
-        raise ValueError(f"unknown environment {kind!r} (known: {', '.join(ENVIRONMENTS)})")
-    env_config = env_config_for(model, **config)
-    if kind == "fake":
-        from fg_tea.env.fake import FakeHouse
-
-        return FakeHouse(scenario, env_config)
-    from fg_tea.env.house import PyBulletHouse
-
-    return PyBulletHouse(scenario, env_config)
-
-
-def run_episode(scenario: Scenario, model: Model, *, planner: str = "efe", task: str = "make_tea",
-                seed: int = 0, env: str | EnvAdapter = "pybullet", log: str | Path | None = None,
-                max_frames: int = 50_000) -> EpisodeRunner:
-    """Run one whole episode, as ``fg-tea run --no-video`` does; return the finished runner.
-
-    Args:
-        scenario, model: the house and the agent's model (see :func:`fg_tea.load_scenario`,
-            :func:`fg_tea.load_model`).
-        planner, task, seed, max_frames: as the ``fg-tea run`` options of the same names.
-        env: ``"pybullet"``, ``"fake"`` or an environment you built (not closed here).
-        log: a JSONL file to write the events to, event by event (None keeps them in memory).
-
-    Returns:
-        The runner: ``.events`` (the log), ``.metrics()``, ``.agent`` (belief, planner, task).
-    """
-    own = isinstance(env, str)
-    adapter = make_env(scenario, model, env) if isinstance(env, str) else env
-    config = RunConfig(seed=seed, planner=planner, task=task, max_frames=max_frames)
-    try:
-        if log is None:
-            runner = EpisodeRunner(scenario, model, adapter, config)
-            runner.run()
-        else:
-            with EventLog(log) as file_log:
-                runner = EpisodeRunner(scenario, model, adapter, config, file_log)
-                runner.run()
-    finally:
-        if own:
-            adapter.close()
-    return runner
