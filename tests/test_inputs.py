@@ -180,3 +180,19 @@ def test_a_category_curve_inherits_what_it_does_not_set(tmp_path):
     same.write_text('extends = "factorised"\nname = "same"\n'
                     "[perception.visibility.categories.teabag]\nhalf_pixels = 50\n")
     assert load_model(same).camera_curve.params("teabag") == base.camera_curve.params("teabag")
+
+
+def test_a_relative_extends_path_resolves_against_the_extending_file(tmp_path, monkeypatch):
+    """``extends = "sub/base.toml"`` names a file beside the extending model, wherever the
+    command runs from (it used to be resolved against the working directory)."""
+    from fg_tea.model.spec import load_model
+
+    (tmp_path / "models" / "sub").mkdir(parents=True)
+    (tmp_path / "models" / "child.toml").write_text('extends = "sub/base.toml"\nname = "child"\n')
+    (tmp_path / "models" / "sub" / "base.toml").write_text(
+        'extends = "factorised"\nname = "base"\n[detection]\nmiss_likelihood = 0.2\n')
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    model = load_model(tmp_path / "models" / "child.toml")
+    assert model.name == "child" and model.miss_likelihood == 0.2

@@ -415,14 +415,25 @@ def _parent_path(path: Path, parent: object) -> Path:
         raise InputError(path, "$.extends", f"{parent!r} does not name a model file")
     if len(parent) > 255:
         raise InputError(path, "$.extends", f"a model name of {len(parent)} characters is too long")
+    hint = ""
     try:
         candidate = path.parent / f"{parent}.toml"
-        parent_path = candidate if candidate.is_file() else Path(resolve_model(parent))
+        named = Path(parent)
+        if candidate.is_file():  # a model beside this one wins over a bundled model
+            parent_path = candidate
+        elif named.suffix or len(named.parts) > 1:  # a path: relative to the extending file
+            parent_path = named if named.is_absolute() else path.parent / named
+        else:
+            try:
+                parent_path = Path(resolve_model(parent))
+            except InputError as exc:
+                parent_path, hint = named, exc.fault.partition(";")[2].rstrip("?")
+                hint = f" ({hint.strip()}?)" if hint else ""
         exists = parent_path.exists()
     except OSError as exc:
         raise InputError(path, "$.extends", f"model {parent!r} cannot be read: {exc.strerror}") from None
     if not exists:
-        raise InputError(path, "$.extends", f"model {parent!r} is referenced but not found")
+        raise InputError(path, "$.extends", f"model {parent!r} is referenced but not found{hint}")
     if not parent_path.is_file():
         raise InputError(path, "$.extends", f"{parent!r} is not a model file")
     return parent_path
