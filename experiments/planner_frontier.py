@@ -218,7 +218,10 @@ def main(argv: list[str] | None = None) -> int:
     if not world_path(args.world, "--world").exists():
         raise InputError("<command line>", "--world", f"unknown world {args.world!r}")
     for model in args.models:
-        load_model(model_path(model, "--models"))  # InputError naming the file and the fault
+        loaded = load_model(model_path(model, "--models"))  # InputError naming the file and the fault
+        if args.miss_rate is not None and loaded.detector != "threshold":
+            raise InputError("<command line>", "--miss-rate", f"has no effect with model {model!r}: "
+                             "its visibility detector draws each detection from the camera's curve")
     for name in planners:
         check_planner(name)
     out = Path(args.out)
