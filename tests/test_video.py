@@ -257,3 +257,12 @@ def test_task_panel_draws_the_current_action_as_active(close_logged):
     activated = {e["action"] for e in events if e.get("event") == "activate"}
     shown = {n for names in active for n in names}
     assert activated <= shown, activated - shown
+
+
+@pytest.mark.parametrize("pitch", [90.0, -90.0])
+def test_the_chase_camera_pitch_endpoints_render(pitch, tmp_path):
+    """--third-person-pitch accepts [-90, 90]; straight down and straight up render (they gave
+    NaN view matrices: the world's vertical was both the viewing direction and the image's up)."""
+    out = tmp_path / "p.png"
+    assert main(["preview", "--third-person-pitch", str(pitch), "--out", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -509,9 +509,16 @@ def cache_dir() -> Path:
 
 
 def _view(eye: Sequence[float], yaw: float, pitch: float) -> list:
+    """The view matrix of a camera at `eye` facing `yaw` (rad) and `pitch` (rad, up positive).
+
+    Looking straight down or up (pitch ±90°) the world's vertical is the viewing direction and
+    cannot be the image's up; the agent's heading is then (the image's top points forward).
+    """
     direction = (math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch))
     target = [eye[i] + direction[i] for i in range(3)]
-    return pybullet.computeViewMatrix(list(eye), target, [0.0, 0.0, 1.0])
+    up = [0.0, 0.0, 1.0] if abs(math.cos(pitch)) > 1e-6 else \
+        [-math.copysign(1.0, pitch) * math.cos(yaw), -math.copysign(1.0, pitch) * math.sin(yaw), 0.0]
+    return pybullet.computeViewMatrix(list(eye), target, up)
 
 
 def _sub_projection(proj: Sequence[float], width: int, height: int, window: tuple[int, int, int, int]) -> list:
