@@ -78,7 +78,7 @@ def problems(draw, max_objects: int = 4, max_sites: int = 5) -> Problem:
     problem = Problem(
         sites=tuple(f"site{j}" for j in range(k)), rooms=rooms, capacities=capacities,
         objects=tuple(f"obj{i}" for i in range(n)), categories=categories, weights=weights,
-        relations=tuple(relations), positive_update=draw(st.sampled_from(["blueprint", "likelihood"])),
+        relations=tuple(relations), positive_update=draw(st.sampled_from(["collapse", "likelihood"])),
         fp=draw(st.floats(1e-3, 0.2)), states=states)
     names = sorted(states)
     for _ in range(draw(st.integers(1, 6))):
@@ -172,7 +172,7 @@ class Reference:
         seen = [o for o in self.p.objects if det.get(o) is True]
         if not seen:
             return
-        if self.model.positive_update != "blueprint":
+        if self.model.positive_update != "collapse":
             for o in seen:
                 table = np.array([1 - mu if i == j else self.model.false_positive_rate for i in range(k)])
                 self.loc_factors.append(Factor((self.var(o),), table))

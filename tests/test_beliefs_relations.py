@@ -48,7 +48,7 @@ def all_finite(belief: BeliefEngine) -> bool:
 
 
 # ------------------------------------------------------------------ co-location and capacity
-@pytest.mark.parametrize("positive_update", ["blueprint", "likelihood"])
+@pytest.mark.parametrize("positive_update", ["collapse", "likelihood"])
 def test_kettle_detection_moves_the_teabag_only_in_the_joint_model(scenario, joint, factorised,
                                                                    positive_update):
     counter = scenario.site_index("kitchen_counter")

@@ -121,7 +121,7 @@ def joint_graph(n: int, k: int, rooms_of: int = 4, seed: int = 0, penalty: float
     return graph, model
 
 
-@pytest.mark.parametrize("positive_update", ["blueprint", "likelihood"])
+@pytest.mark.parametrize("positive_update", ["collapse", "likelihood"])
 def test_engine_structured_equals_gtsam_and_dense(positive_update):
     graph, model = joint_graph(3, 7, rooms_of=3, seed=1)
     model = model.with_overrides(positive_update=positive_update)

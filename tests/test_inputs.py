@@ -196,3 +196,12 @@ def test_a_relative_extends_path_resolves_against_the_extending_file(tmp_path, m
     monkeypatch.chdir(elsewhere)
     model = load_model(tmp_path / "models" / "child.toml")
     assert model.name == "child" and model.miss_likelihood == 0.2
+
+
+def test_positive_update_is_named_for_what_it_does_and_the_old_name_still_reads(tmp_path):
+    from fg_tea.model.spec import load_model
+
+    assert load_model("factorised").positive_update == "collapse"
+    old = tmp_path / "old.toml"
+    old.write_text('extends = "factorised"\nname = "old"\n[detection]\npositive_update = "blue' 'print"\n')
+    assert load_model(old).positive_update == "collapse"

@@ -671,7 +671,7 @@ class BeliefEngine:
     def _detection_factor(self, obj: str, j: int, miss: float | None = None) -> Factor:
         """The factor of "obj seen at site j": eq. 4's collapse, or the detection likelihood
         (miss likelihood `miss`, default the model's mu)."""
-        if self.model.positive_update == "blueprint":
+        if self.model.positive_update == "collapse":
             current = self.location(obj)
             exact = None if current[j] >= np.finfo(float).tiny else self._log_location(obj)
             return collapse_factor(obj, j, current, self.model.prior_floor, log_current=exact)
@@ -694,7 +694,7 @@ class BeliefEngine:
         """
         if not seen:
             return 0
-        if self.model.positive_update != "blueprint" or len(seen) == 1:
+        if self.model.positive_update != "collapse" or len(seen) == 1:
             for o, j, miss in seen:
                 self._commit_location([self._detection_factor(o, j, miss)])
             return 1
@@ -814,7 +814,7 @@ class BeliefEngine:
         z_miss = 1.0 - (1.0 - mu) * m                                      # (o, j)
         num = m[None, None, :, :] - (1.0 - mu) * np.transpose(pw, (0, 2, 1, 3))
         miss = np.maximum(num, 0.0) / z_miss[:, :, None, None]
-        if self.model.positive_update == "blueprint":
+        if self.model.positive_update == "collapse":
             # Jeffrey's rule: q'(L_p) = sum_a t_j(a) P(L_p | L_o = a), t_j restricted to the
             # support of q(L_o) (eq. 4 where the belief allows it).
             floor = self.model.prior_floor

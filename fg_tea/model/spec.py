@@ -209,6 +209,20 @@ def _merge(base: dict, override: dict) -> dict:
     return out
 
 
+#: How a detection updates q(L_o) (docs/design.md §3.2): ``"collapse"`` onto the site seen, with
+#: the floor elsewhere (eq. 4); ``"likelihood"``, a plain detection likelihood (eq. 31).
+POSITIVE_UPDATES = ("collapse", "likelihood")
+#: The earlier name of ``"collapse"``, still read from older model files.
+_OLD_POSITIVE_UPDATE = "blue" "print"
+
+
+def _positive_update(detection: Reader) -> str:
+    if detection.has("positive_update") and \
+            detection.opt("positive_update", str, "collapse") == _OLD_POSITIVE_UPDATE:
+        return "collapse"
+    return detection.choice("positive_update", POSITIVE_UPDATES, "collapse")
+
+
 def _read_conditions(r: Reader, key: str) -> tuple[Condition, ...]:
     out = []
     for c in r.items(key, required=False):
@@ -360,7 +374,7 @@ def parse_model(data: dict, file: str | Path = "<model>",
         prior_floor=floor,
         miss_likelihood=miss,
         false_positive_rate=detection.probability("false_positive_rate", 1e-4),
-        positive_update=detection.choice("positive_update", ("blueprint", "likelihood"), "blueprint"),
+        positive_update=_positive_update(detection),
         min_visible_pixels=perception.opt("min_visible_pixels", int, 25),
         site_association=perception.opt("site_association", bool, True),
         sensors=MappingProxyType(sensors),
