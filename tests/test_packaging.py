@@ -4,9 +4,10 @@ from a directory outside the checkout? And does mypy pass on the package?
 The slow test builds the sdist and, from it, the wheel (``python -m build``, so the wheel is built
 from what the sdist carries), installs the wheel into a fresh ``python -m venv`` and runs
 ``fg-tea list``, ``fg-tea run --no-video``, ``fg-tea validate`` on every bundled file and
-``fg-tea compare --quick --env fake --worlds 2`` from a temporary directory. The venv is created
-with ``--system-site-packages`` so that the dependencies (gtsam, pybullet, ...) come from the
-test environment instead of a second download; the package itself is installed into the venv
+``fg-tea compare --quick --env fake --worlds 2`` from a temporary directory. The venv sees the
+test environment's site-packages through a ``.pth`` file (whether the tests run in a venv or in
+the system Python), so the dependencies (gtsam, pybullet, ...) come from there instead of a
+second download; the package itself is installed into the venv
 with ``--ignore-installed --no-deps`` and the test checks that it is the venv's copy that runs.
 """
 
@@ -62,6 +63,30 @@ def test_mypy_passes_on_the_package():
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
 
 
+def _test_site_dirs() -> list[str]:
+    """The site-packages folders of the interpreter running the tests: a venv's own, or the system
+    Python's (and the user site where it is on), whichever holds the dependencies."""
+    import site
+
+    dirs = list(site.getsitepackages())
+    if site.ENABLE_USER_SITE and os.path.isdir(site.getusersitepackages()):
+        dirs.append(site.getusersitepackages())
+    return [d for d in dirs if os.path.isdir(d)]
+
+
+def _see_the_test_environment(python: Path, cwd: Path, env: dict) -> None:
+    """Let a fresh venv import exactly the test environment's dependencies, downloading nothing.
+
+    A ``.pth`` file in the venv lists the test interpreter's site-packages folders. Folders added
+    this way are plain ``sys.path`` entries: their own ``.pth`` files are not run, so an editable
+    install of fg_tea there (a ``.pth`` import hook) does not leak in, and the venv's own
+    site-packages, where the wheel goes, comes first.
+    """
+    purelib = _run([python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                   cwd=cwd, env=env).stdout.strip()
+    Path(purelib, "fg_tea_test_environment.pth").write_text("\n".join(_test_site_dirs()) + "\n")
+
+
 def _run(argv, cwd: Path, env: dict, timeout: float = 600) -> subprocess.CompletedProcess:
     proc = subprocess.run([str(a) for a in argv], cwd=cwd, env=env, capture_output=True, text=True,
                           timeout=timeout)
@@ -95,9 +120,10 @@ def test_a_wheel_installs_into_a_fresh_venv_and_every_command_runs_outside_the_c
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
 
     venv = tmp_path / "venv"
-    _run([sys.executable, "-m", "venv", "--system-site-packages", venv], cwd=tmp_path, env=env)
+    _run([sys.executable, "-m", "venv", venv], cwd=tmp_path, env=env)
     bindir = venv / ("Scripts" if os.name == "nt" else "bin")
     python, fg_tea = bindir / "python", bindir / "fg-tea"
+    _see_the_test_environment(python, cwd=tmp_path, env=env)
     _run([python, "-m", "pip", "install", "--quiet", "--no-deps", "--ignore-installed",
           "--disable-pip-version-check", wheel], cwd=tmp_path, env=env)
 
