@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, Callable, NoReturn, Sequence
 
 from fg_tea.common.errors import InputError
-from fg_tea.common.files import atomic_path, atomic_write_text
+from fg_tea.common.files import atomic_path, atomic_write_text, check_output_file, check_outputs_in
 from fg_tea.common.options import DeprecatedAlias
 from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 
@@ -302,8 +302,7 @@ def _check_out_file(path: Path, flag: str = "--out") -> Path:
     """Check that the output file `path` can be written (atomically, beside itself)."""
     if path.is_dir():
         raise InputError("<command line>", flag, f"{path} is a folder; name a file")
-    if path.exists() and not path.is_file():
-        raise InputError("<command line>", flag, f"{path} is not a regular file (a device or FIFO)")
+    check_output_file(path, flag)
     _check_out_dir(path.parent if str(path.parent) else Path("."), flag)
     return path
 
@@ -315,6 +314,7 @@ def _remove_outputs(out: Path, names: Sequence[str]) -> None:
         if target.is_dir() and not target.is_symlink():
             raise InputError("<command line>", "--out", f"{target} is a folder; it would be "
                              "overwritten by this run's file")
+        check_output_file(target)  # a device, FIFO or socket is refused, never removed
         try:
             target.unlink(missing_ok=True)
         except OSError as exc:
@@ -693,6 +693,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         for ref in args.models:
             check_scenario(base, load_model(model_path(ref)))
     csv_path = out / "episodes.csv"
+    check_outputs_in(out, ["episodes.csv"])  # appended to, so never a FIFO or a device
     # The report is rebuilt from this sweep's rows: no summary or plot of an earlier sweep with
     # other planners or models stays beside it (episodes.csv is the resumable record).
     _remove_outputs(out, COMPARE_REPORT_OUTPUTS)
@@ -831,7 +832,7 @@ def cmd_house(args: argparse.Namespace) -> int:
     except ValueError as exc:
         field, _, fault = str(exc).partition(": ")
         raise InputError("<command line>", f"--{field}", fault) from None
-    out = Path(args.out)
+    out = _check_out_file(Path(args.out))
     if out.is_dir() or not out.name:
         raise InputError(out, "$", "is a folder; expected a scenario file name")
     try:

@@ -6,9 +6,48 @@ An interrupted run never leaves a half-written CSV, PNG, JSON or MP4 under its f
 from __future__ import annotations
 
 import os
+import stat
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, Sequence
+
+from fg_tea.common.errors import InputError
+
+#: What a path that is not a regular file is, for the one-line refusal.
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def not_a_regular_file(path: str | Path) -> str | None:
+    """What `path` is when it exists and is not a regular file (links followed), else None."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):  # missing (or a dangling link), or a name the OS refuses
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    return next((what for test, what in _KINDS if test(mode)), "not a regular file")
+
+
+def check_output_file(path: str | Path, option: str = "--out") -> Path:
+    """Refuse, before any work, an output file that exists and is not a regular file.
+
+    An output is written under a temporary name and renamed over its target, which would replace
+    a device node, a FIFO or a socket with a plain file (as root, ``/dev/null`` itself).
+
+    Raises:
+        InputError: one line naming the option, the path and what it is.
+    """
+    what = not_a_regular_file(path)
+    if what is not None:
+        raise InputError("<command line>", option, f"{path} exists and is {what}, not a regular file")
+    return Path(path)
+
+
+def check_outputs_in(folder: str | Path, names: Sequence[str], option: str = "--out") -> None:
+    """:func:`check_output_file` for each file a command will write into `folder`."""
+    for name in names:
+        check_output_file(Path(folder) / name, option)
 
 
 @contextmanager
@@ -21,6 +60,9 @@ def atomic_path(path: str | Path, suffix: str = "") -> Iterator[Path]:
             (``".png"``, ``".mp4"``).
     """
     path = Path(path)
+    what = not_a_regular_file(path)
+    if what is not None:  # never rename a file over a device, a FIFO, a socket or a folder
+        raise InputError(path, "$", f"exists and is {what}, not a regular file; not replaced")
     path.parent.mkdir(parents=True, exist_ok=True)
     _remove_stale(path)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}{suffix}")

@@ -21,6 +21,8 @@ from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
+from fg_tea.common.files import check_output_file
+
 #: Every event kind a log holds (docs/design.md §9 documents each one's fields).
 EVENT_KINDS = ("episode_start", "activate", "skip", "decision", "observation", "confirm_search",
                "state_reading", "action", "action_failed", "fail", "reopen", "alternative_site",
@@ -82,6 +84,7 @@ class EventLog:
         self._fd: int | None = None
         self._size = 0  # bytes of complete lines on disk
         if self.path is not None:
+            check_output_file(self.path, "log")  # opening a FIFO would block; a device, be written
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
 
