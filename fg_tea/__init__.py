@@ -50,6 +50,7 @@ _API = {
     "learn": "fg_tea.study.learn",
     "InputError": "fg_tea.common.errors",
     "ContradictionError": "fg_tea.common.errors",
+    "PlannerRefused": "fg_tea.common.errors",
 }
 _RENAMED = {"learn": "learn_files"}
 
@@ -70,7 +71,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time the names load on first use
     from fg_tea.agent.agent import Agent
-    from fg_tea.common.errors import ContradictionError, InputError
+    from fg_tea.common.errors import ContradictionError, InputError, PlannerRefused
     from fg_tea.episode.log import EventLog, read_log
     from fg_tea.episode.run import make_env, run_episode
     from fg_tea.episode.runner import EpisodeRunner, RunConfig

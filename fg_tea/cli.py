@@ -14,7 +14,12 @@ from pathlib import Path
 from typing import Any, Callable, NoReturn, Sequence
 
 from fg_tea.common.errors import InputError
-from fg_tea.common.files import atomic_path, atomic_write_text, check_output_file, check_outputs_in
+from fg_tea.common.files import (
+    atomic_path,
+    atomic_write_text,
+    check_output_file,
+    check_outputs_in,
+)
 from fg_tea.common.options import DeprecatedAlias
 from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 
@@ -169,7 +174,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     one world is drawn.
     """
     from fg_tea.common.inputs import read_json
-    from fg_tea.model.spec import load_model, parse_model
+    from fg_tea.model.spec import load_model
     from fg_tea.world.scenario import load_scenario, parse_scenario
 
     for path in [p for name in args.files for p in _validate_targets(name)]:
@@ -392,37 +397,25 @@ def summary(events: list[dict]) -> str:
             f"{m['actions_skipped']} skipped, in {m['frames']} frames.")
 
 
-def planner_size_fault(planner: str, scenario, graph, model=None) -> str | None:
-    """Why `planner` cannot plan in this house for this task graph (too large), or None.
+def planner_size_fault(planner: str, scenario, graph, model) -> str | None:
+    """Why `planner` refuses this house for this task graph, or None (before any episode).
 
-    The Bayes-optimal planner has a size limit (docs/design.md §6.5): its first decision plans
-    over every site for every object the task searches for. The lookahead planner has one for
-    correlated beliefs only (§6.6: it holds their exact joint), so it is checked when `model` is
-    given; POUCT and POMCP hold the table of truths for every model (§6.7).
+    Asks the planner itself (:meth:`fg_tea.planning.Planner.check`, the one place a limit is
+    decided: docs/design.md §6.5-§6.7) with the prior belief and the objects the task searches for.
     """
-    objects = {graph.action(n).object for n in graph.search_nodes()}
-    if planner == "optimal":
-        from fg_tea.planning.optimal import size_fault
+    import numpy as np
 
-        fault = size_fault(len(scenario.sites), len(objects))
-        return None if fault is None else (f"the Bayes-optimal planner refuses this house: {fault}; "
-                                           "use another planner")
-    if model is not None and (planner == "lookahead" or planner.startswith("lookahead:")):
-        from fg_tea.beliefs.engine import BeliefEngine
-        from fg_tea.planning.lookahead import size_fault as lookahead_fault
+    from fg_tea.beliefs.engine import BeliefEngine
+    from fg_tea.common.errors import PlannerRefused
+    from fg_tea.planning import make_planner
 
-        fault = lookahead_fault(len(scenario.sites), len(objects),
-                                BeliefEngine(scenario, model).correlated)
-        return None if fault is None else (f"the lookahead planner refuses this house: {fault}; "
-                                           "use a factorised model or another planner")
-    kind, _, budget = planner.partition(":")
-    if kind in ("pouct", "pomcp") and budget.isdigit():
-        from fg_tea.planning.lookahead import MAX_TRUTHS
-
-        n, k = len(objects), len(scenario.sites)
-        if k ** n > MAX_TRUTHS:  # the peers hold the table of truths for every model (§6.7)
-            return (f"the {kind} planner refuses this house: {n} objects over {k} sites give "
-                    f"{k ** n:,} truths, more than the limit of {MAX_TRUTHS:,}; use another planner")
+    objects = [graph.action(n).object for n in graph.search_nodes()]
+    try:
+        make_planner(planner, model, rng=np.random.default_rng(0)).check(
+            BeliefEngine(scenario, model), list(dict.fromkeys(objects)))
+    except PlannerRefused as exc:
+        reason = str(exc).removeprefix(f"{exc.planner} planner: ")
+        return f"the {exc.planner} planner refuses this house ({exc.kind}): {reason}"
     return None
 
 
@@ -676,7 +669,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     base = world.base if world.base is not None else world.house(args.first_seed)
     if "optimal" in planners:  # the Bayes-optimal DP's size limit, checked before any episode
         graph = load_task("make_tea", load_model(model_path(args.models[0])), base)
-        fault = planner_size_fault("optimal", base, graph)
+        fault = planner_size_fault("optimal", base, graph, load_model(model_path(args.models[0])))
         if fault is not None and args.planners:
             where = "its houses" if world.generate is not None else "its house"
             raise InputError(world.source or args.world, "--planners optimal",
@@ -754,7 +747,7 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
     if planners[0] == "optimal":  # the Bayes-optimal DP's size limit, before any episode
         from fg_tea.tasks.load import load_task
 
-        fault = planner_size_fault("optimal", base, load_task("make_tea", models[0], base))
+        fault = planner_size_fault("optimal", base, load_task("make_tea", models[0], base), models[0])
         if fault is not None:
             raise InputError(world.source or args.world, "--planners optimal", f"{fault} ({base.name})")
     if args.env == "pybullet":

@@ -115,7 +115,7 @@ def test_run_refuses_optimal_on_a_large_house_before_writing_a_log(tmp_path):
                            "optimal", "--no-video", "--out", str(out)],
                           capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1 and "Bayes-optimal planner refuses" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "optimal planner refuses this house (size)" in proc.stderr
     assert not (out / "episode.jsonl").exists()
 
 

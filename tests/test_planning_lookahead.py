@@ -220,7 +220,7 @@ def test_refusal_is_a_row_in_a_sweep_and_one_line_in_run(monkeypatch, capsys, tm
 
     monkeypatch.setattr(lookahead, "MAX_TRUTHS", 100)
     row = run_job(Job("correlated", 0, model="joint_close", planner="lookahead", env="fake"))
-    assert row["reason"].startswith("refused: lookahead planner: 3 objects over 8 sites give 512 joint")
+    assert row["reason"].startswith("refused: belief: lookahead planner: 3 objects over 8 sites give 512 joint")
     assert row["success"] is False
     row = run_job(Job("correlated", 0, model="factorised_close", planner="lookahead", env="fake"))
     assert row["reason"] == "complete"

@@ -235,3 +235,46 @@ def test_optimal_refuses_more_than_ten_sites():
     with pytest.raises(ValueError, match="hidden truths"):
         OptimalPlanner(max_truths=5).choose(belief, ["mug"], {"mug": 1.0}, dist, {},
                                             frozenset({"s10", "s11", "s12", "s13"}))
+
+
+def test_every_built_in_refusal_is_a_planner_refused_with_its_kind():
+    """One exception for every planner that states a limit; ``check`` is on the protocol."""
+    from fg_tea.common.errors import PlannerRefused
+    from fg_tea.planning.lookahead import LookaheadPlanner
+
+    sites = [(f"s{i}", "r", (float(i), 0.0), {"mug": 1.0, "kettle": 1.0, "teabag": 1.0})
+             for i in range(14)]
+    scenario = make_scenario(sites, [("mug", "mug", "s0"), ("kettle", "kettle", "s1"),
+                                     ("teabag", "teabag", "s2")])
+    belief = BeliefEngine(scenario, load_model("factorised"))
+    with pytest.raises(PlannerRefused, match="optimal planner: 14 sites") as refused:
+        OptimalPlanner().check(belief, ["mug"])
+    assert refused.value.kind == "size" and refused.value.planner == "optimal"
+    many = [(f"s{i}", "r", (float(i), 0.0), {"mug": 1.0, "kettle": 1.0, "teabag": 1.0})
+            for i in range(40)]  # 40^3 = 64,000 joint truths: over the lookahead's 50,000
+    big = make_scenario(many, [("mug", "mug", "s0"), ("kettle", "kettle", "s1"),
+                               ("teabag", "teabag", "s2")])
+    joint = BeliefEngine(big, load_model("joint"))
+    planner = make_planner("lookahead", load_model("joint"))
+    assert isinstance(planner, LookaheadPlanner) and joint.correlated
+    with pytest.raises(PlannerRefused) as refused:
+        planner.check(joint, ["mug", "kettle", "teabag"])
+    assert refused.value.kind == "belief" and refused.value.planner == "lookahead"
+    for name in ("efe", "nearest", "greedy", "factorised_efe", "mi_efe"):
+        assert make_planner(name, load_model("factorised")).check(belief, ["mug"]) is None
+
+
+def test_an_excluded_site_error_is_an_error_not_a_refusal():
+    """The optimal planner's "every configuration on an excluded site" is not a size limit."""
+    from fg_tea.common.errors import PlannerRefused
+    from fg_tea.planning.optimal import truth_table
+
+    sites = [(f"s{i}", "r", (float(i), 0.0), {"mug": 1.0 if i == 0 else 0.0}) for i in range(3)]
+    scenario = make_scenario(sites, [("mug", "mug", "s0")])
+    model = load_model("factorised").with_overrides(prior_floor=1e-12)
+    belief = BeliefEngine(scenario, model)
+    belief.observe_site("s0", {"mug": False})
+    try:
+        truth_table(belief, ["mug"], [1, 2])
+    except ValueError as exc:
+        assert not isinstance(exc, PlannerRefused)

@@ -66,7 +66,7 @@ def test_refusal_names_the_peer(planner, monkeypatch, capsys, tmp_path):
         with pytest.raises(ValueError, match=f"^{kind} planner: 3 objects over 8 sites give 512 truths"):
             _run(planner, model)
         row = run_job(Job("correlated", 0, model=model, planner=planner, env="fake"))
-        assert row["reason"].startswith(f"refused: {kind} planner: 3 objects over 8 sites")
+        assert row["reason"].startswith(f"refused: size: {kind} planner: 3 objects over 8 sites")
         assert "lookahead" not in row["reason"] and row["success"] is False
     out = tmp_path / "run"
     status = cli.main(["run", "default_apartment", "--model", "joint_close", "--planner", planner,

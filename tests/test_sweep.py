@@ -338,7 +338,7 @@ def test_optimal_planner_refusal_is_recorded_not_raised(tmp_path):
     world.write_text(json.dumps({"name": "many", "base_scenario": "many.json", "placement": {}}))
     jobs = plan_sweep([str(world)], 1, ["factorised"], ["optimal", "nearest"], env="fake")
     rows = {r["planner"]: r for r in run_sweep(jobs, tmp_path / "e.csv", "serial", progress=False)}
-    assert rows["optimal"]["reason"].startswith("refused: optimal planner: 11 sites exceed the limit of 10")
+    assert rows["optimal"]["reason"].startswith("refused: size: optimal planner: 11 sites exceed the limit of 10")
     assert rows["optimal"]["success"] is False
     assert rows["nearest"]["reason"] == "complete"
     summary = summary_table(list(rows.values()))

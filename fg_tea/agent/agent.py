@@ -101,12 +101,7 @@ class Agent:
         self.planner_spec = planner if isinstance(planner, str) else type(planner).__name__
         self.planner: Planner = (make_planner(planner, model, rng=np.random.default_rng([seed, 0x9E7]))
                                  if isinstance(planner, str) else planner)
-        check_size = getattr(self.planner, "check_size", None)
-        if check_size is not None:  # the optimal planner refuses too large a house up front
-            check_size(len(scenario.sites), len(self.executor.pending_search_objects()))
-        check_belief = getattr(self.planner, "check_belief", None)
-        if check_belief is not None:  # the lookahead planner refuses a correlated joint too large
-            check_belief(self.belief, self.executor.pending_search_objects())
+        self.planner.check(self.belief, self.executor.pending_search_objects())
         #: Looks per viewpoint that missed something (the repeat term of eq. 12).
         self.inspected: dict[str, int] = {}
         self.last_decision: Decision | None = None

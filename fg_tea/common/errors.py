@@ -38,5 +38,27 @@ def run_script(main: Callable[[], int], prog: str) -> None:
     raise SystemExit(status)
 
 
+class PlannerRefused(ValueError):
+    """A planner cannot plan for this house or belief (docs/design.md §6.5-§6.7).
+
+    Raised by :meth:`fg_tea.planning.Planner.check` before the first decision (and by a planner
+    that meets the limit later in a search). ``kind`` says which limit: ``"size"`` (too many sites
+    or truths for the planner's exact tables) or ``"belief"`` (a correlated joint belief too large
+    for the planner to hold). Commands report it in one line with status 2; sweeps record a
+    ``refused: KIND: ...`` row and go on.
+    """
+
+    KINDS = ("size", "belief")
+
+    def __init__(self, message: str, kind: str, planner: str) -> None:
+        if kind not in self.KINDS:
+            raise ValueError(f"unknown refusal kind {kind!r} (known: {', '.join(self.KINDS)})")
+        super().__init__(message)
+        self.kind, self.planner = kind, planner
+
+    def __reduce__(self):  # crosses process boundaries in sweeps
+        return (type(self), (str(self), self.kind, self.planner))
+
+
 class ContradictionError(ValueError):
     """Evidence that has probability zero under the model (the posterior would be undefined)."""

@@ -245,6 +245,19 @@ class Planner(Protocol):
 
     name: str
 
+    def check(self, belief, objects: Sequence[str]) -> None:
+        """Refuse, before the first decision, a problem this planner cannot plan for.
+
+        Called once per episode, by the agent, with the prior belief and the objects the task
+        searches for; the CLI and the sweeps call the same method before any episode starts.
+        Planners without limits do nothing (:class:`PlannerBase`); a plug-in without a ``check``
+        method is given this no-op when it is loaded.
+
+        Raises:
+            fg_tea.PlannerRefused: with ``kind`` ``"size"`` or ``"belief"``.
+        """
+        ...
+
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
                excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
@@ -265,6 +278,16 @@ class Planner(Protocol):
             The :class:`Decision`.
         """
         ...
+
+
+class PlannerBase:
+    """What every built-in planner shares: no limit to check unless it says otherwise."""
+
+    name: str = "planner"
+
+    def check(self, belief, objects: Sequence[str]) -> None:
+        """No limit (see :meth:`Planner.check`)."""
+        return None
 
 
 # ---------------------------------------------------------------------------------- shared checks
@@ -320,5 +343,5 @@ def most_relevant(objects: Sequence[str], relevance: Mapping[str, float]) -> str
 
 
 __all__ = ["DistanceModel", "DistanceTable", "euclidean_distances", "distance_vector",
-           "distance_matrix", "Candidate", "Decision", "Planner", "check_inputs",
+           "distance_matrix", "Candidate", "Decision", "Planner", "PlannerBase", "check_inputs",
            "repeat_counts", "most_relevant"]

@@ -25,6 +25,7 @@ from fg_tea.planning.base import (
     Candidate,
     Decision,
     DistanceModel,
+    PlannerBase,
     check_inputs,
     distance_vector,
     most_relevant,
@@ -64,7 +65,7 @@ def _site_decision(name: str, belief, objects: Sequence[str], relevance: Mapping
     return Decision(best.object, best.site, best.total, candidates, name)
 
 
-class NearestPlanner:
+class NearestPlanner(PlannerBase):
     """Go to the nearest site not yet inspected in this search (ties: site order).
 
     Score: total = d_j (metres) over the sites with the fewest negative inspections so far.
@@ -79,7 +80,7 @@ class NearestPlanner:
                               excluded_sites, lambda pool, d: d[pool], views)
 
 
-class GreedyProbabilityPlanner:
+class GreedyProbabilityPlanner(PlannerBase):
     """Inspect the most probable (object, site): argmax q(L_o = j) (ties: object, then site order).
 
     Score: total = -q(L_o = j). No distance, information or repeat term: after a miss, eq. 6
@@ -103,7 +104,7 @@ class GreedyProbabilityPlanner:
         return Decision(best.object, best.site, best.total, candidates, self.name)
 
 
-class RandomPlanner:
+class RandomPlanner(PlannerBase):
     """A uniformly random site among those not yet inspected (seeded; ties impossible).
 
     Each eligible site draws one key u ~ U[0, 1) from the Generator, in site order; the smallest

@@ -69,6 +69,7 @@ from fg_tea.planning.base import (
     Candidate,
     Decision,
     DistanceModel,
+    PlannerBase,
     check_inputs,
     distance_vector,
     repeat_counts,
@@ -284,7 +285,7 @@ def structured_gain(belief, obj_idx: Sequence[int]) -> JointViewGain | None:
         return None
 
 
-class EFEPlanner:
+class EFEPlanner(PlannerBase):
     """The EFE-style planner of eqs. 12-17.
 
     Args:

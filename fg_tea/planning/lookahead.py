@@ -66,8 +66,15 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.common.errors import PlannerRefused
 from fg_tea.model.spec import PlanningWeights
-from fg_tea.planning.base import Candidate, Decision, DistanceModel, check_inputs
+from fg_tea.planning.base import (
+    Candidate,
+    Decision,
+    DistanceModel,
+    PlannerBase,
+    check_inputs,
+)
 from fg_tea.planning.efe import EFEPlanner, entropies
 
 #: Metres-equivalent of one image: 8 frames held still x 0.018 m per frame (EnvConfig defaults).
@@ -591,7 +598,7 @@ def _outcome_codes(options: Sequence[int]) -> np.ndarray:
 _CODE_CACHE: dict[tuple[int, ...], np.ndarray] = {}
 
 
-class LookaheadPlanner:
+class LookaheadPlanner(PlannerBase):
     """Depth-limited expectimin over look outcomes on the exact belief (module docstring).
 
     Args:
@@ -749,15 +756,16 @@ class LookaheadPlanner:
         q = cost + sum(p * LookaheadPlanner._backup(c) for p, c in kids)
         return min(q, node.rollout) if a == node.base else q
 
-    def check_belief(self, belief, objects: Sequence[str]) -> None:
+    def check(self, belief, objects: Sequence[str]) -> None:
         """Refuse, before an episode starts, a correlated belief whose joint is too large to hold.
 
         Raises:
-            ValueError: ``"lookahead planner: ..."`` with :func:`size_fault`'s reason.
+            PlannerRefused: kind ``"belief"``, with :func:`size_fault`'s reason.
         """
         fault = size_fault(len(belief.sites), len(objects), belief.correlated)
         if fault is not None:
-            raise ValueError(f"lookahead planner: {fault}; use a factorised model or another planner")
+            raise PlannerRefused(f"lookahead planner: {fault}; use a factorised model or another "
+                                 "planner", "belief", self.name)
 
     # ------------------------------------------------------------------ the decision
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],

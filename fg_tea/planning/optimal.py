@@ -50,10 +50,12 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.common.errors import PlannerRefused
 from fg_tea.planning.base import (
     Candidate,
     Decision,
     DistanceModel,
+    PlannerBase,
     check_inputs,
     distance_matrix,
     distance_vector,
@@ -176,7 +178,7 @@ def expected_travel_table(start: np.ndarray, between: np.ndarray, loc: np.ndarra
     return start + first @ p
 
 
-class OptimalPlanner:
+class OptimalPlanner(PlannerBase):
     """Bayes-optimal search under perfect detection (see the module docstring for the model).
 
     Args:
@@ -190,15 +192,15 @@ class OptimalPlanner:
         self.max_sites = int(max_sites)
         self.max_truths = int(max_truths)
 
-    def check_size(self, n_sites: int, n_objects: int) -> None:
+    def check(self, belief, objects: Sequence[str]) -> None:
         """Refuse, before an episode starts, a house too large for the DP.
 
         Raises:
-            ValueError: ``"optimal planner: ..."`` with :func:`size_fault`'s reason.
+            PlannerRefused: kind ``"size"``, with :func:`size_fault`'s reason.
         """
-        fault = size_fault(n_sites, n_objects, self.max_sites, self.max_truths)
+        fault = size_fault(len(belief.sites), len(objects), self.max_sites, self.max_truths)
         if fault is not None:
-            raise ValueError(f"optimal planner: {fault}; use another planner")
+            raise PlannerRefused(f"optimal planner: {fault}; use another planner", "size", self.name)
 
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
@@ -206,8 +208,9 @@ class OptimalPlanner:
         """The first inspection of an optimal search; candidates carry each first site's expected travel.
 
         Raises:
-            ValueError: more open sites than `max_sites`, more truths than `max_truths`, or
-                the usual input faults of :func:`~fg_tea.planning.base.check_inputs`.
+            PlannerRefused: more open sites than `max_sites`, more truths than `max_truths`.
+            ValueError: the usual input faults of :func:`~fg_tea.planning.base.check_inputs`, or
+                a belief that puts every required configuration on an excluded site.
         """
         obj_idx, eligible = check_inputs(belief, objects, relevance, excluded_sites, views)
         sites = list(belief.sites)
@@ -216,13 +219,13 @@ class OptimalPlanner:
         open_sites = [j for j in eligible if counts[j] == fewest]
         k = len(open_sites)
         if k > self.max_sites:
-            raise ValueError(f"optimal planner: {k} sites exceed the limit of {self.max_sites} "
-                             f"(exact DP over inspection orders visits 2^{k} site subsets); "
-                             "exclude sites or use another planner")
+            raise PlannerRefused(f"optimal planner: {k} sites exceed the limit of {self.max_sites} "
+                                 f"(exact DP over inspection orders visits 2^{k} site subsets); "
+                                 "exclude sites or use another planner", "size", self.name)
         if k ** len(objects) > self.max_truths:
-            raise ValueError(f"optimal planner: {len(objects)} objects over {k} sites give "
-                             f"{k ** len(objects):,} hidden truths, more than the limit of "
-                             f"{self.max_truths:,}")
+            raise PlannerRefused(f"optimal planner: {len(objects)} objects over {k} sites give "
+                                 f"{k ** len(objects):,} hidden truths, more than the limit of "
+                                 f"{self.max_truths:,}", "size", self.name)
         try:
             loc, p = truth_table(belief, objects, open_sites)
         except ValueError:
@@ -231,9 +234,9 @@ class OptimalPlanner:
             open_sites = eligible  # the open sites cannot hold the objects: search everywhere
             k = len(open_sites)
             if k > self.max_sites or k ** len(objects) > self.max_truths:
-                raise ValueError(f"optimal planner: {k} sites exceed the limit of "
-                                 f"{self.max_sites} (or {k ** len(objects):,} truths exceed "
-                                 f"{self.max_truths:,})") from None
+                raise PlannerRefused(f"optimal planner: {k} sites exceed the limit of "
+                                     f"{self.max_sites} (or {k ** len(objects):,} truths exceed "
+                                     f"{self.max_truths:,})", "size", self.name) from None
             loc, p = truth_table(belief, objects, open_sites)
         names = [sites[j] for j in open_sites]
         start = distance_vector(distances, names)

@@ -42,8 +42,15 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.common.errors import PlannerRefused
 from fg_tea.model.spec import Model
-from fg_tea.planning.base import Candidate, Decision, DistanceModel, check_inputs
+from fg_tea.planning.base import (
+    Candidate,
+    Decision,
+    DistanceModel,
+    PlannerBase,
+    check_inputs,
+)
 from fg_tea.planning.lookahead import (
     LOOK_COST,
     MAX_TRUTHS,
@@ -192,7 +199,7 @@ def _classes():
     return SearchState, Look, Transition, Observe, Reward, Policy, TruthBelief
 
 
-class PeerPlanner:
+class PeerPlanner(PlannerBase):
     """POUCT or POMCP from pomdp-py on the derived search problem (module docstring).
 
     Args:
@@ -226,15 +233,15 @@ class PeerPlanner:
                     "belief is the exact table of truths, factorised or not); use another planner")
         return None
 
-    def check_belief(self, belief, objects: Sequence[str]) -> None:
+    def check(self, belief, objects: Sequence[str]) -> None:
         """Refuse, before an episode starts, a search problem whose truth table is too large.
 
         Raises:
-            ValueError: ``"pouct planner: ..."`` or ``"pomcp planner: ..."``.
+            PlannerRefused: kind ``"size"`` (``"pouct planner: ..."`` or ``"pomcp planner: ..."``).
         """
         fault = self.size_fault(len(belief.sites), len(objects))
         if fault is not None:
-            raise ValueError(fault)
+            raise PlannerRefused(fault, "size", self.kind)
 
     def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
                distances: DistanceModel, inspected: Mapping[str, int],
@@ -242,7 +249,7 @@ class PeerPlanner:
         pomdp_py = _pomdp_py()
         SearchState, Look, Transition, Observe, Reward, Policy, TruthBelief = self._classes
         check_inputs(belief, objects, relevance, excluded_sites, views)
-        self.check_belief(belief, objects)
+        self.check(belief, objects)
         problem = build_problem(belief, objects, distances, excluded_sites, views, self.look)
         n, a_count = len(objects), len(problem.names)
         full = (1 << n) - 1

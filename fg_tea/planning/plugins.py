@@ -231,7 +231,34 @@ def build(name: str, model, rng) -> Any:
         raise PlannerSpecError(name, f"{name!r} is a {type(target).__name__}, not a planner class, "
                                "factory or instance (see fg_tea.planning.base.Planner)")
     _check_choose(name, getattr(planner, "choose", None), bound=True)
-    return planner
+    if callable(getattr(planner, "check", None)):
+        return planner
+    try:  # a plug-in that states no limits: a no-op check (the Planner protocol's default)
+        planner.check = _no_limits
+        return planner
+    except (AttributeError, TypeError):  # __slots__ or a read-only object: wrap it
+        return _WithoutLimits(planner)
+
+
+def _no_limits(belief, objects) -> None:
+    return None
+
+
+class _WithoutLimits:
+    """A plug-in planner that states no limits: :meth:`~fg_tea.planning.base.Planner.check` is a
+    no-op; everything else is the plug-in's own."""
+
+    def __init__(self, planner: Any) -> None:
+        self._planner = planner
+
+    def __getattr__(self, attribute: str) -> Any:
+        return getattr(self._planner, attribute)
+
+    def check(self, belief, objects) -> None:
+        return None
+
+    def choose(self, *args: Any, **kwargs: Any) -> Any:
+        return self._planner.choose(*args, **kwargs)
 
 
 __all__ = ["ENTRY_POINT_GROUP", "FACTORY_ARGUMENTS", "PlannerSpecError", "is_module_spec",

@@ -50,7 +50,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
-from fg_tea.common.errors import InputError
+from fg_tea.common.errors import InputError, PlannerRefused
 from fg_tea.common.files import atomic_path
 
 BACKENDS = ("serial", "process", "ray")
@@ -58,8 +58,6 @@ ENVIRONMENTS = ("pybullet", "fake")
 WORLD_KNOBS = ("prior_violation", "same_site", "same_room")
 #: Reason prefix of episodes the optimal planner declined (too many open sites for its DP).
 REFUSED = "refused: "
-#: How the planners that state a size limit begin their refusals (docs/design.md §6.5–§6.7).
-REFUSING = ("optimal planner:", "lookahead planner:", "pouct planner:", "pomcp planner:")
 #: Reason prefix of episodes stopped by the sweep's step limit (see :class:`Job`).
 STEP_LIMIT = "step_limit: "
 #: Columns of a row that describe the configuration (everything else is an outcome).
@@ -431,10 +429,8 @@ def run_job(job: Job) -> dict[str, Any]:
         else:
             stopped = (f"{STEP_LIMIT}not finished after {job.max_steps} steps "
                        f"(frame {runner.state.frame})")
-    except ValueError as exc:
-        if not str(exc).startswith(REFUSING):
-            raise
-        stopped = REFUSED + " ".join(str(exc).split())
+    except PlannerRefused as exc:  # a row that says so, and the sweep goes on
+        stopped = f"{REFUSED}{exc.kind}: " + " ".join(str(exc).split())
     finally:
         env.close()
     events = runner.events if runner is not None else []
@@ -1017,7 +1013,7 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
     return [r for r in read_rows(csv_path) if r["key"] in planned]
 
 
-__all__ = ["add_execution_arguments", "BACKENDS", "ENVIRONMENTS", "WORLD_KNOBS", "REFUSED", "REFUSING", "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "CsvSink",
+__all__ = ["add_execution_arguments", "BACKENDS", "ENVIRONMENTS", "WORLD_KNOBS", "REFUSED", "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "CsvSink",
            "Progress", "SweepError", "ablation_names", "model_names", "world_names", "model_path",
            "world_path", "check_jobs", "plan_sweep",
            "entropy_trace", "flatten_metrics", "run_job", "run_sweep", "read_rows", "parse_cell",
