@@ -62,7 +62,7 @@ def reference_look(ref: Reference, view: View, found: dict) -> None:
             ref.loc_factors.append(Factor((ref.var(obj),), table))
     seen = [(o, obj, p.sites.index(found[obj])) for o, obj in enumerate(p.objects)
             if found.get(obj) is not None]
-    if model.positive_update != "blueprint":
+    if model.positive_update != "collapse":
         for o, obj, j in seen:
             pj = view.probability[o, view.sites.index(j)]
             table = np.array([pj if i == j else model.false_positive_rate for i in range(k)])
