@@ -46,7 +46,7 @@ sys.path.insert(0, str(ROOT))
 
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for  # noqa: E402
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.planning.plugins import check as check_planner  # noqa: E402
+from fg_tea.planning import check_planner  # noqa: E402
 from fg_tea.study.sweep import _make_env, model_path, world_path  # noqa: E402
 from fg_tea.model.spec import load_model  # noqa: E402
 from fg_tea.world.distributions import load_world  # noqa: E402

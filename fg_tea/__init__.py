@@ -38,7 +38,7 @@ _API = {
     "Decision": "fg_tea.planning.base",
     "Candidate": "fg_tea.planning.base",
     "Planner": "fg_tea.planning.base",
-    "register_planner": "fg_tea.planning.plugins",
+    "register_planner": "fg_tea.planning",
     "planner_names": "fg_tea.planning",
     "make_env": "fg_tea.episode.run",
     "run_episode": "fg_tea.episode.run",
@@ -76,9 +76,8 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load o
     from fg_tea.episode.run import make_env, run_episode
     from fg_tea.episode.runner import EpisodeRunner, RunConfig
     from fg_tea.model.spec import load_model
-    from fg_tea.planning import planner_names
+    from fg_tea.planning import planner_names, register_planner
     from fg_tea.planning.base import Candidate, Decision, Planner
-    from fg_tea.planning.plugins import register_planner
     from fg_tea.study.compare import compare
     from fg_tea.study.learn import learn_files as learn
     from fg_tea.tasks.load import load_task

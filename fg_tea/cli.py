@@ -578,7 +578,8 @@ def _add_video_options(p: argparse.ArgumentParser) -> None:
 
 def _planner_name(text: str) -> str:
     """An argparse type: a built-in planner, an entry-point planner or ``module:attribute``."""
-    from fg_tea.planning.plugins import PlannerSpecError, check
+    from fg_tea.planning import check_planner as check
+    from fg_tea.planning.plugins import PlannerSpecError
 
     try:
         check(text)

@@ -18,7 +18,8 @@ import pytest
 from fg_tea.cli import main
 from fg_tea.model.spec import load_model
 from fg_tea.planning import make_planner
-from fg_tea.planning.plugins import PlannerSpecError, check, entry_points
+from fg_tea.planning import check_planner as check
+from fg_tea.planning.plugins import PlannerSpecError, entry_points
 
 #: A planner of one's own: the most probable site of the first object, discounted by earlier
 #: misses, nearest first on ties. It builds its candidates with the public types only.

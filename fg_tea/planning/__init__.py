@@ -30,6 +30,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from fg_tea.model.spec import Model
+from fg_tea.planning import plugins
 from fg_tea.planning.base import (
     Candidate,
     Decision,
@@ -46,6 +47,7 @@ from fg_tea.planning.baselines import (
 from fg_tea.planning.efe import EFEPlanner, FactorisedEFEPlanner
 from fg_tea.planning.lookahead import LookaheadPlanner, LookaheadSettings
 from fg_tea.planning.optimal import OptimalPlanner
+from fg_tea.planning.plugins import PlannerSpecError
 from fg_tea.world.scenario import Scenario
 
 
@@ -153,9 +155,48 @@ def make_planner(name: str, model: Model, rng: np.random.Generator | None = None
         check_planner_name(name)
         family, _, spec = name.partition(":")
         return _FAMILIES[family](spec, model, rng)
-    from fg_tea.planning import plugins
+    return plugins.build(name, model, rng, planner_names())
 
-    return plugins.build(name, model, rng)
+
+def check_planner(name: str) -> None:
+    """Check, without building it, that `name` names a planner (for the CLI and sweep checks).
+
+    Built-in names and well-formed family specs pass at once; a plug-in's module is imported and
+    its ``choose`` signature checked (:func:`fg_tea.planning.plugins.check_plugin`).
+
+    Raises:
+        PlannerSpecError: unknown name, a malformed family spec, or a plug-in that fails its check.
+    """
+    if name in planner_names():
+        return
+    if is_family_spec(name):  # lookahead:depth=2, pouct:500: a built-in family, not module:attribute
+        try:
+            check_planner_name(name)
+        except ValueError as exc:
+            raise PlannerSpecError(name, str(exc)) from None
+        return
+    plugins.check_plugin(name, planner_names())
+
+
+def register_planner(name: str, planner) -> None:
+    """Make `planner` available by `name` in this process (``fg.Agent(..., planner=name)``).
+
+    Args:
+        name: a new name: not a built-in planner's, and without ``:``.
+        planner: a factory (class or callable taking any of ``model`` and ``rng``) or an object
+            with a ``choose`` method, as for an entry point (:mod:`fg_tea.planning.plugins`).
+
+    A registration lives in this process only: sweeps that run episodes in worker processes
+    (``compare --executor process`` or ``ray``) do not see it; name the planner there by an entry
+    point or ``module:attribute`` instead.
+
+    Raises:
+        PlannerSpecError: the name is taken or malformed, or the object is not a planner.
+    """
+    if not isinstance(name, str) or not name.strip() or ":" in name or name in planner_names():
+        raise PlannerSpecError(str(name), f"cannot register a planner as {name!r}: use a new "
+                               "name without ':' (built-in names are taken)")
+    plugins.register(name, planner)
 
 
 def distances_for(model: Model, scenario: Scenario, agent_xy: Sequence[float],
@@ -183,4 +224,5 @@ __all__ = ["Candidate", "Decision", "DistanceModel", "DistanceTable", "Planner",
            "FactorisedEFEPlanner", "MutualInformationEFEPlanner",
            "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
            "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "euclidean_distances",
-           "distances_for", "make_planner", "planner_names", "check_planner_name", "is_family_spec"]
+           "distances_for", "make_planner", "planner_names", "check_planner_name", "is_family_spec",
+           "check_planner", "register_planner"]

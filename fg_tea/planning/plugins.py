@@ -41,7 +41,7 @@ import inspect
 import os
 import sys
 from importlib import metadata
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 from fg_tea.common.errors import InputError
 
@@ -112,7 +112,7 @@ def _attribute(spec: str, module_obj, attribute: str):
     return value
 
 
-def resolve(name: str) -> Any:
+def resolve(name: str, builtin: Sequence[str] = ()) -> Any:
     """The object a plug-in name points at (a class, factory or planner instance).
 
     Built-in names are not handled here (:func:`fg_tea.planning.make_planner` builds them).
@@ -138,9 +138,7 @@ def resolve(name: str) -> Any:
             raise PlannerSpecError(name, f"entry point {name!r} ({points[name].value}) of group "
                                    f"{ENTRY_POINT_GROUP!r} cannot be loaded: "
                                    f"{type(exc).__name__}: {first}") from None
-    from fg_tea.planning import planner_names
-
-    known = list(planner_names()) + [n for n in points if n not in planner_names()]
+    known = list(builtin) + [n for n in points if n not in builtin]
     raise PlannerSpecError(name, f"unknown planner {name!r} (known: {', '.join(known)}; or "
                            "module:attribute for a planner of your own)")
 
@@ -176,26 +174,15 @@ def _factory_kwargs(factory: Callable, available: dict[str, Any]) -> dict[str, A
     return {k: v for k, v in available.items() if k in parameters}
 
 
-def check(name: str) -> None:
-    """Check, without building it, that `name` names a planner (for the CLI and sweep checks).
-
-    Built-in names pass at once. Plug-ins are resolved (so the module is imported) and their
-    ``choose`` signature is checked; a factory function can only be checked when it is called.
+def check_plugin(name: str, builtin: Sequence[str] = ()) -> None:
+    """Check, without building it, that `name` names a plug-in planner (built-in names are
+    :func:`fg_tea.planning.check_planner`'s). The module is imported and the ``choose`` signature
+    checked; a factory function can only be checked when it is called.
 
     Raises:
         PlannerSpecError: unknown name, import failure, missing attribute, or no usable choose().
     """
-    from fg_tea.planning import check_planner_name, is_family_spec, planner_names
-
-    if name in planner_names():
-        return
-    if is_family_spec(name):  # lookahead:depth=2, pouct:500: a built-in family, not module:attribute
-        try:
-            check_planner_name(name)
-        except ValueError as exc:
-            raise PlannerSpecError(name, str(exc)) from None
-        return
-    target = resolve(name)
+    target = resolve(name, builtin)
     if inspect.isclass(target):
         _check_choose(name, getattr(target, "choose", None), bound=False)
     elif callable(getattr(target, "choose", None)):
@@ -205,7 +192,7 @@ def check(name: str) -> None:
                                "factory or instance (see fg_tea.planning.base.Planner)")
 
 
-def build(name: str, model, rng) -> Any:
+def build(name: str, model, rng, builtin: Sequence[str] = ()) -> Any:
     """Build the planner a plug-in name points at, and check it against the protocol.
 
     Args:
@@ -216,7 +203,7 @@ def build(name: str, model, rng) -> Any:
     Raises:
         PlannerSpecError: see :func:`resolve`; or the factory raised, or built no planner.
     """
-    target = resolve(name)
+    target = resolve(name, builtin)
     if callable(getattr(target, "choose", None)) and not inspect.isclass(target):
         planner = target
     elif callable(target):
@@ -262,33 +249,19 @@ class _WithoutLimits:
 
 
 __all__ = ["ENTRY_POINT_GROUP", "FACTORY_ARGUMENTS", "PlannerSpecError", "is_module_spec",
-           "entry_points", "resolve", "check", "build", "register_planner"]
+           "entry_points", "resolve", "check_plugin", "build", "register"]
 
 
 #: Planners registered in this process by :func:`register_planner` (name -> factory or planner).
 _REGISTERED: dict[str, Any] = {}
 
 
-def register_planner(name: str, planner: Any) -> None:
-    """Make `planner` available by `name` in this process (``Agent(..., planner=name)``).
-
-    Args:
-        name: a new name: not a built-in planner's, and without ``:``.
-        planner: a factory (class or callable taking any of ``model`` and ``rng``) or an object
-            with a ``choose`` method, as for an entry point (see the module docstring).
-
-    A registration lives in this process only: sweeps that run episodes in worker processes
-    (``compare --executor process`` or ``ray``) do not see it; name the planner there by an entry
-    point or ``module:attribute`` instead.
+def register(name: str, planner: Any) -> None:
+    """Store `planner` under `name` for this process (see :func:`fg_tea.planning.register_planner`).
 
     Raises:
-        PlannerSpecError: the name is taken or malformed, or the object is not a planner.
+        PlannerSpecError: the object is not a planner or a factory.
     """
-    from fg_tea.planning import planner_names
-
-    if not isinstance(name, str) or not name.strip() or ":" in name or name in planner_names():
-        raise PlannerSpecError(str(name), f"cannot register a planner as {name!r}: use a new "
-                               "name without ':' (built-in names are taken)")
     if hasattr(planner, "choose"):
         _check_choose(name, planner.choose, bound=not inspect.isclass(planner))
     elif not callable(planner):

@@ -246,7 +246,7 @@ def check_jobs(jobs: Sequence[Job]) -> None:
     """
     from fg_tea.env.base import EnvConfig
     from fg_tea.model.spec import Model
-    from fg_tea.planning.plugins import check as check_planner
+    from fg_tea.planning import check_planner
 
     env_fields = {f.name for f in dataclasses.fields(EnvConfig)}
     model_fields = {f.name for f in dataclasses.fields(Model)} - {"name", "source"}
