@@ -169,7 +169,7 @@ def test_a_broken_pipe_ends_quietly():
 
 
 def test_blas_threads_default_to_one_but_a_users_setting_stays():
-    from fg_tea.cli import BLAS_THREAD_VARIABLES, single_threaded_blas_defaults
+    from fg_tea.cli.main import BLAS_THREAD_VARIABLES, single_threaded_blas_defaults
 
     env = {"OMP_NUM_THREADS": "4"}
     chosen = single_threaded_blas_defaults(env)

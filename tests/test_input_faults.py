@@ -402,7 +402,7 @@ def test_disk_full_while_logging_is_one_line_and_leaves_whole_lines(tmp_path, mo
 
 
 def test_disk_full_while_writing_timings_is_one_line(tmp_path, monkeypatch):
-    import fg_tea.cli as cli_module
+    import fg_tea.cli.run as cli_module
 
     def full(path, text):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))

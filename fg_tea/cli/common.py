@@ -1,0 +1,346 @@
+"""What every fg-tea command shares: the command registry, argparse types, output checks, progress.
+
+Commands register with :func:`command`; :mod:`fg_tea.cli.main` builds the parser and dispatches.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Callable, NoReturn, Sequence
+
+from fg_tea.common.errors import InputError
+from fg_tea.common.files import (
+    check_output_file,
+)
+from fg_tea.common.options import DeprecatedAlias
+
+COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
+
+
+def command(name: str):
+    def register(fn):
+        COMMANDS[name] = fn
+        return fn
+    return register
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that reports usage faults in one line with exit status 2, and keeps the notes on
+    deprecated option names for :func:`main` to write after the command (one line each)."""
+
+    defer_notes = True  # DeprecatedAlias leaves its notes on the namespace for main()
+
+    def error(self, message: str) -> NoReturn:  # noqa: D401 - argparse API
+        sys.stderr.write(f"fg-tea: error: {message}\n")
+        raise SystemExit(2)
+
+
+def integer(lo: int, hi: int | None = None):
+    """An argparse type: an integer in [lo, hi]."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text[:40]!r}") from None
+        if value < lo or (hi is not None and value > hi):
+            raise argparse.ArgumentTypeError(
+                f"expected an integer {'from ' + str(lo) + ' to ' + str(hi) if hi is not None else 'of at least ' + str(lo)}, "
+                f"got {value}")
+        return value
+    return parse
+
+
+def number(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False):
+    """An argparse type: a finite number in the interval between lo and hi."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text[:40]!r}") from None
+        inside = math.isfinite(value) and (lo < value if lo_open else lo <= value) and \
+            (value < hi if hi_open else value <= hi)
+        if not inside:
+            raise argparse.ArgumentTypeError(
+                f"expected a number in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}, "
+                f"got {text[:40]}")
+        return value
+    return parse
+
+
+#: Seeds are fed to numpy's generator and PyBullet; 2^32 - 1 keeps every consumer in range.
+MAX_SEED = 2 ** 32 - 1
+
+
+def format_table(rows: list[list[str]], header: list[str]) -> str:
+    widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(len(header))]
+    fmt = "  ".join(f"{{:{'<' if i == 0 else '>'}{w}}}" for i, w in enumerate(widths))
+    lines = [fmt.format(*header), "  ".join("-" * w for w in widths)]
+    lines += [fmt.format(*r) for r in rows]
+    return "\n".join(lines)
+
+
+def check_scenario(scenario, model) -> None:
+    """Every check a run makes before its first step, without a simulator.
+
+    Builds the occupancy grid and :class:`~fg_tea.world.navigation.Navigator` (vantage points on
+    free floor and reachable from the start) and the exact belief (state and joint-size limits).
+
+    Raises:
+        InputError: naming the scenario file (or the model's, for a joint too large).
+    """
+    from fg_tea.beliefs.engine import BeliefEngine
+    from fg_tea.episode.runner import env_config_for
+    from fg_tea.world.navigation import Navigator
+
+    Navigator(scenario, env_config_for(model))
+    try:
+        BeliefEngine(scenario, model)
+    except ValueError as exc:
+        raise InputError(scenario.source or "<scenario>", "$.objects",
+                         f"with model {model.name!r}: {exc}") from None
+
+
+# ------------------------------------------------------------------------------ episodes
+def video_options(args: argparse.Namespace):
+    from fg_tea.render.video import VideoOptions
+
+    if args.view == "multi":  # the first-person inset must fit in the frame (see _compose)
+        iw = int(args.width * args.inset_scale) // 2 * 2
+        ih = int(iw * 3 / 4) // 2 * 2
+        if iw < 16 or ih + 6 > args.height or iw + 6 > args.width:
+            raise InputError("<command line>", "--inset-scale",
+                             f"an inset of {args.inset_scale:g} x {args.width} px ({iw}x{ih}) does "
+                             f"not fit a {args.width}x{args.height} frame")
+    try:
+        return VideoOptions(width=args.width, height=args.height, fps=args.fps, view=args.view,
+                            inset_scale=args.inset_scale, chase_distance=args.third_person_distance,
+                            chase_height=args.third_person_height,
+                            chase_pitch_deg=args.third_person_pitch,
+                            chase_hfov_deg=args.third_person_hfov, hold_seconds=args.hold,
+                            workers=args.workers, overlays=not args.no_overlays,
+                            scene_scale=args.scene_scale, frame_stride=args.frame_stride,
+                            wall_cutaway=None if args.full_walls else args.wall_cutaway)
+    except ValueError as exc:
+        raise InputError("<command line>", "video options", str(exc)) from None
+
+
+#: Verbs that observe rather than act: the environment never executes them, so no failure rate.
+OBSERVING_VERBS = ("SEARCH", "INSPECT")
+
+
+def failure_rates(pairs: list[str]) -> dict[str, float]:
+    from fg_tea.world.interface import VERBS
+
+    actions = [v for v in VERBS if v not in OBSERVING_VERBS]
+    rates = {}
+    for pair in pairs:
+        verb, _, value = pair.partition("=")
+        try:
+            rate = float(value)
+        except ValueError:
+            rate = -1.0
+        if verb.upper() in OBSERVING_VERBS:
+            raise InputError("<command line>", "--failure-rate",
+                             f"{verb.upper()} observes and cannot fail; failure rates apply to the "
+                             f"actions {', '.join(actions)} (got {pair!r})")
+        if verb.upper() not in VERBS or not 0.0 <= rate <= 1.0:
+            raise InputError("<command line>", "--failure-rate",
+                             f"expected VERB=P with VERB in {', '.join(actions)} and P in [0, 1], got {pair!r}")
+        rates[verb.upper()] = rate
+    return rates
+
+
+def safe_name(name: str) -> str:
+    """`name` as one file name that stays inside its folder (no separators, no leading dots)."""
+    import re
+
+    cleaned = re.sub(r"[^A-Za-z0-9._#+=-]+", "_", name).lstrip(".")[:120]
+    return cleaned or "unnamed"
+
+
+def check_out_dir(path: Path, flag: str = "--out") -> Path:
+    """Create the output folder `path` (and parents), or fail with one line saying why not."""
+    if path.exists() and not path.is_dir():
+        raise InputError("<command line>", flag, f"{path} exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError("<command line>", flag, f"cannot create folder {path}: "
+                         f"{exc.strerror or exc}") from None
+    import tempfile
+
+    try:  # the only sure test of writability (root, read-only mounts, /proc)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=".fg-tea-probe-"):
+            pass
+    except OSError as exc:
+        raise InputError("<command line>", flag, f"cannot write into folder {path}: "
+                         f"{exc.strerror or exc}") from None
+    return path
+
+
+def check_out_file(path: Path, flag: str = "--out") -> Path:
+    """Check that the output file `path` can be written (atomically, beside itself)."""
+    if path.is_dir():
+        raise InputError("<command line>", flag, f"{path} is a folder; name a file")
+    check_output_file(path, flag)
+    check_out_dir(path.parent if str(path.parent) else Path("."), flag)
+    return path
+
+
+def remove_outputs(out: Path, names: Sequence[str]) -> None:
+    """Remove the files a previous run of the same kind left in `out`, so no mix remains."""
+    for name in names:
+        target = out / name
+        if target.is_dir() and not target.is_symlink():
+            raise InputError("<command line>", "--out", f"{target} is a folder; it would be "
+                             "overwritten by this run's file")
+        check_output_file(target)  # a device, FIFO or socket is refused, never removed
+        try:
+            target.unlink(missing_ok=True)
+        except OSError as exc:
+            raise InputError("<command line>", "--out", f"cannot replace {target}: "
+                             f"{exc.strerror or exc}") from None
+
+
+class Progress:
+    """A one-line progress display on a terminal; silent otherwise."""
+
+    def __init__(self, max_frames: int, stream=None) -> None:
+        self.stream = stream or sys.stderr
+        self.max_frames = max_frames
+        self.tty = self.stream.isatty()
+
+    def __call__(self, runner) -> None:
+        if not self.tty:
+            return
+        frame = runner.state.frame
+        width = 24
+        done = min(int(width * frame / max(self.max_frames, 1) * 10), width)  # a tenth of the cap fills it
+        active = [n for n in runner.graph if runner.graph.status(n) == "active"]
+        finished = sum(runner.graph.is_finished(n) for n in runner.graph)
+        self.stream.write(f"\r[{'#' * done}{'.' * (width - done)}] frame {frame:6d} · "
+                          f"{finished}/{len(runner.graph)} actions · {(active or ['-'])[0]:<22}")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            self.stream.write("\n")
+
+
+def frames_progress(stream=None):
+    """Report video rendering: a live line on a terminal, a line per 25 % otherwise."""
+    import time
+
+    stream = stream or sys.stderr
+    start, last_quarter = time.perf_counter(), [-1]
+
+    def report(done: int, total: int) -> None:
+        rate = done / max(time.perf_counter() - start, 1e-9)
+        line = f"rendering video: {done}/{total} frames ({rate:.1f} frames/s)"
+        if stream.isatty():
+            stream.write("\r" + line + ("\n" if done >= total else ""))
+        elif done * 4 // max(total, 1) > last_quarter[0]:
+            last_quarter[0] = done * 4 // max(total, 1)
+            stream.write(line + "\n")
+        stream.flush()
+
+    return report
+
+
+def summary(events: list[dict]) -> str:
+    """A one-paragraph account of an episode, from its log."""
+    from fg_tea.episode.metrics import score
+
+    m = score(events)
+    found = []
+    sites = {}
+    for e in events:
+        if e.get("event") == "observation":
+            for obj in e.get("resolved", []):
+                at = e.get("found_at", {}).get(obj, e["site"])
+                glance = e.get("viewpoint_kind") == "room"
+                sites[obj] = f"{at} (from the {e['site']} glance)" if glance else at
+    for obj, n in sorted(m["inspections_until_resolved"].items(), key=lambda kv: kv[1] or 10 ** 9):
+        found.append(f"the {obj} on {sites[obj]} after {n} inspection{'s' * (n != 1)}"
+                     if n is not None else f"never the {obj}")
+    skipped = ", ".join(m["skipped_actions"]) or "none"
+    end = "The task is complete" if m["success"] else f"The episode ended without finishing ({m['reason']})"
+    return (f"Found {', '.join(found)} ({m['inspections']} inspections, {m['repeated_sites']} "
+            f"repeated, {m['total_distance']:.1f} m travelled, {m['state_readings']} state readings, "
+            f"{m['failures']} failed actions). Skipped actions: {skipped}. {end}: "
+            f"{m['actions_complete']} of {m['actions_total']} actions complete and "
+            f"{m['actions_skipped']} skipped, in {m['frames']} frames.")
+
+
+def planner_size_fault(planner: str, scenario, graph, model) -> str | None:
+    """Why `planner` refuses this house for this task graph, or None (before any episode).
+
+    Asks the planner itself (:meth:`fg_tea.planning.Planner.check`, the one place a limit is
+    decided: docs/design.md §6.5-§6.7) with the prior belief and the objects the task searches for.
+    """
+    import numpy as np
+
+    from fg_tea.beliefs.engine import BeliefEngine
+    from fg_tea.common.errors import PlannerRefused
+    from fg_tea.planning import make_planner
+
+    objects = [graph.action(n).object for n in graph.search_nodes()]
+    try:
+        make_planner(planner, model, rng=np.random.default_rng(0)).check(
+            BeliefEngine(scenario, model), list(dict.fromkeys(objects)))
+    except PlannerRefused as exc:
+        reason = str(exc).removeprefix(f"{exc.planner} planner: ")
+        return f"the {exc.planner} planner refuses this house ({exc.kind}): {reason}"
+    return None
+
+
+def add_video_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("video (defaults: docs/design.md §8.6)")
+    g.add_argument("--view", choices=("multi", "first", "third"), default="multi",
+                   help="chase view with first-person inset, or either alone (default: %(default)s)")
+    g.add_argument("--width", type=integer(64, 7680), default=960, help="output width in pixels (default: %(default)s)")
+    g.add_argument("--height", type=integer(64, 4320), default=540, help="output height in pixels (default: %(default)s)")
+    g.add_argument("--fps", type=integer(1, 240), default=30, help="output frame rate (default: %(default)s)")
+    g.add_argument("--scene-scale", type=number(0.1, 1.0), default=2 / 3,
+                   help="render the 3D views at this fraction of the output size (default: 0.667)")
+    g.add_argument("--inset-scale", type=number(0.05, 0.6), default=0.3, help="inset width / frame width")
+    g.add_argument("--third-person-distance", type=number(0.0, 50.0), default=3.2, help="metres behind the agent")
+    g.add_argument("--third-person-height", type=number(-50.0, 50.0), default=2.2, help="camera height, metres")
+    g.add_argument("--third-person-pitch", type=number(-90.0, 90.0), default=-22.0, help="camera pitch, degrees")
+    g.add_argument("--third-person-hfov", type=number(1.0, 179.0), default=78.0, help="horizontal field of view, degrees")
+    g.add_argument("--hold", type=number(0.0, 60.0), default=0.8, help="seconds to hold decision frames")
+    g.add_argument("--wall-cutaway", type=number(0.0, 100.0), default=1.0,
+                   help="chase view: draw walls up to this height in metres (default: %(default)s)")
+    g.add_argument("--full-walls", action="store_true", help="chase view: draw walls at full height")
+    g.add_argument("--frame-stride", type=integer(1, 10_000), default=1,
+                   help="render every n-th frame of motion, for quick drafts (default: %(default)s)")
+    g.add_argument("--workers", type=integer(0, 1024), default=0, help="rendering processes (0: one per core)")
+    g.add_argument("--no-overlays", action="store_true", help="camera images only")
+
+
+def planner_name(text: str) -> str:
+    """An argparse type: a built-in planner, an entry-point planner or ``module:attribute``."""
+    from fg_tea.planning import check_planner as check
+    from fg_tea.planning.plugins import PlannerSpecError
+
+    try:
+        check(text)
+    except PlannerSpecError as exc:
+        raise argparse.ArgumentTypeError(exc.fault) from None
+    return text
+
+
+# ------------------------------------------------------------------------------ bundled names
+MODEL_HELP = "model file, or bundled model or ablation name (default: %(default)s)"
+
+
+def add_solver_argument(p: argparse.ArgumentParser) -> None:
+    """``--solver`` (the exact belief backend), with ``--backend`` as its deprecated alias."""
+    p.add_argument("--solver", choices=("numpy", "gtsam"), default="numpy",
+                   help="exact belief solver: closed forms and dense tables (numpy) or gtsam's "
+                   "discrete elimination (default: %(default)s)")
+    p.add_argument("--backend", dest="solver", choices=("numpy", "gtsam"), action=DeprecatedAlias,
+                   new="--solver")

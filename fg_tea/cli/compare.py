@@ -1,0 +1,208 @@
+"""``fg-tea compare``: models x planners over sampled worlds, paired, with a report (docs/design.md §11, §12.4).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from fg_tea.cli.common import (
+    MAX_SEED,
+    check_out_dir,
+    check_scenario,
+    command,
+    integer,
+    planner_name,
+    planner_size_fault,
+    remove_outputs,
+    safe_name,
+)
+from fg_tea.common.errors import InputError
+from fg_tea.common.files import (
+    check_outputs_in,
+)
+
+#: Files `compare` writes besides episodes.csv (fg_tea.study.analysis.comparison_report).
+COMPARE_REPORT_OUTPUTS = ("summary.md", "summary.csv", "paired.csv", "ratio_to_optimal.png",
+                          "travel_inspections.png", "entropy.png")
+
+
+# ------------------------------------------------------------ compare (docs/design.md §11)
+#: Planners of the full comparison, and of --quick.
+COMPARE_PLANNERS = ("efe", "factorised_efe", "nearest", "greedy", "random", "optimal")
+
+
+COMPARE_QUICK_PLANNERS = ("efe", "greedy", "nearest", "optimal")
+
+
+@command("compare")
+def cmd_compare(args: argparse.Namespace) -> int:
+    """Models x planners over N sampled worlds, paired; write episodes.csv, summary.md and plots."""
+    import os
+    import shlex
+
+    from fg_tea.study.analysis import comparison_report
+    from fg_tea.study.sweep import SweepError, plan_sweep, run_sweep
+
+    if args.workers < 0:
+        raise InputError("<command line>", "--workers", f"expected 0 (every core) or more, got {args.workers}")
+    if args.lifelong is not None:
+        return _compare_lifelong(args)
+    if args.forgetting is not None:
+        raise InputError("<command line>", "--forgetting", "applies only with --lifelong K")
+    n_worlds = args.worlds if args.worlds is not None else (10 if args.quick else 200)
+    planners = args.planners or list(COMPARE_QUICK_PLANNERS if args.quick else COMPARE_PLANNERS)
+    out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-{Path(args.world).stem}")
+    from fg_tea.model.spec import load_model
+    from fg_tea.study.sweep import check_jobs, model_path, world_path
+    from fg_tea.tasks.load import load_task
+    from fg_tea.world.distributions import load_world
+
+    check_jobs(plan_sweep([args.world], 1, args.models, planners, first_seed=args.first_seed,
+                          env=args.env))  # unknown worlds, models and planners are named first
+    world = load_world(world_path(args.world))
+    base = world.base if world.base is not None else world.house(args.first_seed)
+    if "optimal" in planners:  # the Bayes-optimal DP's size limit, checked before any episode
+        graph = load_task("make_tea", load_model(model_path(args.models[0])), base)
+        fault = planner_size_fault("optimal", base, graph, load_model(model_path(args.models[0])))
+        if fault is not None and args.planners:
+            where = "its houses" if world.generate is not None else "its house"
+            raise InputError(world.source or args.world, "--planners optimal",
+                             f"{fault} ({where}: {base.name}, world seed {args.first_seed})")
+        if fault is not None:
+            planners = [p for p in planners if p != "optimal"]
+            sys.stderr.write(f"compare: planner optimal left out of the default planners: "
+                             f"{fault.split(': ', 1)[-1].split('; ')[0]} in {base.name}\n")
+    check_out_dir(out)
+    jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
+                      env=args.env)
+    if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
+        check_jobs(jobs)
+        for ref in args.models:
+            check_scenario(base, load_model(model_path(ref)))
+    csv_path = out / "episodes.csv"
+    check_outputs_in(out, ["episodes.csv"])  # appended to, so never a FIFO or a device
+    # The report is rebuilt from this sweep's rows: no summary or plot of an earlier sweep with
+    # other planners or models stays beside it (episodes.csv is the resumable record).
+    remove_outputs(out, COMPARE_REPORT_OUTPUTS)
+    try:
+        rows = run_sweep(jobs, csv_path, args.executor, workers=args.workers or None,
+                         address=args.address, resume=args.resume, label="compare")
+    except SweepError as exc:
+        sys.stderr.write(f"fg-tea: error: {exc} (finished episodes are in {csv_path}; "
+                         "run again to resume)\n")
+        return 1
+    shown = os.path.relpath(out) if not os.path.relpath(out).startswith("..") else str(out)
+    command = shlex.join(["fg-tea", "compare", "--world", args.world, "--worlds", str(n_worlds),
+                          "--models", *args.models, "--planners", *planners, "--first-seed",
+                          str(args.first_seed), "--env", args.env, "--out", shown])
+    files = comparison_report(rows, out, title=f"Factorised vs joint beliefs on `{args.world}` worlds",
+                              command=command)
+    print(f"episodes: {csv_path} ({len(rows)} rows)")
+    print("wrote: " + ", ".join(str(files[name]) for name in sorted(files)))
+    return 0
+
+
+def _compare_lifelong(args: argparse.Namespace) -> int:
+    """``compare --lifelong K``: K consecutive episodes per household, episode k with the model
+    learned from that household's episodes before k, beside the hand-set model (and, for joint
+    models, learned co-location weights), on the same placements (docs/design.md §12)."""
+    import os
+    import shlex
+
+    from fg_tea.model.spec import load_model
+    from fg_tea.study.households import (
+        SEED_STRIDE,
+        HouseholdSpec,
+        relation_pairs,
+        run_lifelong,
+        write_outputs,
+    )
+    from fg_tea.study.sweep import check_jobs, model_path, plan_sweep, world_path
+    from fg_tea.world.distributions import load_world
+
+    k = args.lifelong
+    households = args.worlds if args.worlds is not None else (10 if args.quick else 30)
+    if households < 1:
+        raise InputError("<command line>", "--worlds", f"expected at least 1 household, got {households}")
+    if (args.first_seed + households) * SEED_STRIDE > MAX_SEED:
+        raise InputError("<command line>", "--first-seed", "households x 1000 exceed the largest seed")
+    if args.forgetting is not None and not 0.0 < args.forgetting <= 1.0:
+        raise InputError("<command line>", "--forgetting", f"expected a value in (0, 1], got {args.forgetting}")
+    planners = args.planners or ["efe"]
+    if len(planners) != 1:
+        raise InputError("<command line>", "--planners", "--lifelong runs one planner; name one")
+    if args.executor == "ray":
+        raise InputError("<command line>", "--executor", "--lifelong runs serial or process; not ray")
+    check_jobs(plan_sweep([args.world], 1, args.models, planners, first_seed=args.first_seed,
+                          env=args.env))  # unknown worlds, models, planners named first
+    world = load_world(world_path(args.world))
+    models = [load_model(model_path(m)) for m in args.models]
+    base = world.base if world.base is not None else world.house(args.first_seed)
+    if planners[0] == "optimal":  # the Bayes-optimal DP's size limit, before any episode
+        from fg_tea.tasks.load import load_task
+
+        fault = planner_size_fault("optimal", base, load_task("make_tea", models[0], base), models[0])
+        if fault is not None:
+            raise InputError(world.source or args.world, "--planners optimal", f"{fault} ({base.name})")
+    if args.env == "pybullet":
+        for m in models:
+            check_scenario(base, m)
+    out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-lifelong-{Path(args.world).stem}")
+    check_out_dir(out)
+    from fg_tea.study.households import OUTPUTS
+
+    remove_outputs(out, OUTPUTS)
+    pairs = relation_pairs(models)
+    specs = [HouseholdSpec(str(world_path(args.world)), False, str(model_path(ref)), h, k, args.env,
+                           planners[0], (args.forgetting,), None, "mug", pairs)
+             for ref in args.models for h in range(args.first_seed, args.first_seed + households)]
+    workers = 1 if args.executor == "serial" else (args.workers or os.cpu_count() or 1)
+    rows = run_lifelong(specs, workers)
+    shown = os.path.relpath(out) if not os.path.relpath(out).startswith("..") else str(out)
+    command = shlex.join(["fg-tea", "compare", "--lifelong", str(k), "--world", args.world,
+                          "--worlds", str(households), "--models", *args.models, "--planners",
+                          *planners, "--first-seed", str(args.first_seed), "--env", args.env,
+                          *(["--forgetting", str(args.forgetting)] if args.forgetting is not None else []),
+                          "--out", shown])
+    files = write_outputs(rows, out, f"Lifelong learning on `{args.world}`: {households} households "
+                          f"x {k} episodes, {args.env} house", command)
+    print(f"episodes: {files['episodes']} ({len(rows)} rows)")
+    print("wrote: " + ", ".join(str(files[n]) for n in ("curves", "summary", "plot")))
+    return 0
+
+
+def add_parser(sub) -> None:
+    from fg_tea.study.sweep import add_execution_arguments
+
+    p = sub.add_parser("compare", help="compare models and planners over many sampled worlds (paired)",
+                       description="Run every model with every planner on the same N sampled worlds "
+                       "(headless), then write OUT/episodes.csv (one row per episode), OUT/summary.md "
+                       "(means, 95% CIs, paired differences, ratio to the Bayes-optimal planner, "
+                       "ablations when other models are given) and PNG plots. Episodes already in "
+                       "OUT/episodes.csv are not run again (--no-resume starts afresh).")
+    p.add_argument("--worlds", type=int, default=None, help="number of worlds (default: 200; 10 with --quick)")
+    p.add_argument("--world", default="correlated",
+                   help="world distribution, bundled name or JSON file (default: %(default)s)")
+    p.add_argument("--first-seed", type=integer(0, MAX_SEED), default=0, help="first world seed (default: %(default)s)")
+    p.add_argument("--models", nargs="+", default=["factorised", "joint"],
+                   help="models: bundled names, bundled ablations or files (default: factorised joint)")
+    p.add_argument("--planners", nargs="+", type=planner_name, default=None,
+                   help="planners: built-in names, names registered in the fg_tea.planners "
+                   "entry-point group, or module:attribute for planners of your own "
+                   f"(default: {' '.join(COMPARE_PLANNERS)}; "
+                   f"with --quick: {' '.join(COMPARE_QUICK_PLANNERS)})")
+    add_execution_arguments(p, "episodes.csv")
+    p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
+    p.add_argument("--quick", action="store_true",
+                   help=f"10 worlds and planners {' '.join(COMPARE_QUICK_PLANNERS)} (CI size)")
+    p.add_argument("--lifelong", type=integer(1, 1000), default=None, metavar="K",
+                   help="lifelong learning curves (docs/design.md §12): K consecutive episodes per "
+                   "household (--worlds households, default 30; 10 with --quick), episode k with "
+                   "the model learned from the household's episodes before k, beside the hand-set "
+                   "model on the same placements; one planner (default efe); episodes are run afresh "
+                   "(--resume does not apply)")
+    p.add_argument("--forgetting", type=float, default=None, metavar="GAMMA",
+                   help="with --lifelong: forgetting factor gamma in (0, 1] of the learned arms "
+                   "(default 1: never forget)")

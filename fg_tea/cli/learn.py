@@ -1,0 +1,54 @@
+"""``fg-tea learn``: a learned model from episode logs (docs/design.md §12).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from fg_tea.cli.common import MODEL_HELP, command
+from fg_tea.common.resources import DEFAULT_MODEL
+
+
+# ------------------------------------------------------------------------------ learning
+@command("learn")
+def cmd_learn(args: argparse.Namespace) -> int:
+    """Write a model that extends a base model and holds the counts learned from logs
+    (docs/design.md §12)."""
+    from fg_tea.study.learn import learn_files, summary
+
+    out, learning = learn_files(args.logs, args.base, args.out, name=args.name,
+                                forgetting=args.forgetting, prior_strength=args.prior_strength)
+    info = summary(learning)
+    where = _shares(info["sites"]) or "no objects found"
+    together = _shares({pair: {k.replace("_", " "): v for k, v in shares.items()}
+                        for pair, shares in info["co_location"].items() if shares})
+    print(f"learned: {out} ({len(args.logs)} new log(s), {info['sources']} in all; found at: {where}"
+          + (f"; kept together: {together}" if together else "") + ")")
+    return 0
+
+
+def _shares(groups: dict[str, dict[str, float]]) -> str:
+    """``group: key share, ...; group: ...`` with shares to two decimals."""
+    return "; ".join(f"{g}: " + ", ".join(f"{k} {v:.2f}" for k, v in shares.items())
+                     for g, shares in groups.items())
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("learn", help="learn site priors, co-location, detector and sensor reliability from logs",
+                       description="Count, from episode logs and only from what the agent observed, "
+                       "where it found each object, which objects it found together (same site, same "
+                       "room, apart), the looks that saw or missed an object at the site where it "
+                       "stood, and state readings that other readings settled; write "
+                       "a model file that extends --base and holds the counts (docs/design.md §12). "
+                       "Learning from A then B (with the first result as --base) equals learning "
+                       "from A and B at once.")
+    p.add_argument("logs", nargs="*", metavar="LOG", help="episode.jsonl logs, counted in this order")
+    p.add_argument("--base", default=DEFAULT_MODEL, help=MODEL_HELP.replace("model file", "base model file"))
+    p.add_argument("--out", required=True, help="the learned model file to write (.toml)")
+    p.add_argument("--name", default=None, help="the learned model's name (default: <base>_learned)")
+    p.add_argument("--forgetting", type=float, default=None,
+                   help="forgetting factor gamma in (0, 1]: held counts are multiplied by it before "
+                   "each new log (default: the base's, else 1 = never forget)")
+    p.add_argument("--prior-strength", type=float, default=None,
+                   help="pseudo-count mass S of the declared location prior (default: the base's, "
+                   "else 5)")

@@ -1,0 +1,102 @@
+"""The `fg-tea` command line: a thin wrapper over the package's public API.
+
+Every input fault (scenario, model or task file; bad option) is printed as one line naming the
+file, the field and what is wrong, and the command exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import Sequence
+
+import fg_tea.cli.beliefs as beliefs
+import fg_tea.cli.compare as compare
+import fg_tea.cli.house as house
+import fg_tea.cli.learn as learn
+import fg_tea.cli.list as listing
+import fg_tea.cli.run as run
+import fg_tea.cli.validate as validate
+from fg_tea.cli.common import COMMANDS, Parser
+from fg_tea.common.errors import InputError
+from fg_tea.common.options import DeprecatedAlias
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="fg-tea", description="A tea-making drone that reasons with exact beliefs.")
+    from fg_tea._version import __version__
+
+    parser.add_argument("--version", action="version", version=f"fg-tea {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND",
+                                help="what to do (fg-tea COMMAND --help for its options)")
+
+    for command in (beliefs, validate, listing, run, compare, house, learn):  # one module each
+        command.add_parser(sub)
+    return parser
+
+
+#: BLAS thread variables the command line sets to 1 unless the user set them (see main).
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def single_threaded_blas_defaults(environ=os.environ) -> list[str]:
+    """Default the BLAS thread counts to 1, keeping any value the user set; returns the names set.
+
+    The planner's matrix products are small (docs/design.md §6.2), and on a shared machine a
+    multi-threaded BLAS mostly waits for busy cores: the joint gain's products were measured 40-70
+    times slower under load with the default thread count. Only effective before numpy is
+    imported, so :func:`main` calls it first; child processes (sweep workers) inherit it.
+    """
+    chosen = [v for v in BLAS_THREAD_VARIABLES if v not in environ]
+    for v in chosen:
+        environ[v] = "1"
+    return chosen
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    single_threaded_blas_defaults()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    notes = list(getattr(args, DeprecatedAlias.NOTES, []))  # written after the command, or
+    if hasattr(args, DeprecatedAlias.NOTES):                 # folded into its one error line
+        delattr(args, DeprecatedAlias.NOTES)
+    try:
+        status = COMMANDS[args.command](args)
+        sys.stdout.flush()
+        for note in notes:
+            _error(note, prefix="fg-tea: note: ")
+        return status
+    except InputError as exc:
+        _error(str(exc) + "".join(f" (note: {n})" for n in notes))
+        return 2
+    except BrokenPipeError:
+        # The reader of our output went away (``fg-tea ... | head``): end quietly.
+        _silence_stdout()
+        return 141
+    except OSError as exc:  # disk full, permissions, a vanished folder: one line, not a traceback
+        where = exc.filename if exc.filename is not None else "<output>"
+        _error(f"{where}: {exc.strerror or exc}")
+        return 2
+    except KeyboardInterrupt:
+        _error("interrupted", prefix="fg-tea: ")
+        return 130
+
+
+def _error(message: str, prefix: str = "fg-tea: error: ") -> None:
+    """Write one line to stderr; any character the terminal cannot show is escaped."""
+    text = (prefix + message).replace("\n", " ").replace("\r", " ")
+    try:
+        sys.stderr.write(text.encode("utf-8", "backslashreplace").decode("utf-8") + "\n")
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's exit flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass

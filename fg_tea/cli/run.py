@@ -1,0 +1,210 @@
+"""``fg-tea run``, ``render`` and ``preview``: one episode, its video, and a still of the house (docs/design.md §8-§9).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from fg_tea.cli.common import (
+    MAX_SEED,
+    MODEL_HELP,
+    Progress,
+    add_solver_argument,
+    add_video_options,
+    check_out_dir,
+    check_out_file,
+    check_scenario,
+    command,
+    failure_rates,
+    frames_progress,
+    integer,
+    planner_name,
+    planner_size_fault,
+    remove_outputs,
+    safe_name,
+    summary,
+    video_options,
+)
+from fg_tea.common.errors import InputError
+from fg_tea.common.files import (
+    atomic_path,
+    atomic_write_text,
+)
+from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
+
+#: Every file `fg-tea run` writes into its output folder (stale ones are removed first).
+RUN_OUTPUTS = ("episode.jsonl", "episode.mp4", "timings.json")
+
+
+@command("run")
+def cmd_run(args: argparse.Namespace) -> int:
+    """Run one episode in the PyBullet house; write its log, and its video unless --no-video."""
+    import json
+    import time
+
+    from fg_tea.env.house import PyBulletHouse
+    from fg_tea.episode.log import EventLog
+    from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import load_scenario
+
+    t0 = time.perf_counter()
+    scenario = load_scenario(args.scenario)
+    model = load_model(args.model)
+    options = None if args.no_video else video_options(args)
+    if args.preparation_site is not None and args.preparation_site not in scenario.site_names:
+        raise InputError(scenario.source, "$.sites", f"--preparation-site {args.preparation_site!r} "
+                         "is not a site of this scenario")
+    rates = failure_rates(args.failure_rate)
+    from fg_tea.tasks.load import load_task
+
+    check_scenario(scenario, model)
+    graph = load_task(args.task, model, scenario, args.preparation_site)
+    fault = planner_size_fault(args.planner, scenario, graph, model)
+    if fault is not None:  # refused before any log is written
+        raise InputError(scenario.source or scenario.name, f"--planner {args.planner}", fault)
+    out = Path(args.out) if args.out else \
+        Path("runs") / safe_name(f"{scenario.name}-{model.name}-seed{args.seed}")
+    check_out_dir(out)
+    remove_outputs(out, RUN_OUTPUTS)
+    config = RunConfig(seed=args.seed, planner=args.planner, task=args.task,
+                       preparation_site=args.preparation_site, max_frames=args.max_frames,
+                       belief_backend=args.solver)
+    env = PyBulletHouse(scenario, env_config_for(model, failure_rates=rates,
+                                                 min_visible_pixels=args.min_visible_pixels
+                                                 if args.min_visible_pixels is not None
+                                                 else model.min_visible_pixels))
+    log_path = out / "episode.jsonl"
+    progress = Progress(args.max_frames)
+    t1 = time.perf_counter()
+    try:
+        with EventLog(log_path) as log:
+            runner = EpisodeRunner(scenario, model, env, config, log, render=options)
+            runner.run(progress)
+    finally:
+        progress.close()
+        env.close()
+    t2 = time.perf_counter()
+    print(summary(runner.events))
+    print(f"log: {log_path}")
+    timings = {"load_s": t1 - t0, "episode_s": t2 - t1}
+    if options is not None:
+        from fg_tea.render.video import render_video
+
+        result = render_video(runner.events, out / "episode.mp4", options, frames_progress())
+        timings["video_s"] = time.perf_counter() - t2
+        timings["video_frames"] = result["frames"]
+        print(f"video: {result['path']} ({result['frames']} frames, "
+              f"{result['frames'] / max(timings['video_s'], 1e-9):.1f} frames/s rendered)")
+    atomic_write_text(out / "timings.json", json.dumps(timings, indent=2) + "\n")
+    return 0 if runner.reason == "complete" else 1
+
+
+@command("render")
+def cmd_render(args: argparse.Namespace) -> int:
+    """Re-render the video of a logged episode, without re-running the agent."""
+    from fg_tea.episode.log import read_log
+    from fg_tea.render.video import render_video
+
+    path = Path(args.log)
+    events = read_log(path)
+    if not any(e.get("event") == "episode_start" for e in events):
+        raise InputError(path, "$", "not an fg_tea episode log (no episode_start event)")
+    out = check_out_file(Path(args.out) if args.out else path.with_suffix(".mp4"))
+    options = video_options(args)
+    try:
+        from fg_tea.render.video import plan_frames
+
+        plan_frames(events, options)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+        raise InputError(path, "$", f"not a complete fg_tea episode log ({type(exc).__name__}: "
+                         f"{str(exc)[:80]})") from None
+    result = render_video(events, out, options, frames_progress())
+    print(f"video: {result['path']} ({result['frames']} frames)")
+    return 0
+
+
+@command("preview")
+def cmd_preview(args: argparse.Namespace) -> int:
+    """Write a PNG of the chase camera with the first-person inset at the start pose, and a
+    top-down floor plan of the house beside it (``<out stem>_plan.png``)."""
+    import cv2
+
+    from fg_tea.env.house import PyBulletHouse
+    from fg_tea.episode.runner import env_config_for
+    from fg_tea.model.spec import load_model
+    from fg_tea.render.floorplan import MiniMap, write_floor_plan
+    from fg_tea.render.overlay import OverlayState
+    from fg_tea.render.video import _compose
+    from fg_tea.world.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    options = video_options(args)
+    model = load_model(args.model)
+    check_scenario(scenario, model)
+    out = check_out_file(Path(args.out) if args.out else Path(f"{safe_name(scenario.name)}-preview.png"))
+    plan_out = check_out_file(out.with_name(f"{out.stem}_plan.png"))
+    config = env_config_for(model)
+    house = PyBulletHouse(scenario, config)
+    try:
+        pose = house.reset(args.seed)
+        overlay = OverlayState(phase="preview", caption=f"{scenario.name}: start pose "
+                               f"({pose.x:.2f}, {pose.y:.2f}, {pose.yaw_deg:.0f} deg)")
+        frame = _compose(house, options, (pose, house.placements(), None), overlay,
+                         MiniMap(scenario, config.ego_hfov_deg), {s.name: s.position for s in scenario.sites})
+    finally:
+        house.close()
+    with atomic_path(out, ".png") as tmp:
+        cv2.imwrite(str(tmp), frame[:, :, ::-1])
+    write_floor_plan(scenario, plan_out)
+    print(f"preview: {out}")
+    print(f"floor plan: {plan_out}")
+    return 0
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)")
+    p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
+                   help="scenario file or bundled name (default: %(default)s)")
+    p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
+    p.add_argument("--seed", type=integer(0, MAX_SEED), default=0, help="episode seed (default: %(default)s)")
+    p.add_argument("--out", help="output folder (default: runs/SCENARIO-MODEL-seedN)")
+    p.add_argument("--no-video", action="store_true", help="headless: write the log only")
+    p.add_argument("--max-frames", type=integer(1, 10_000_000), default=50_000, help="frame limit (default: %(default)s)")
+    p.add_argument("--planner", default="efe", type=planner_name,
+                   help="search planner: efe, factorised_efe, mi_efe, nearest, greedy, random, optimal, "
+                   "lookahead (or lookahead:depth=2,width=3,...), pouct:N and pomcp:N (with the [peers] "
+                   "extra), "
+                   "a name registered in the fg_tea.planners entry-point group, or "
+                   "module:attribute for a planner of your own (default: %(default)s)")
+    p.add_argument("--task", default="make_tea", help="task file or bundled name (default: %(default)s)")
+    p.add_argument("--preparation-site", help="site where the tea is made (default: the scenario's)")
+    add_solver_argument(p)
+    p.add_argument("--min-visible-pixels", type=integer(1, 10_000_000), default=None,
+                   help="detection threshold (default: the model's, 25)")
+    p.add_argument("--failure-rate", action="append", default=[], metavar="VERB=P",
+                   help="inject seeded failures, e.g. FILL=0.3 (repeatable)")
+    add_video_options(p)
+
+    p = sub.add_parser("render", help="re-render the video of a logged episode")
+    p.add_argument("log", help="an episode.jsonl written by fg-tea run")
+    p.add_argument("--out", help="output MP4 (default: the log's name with .mp4)")
+    add_video_options(p)
+
+    p = sub.add_parser("preview", help="write a PNG of the cameras at the start pose and a PNG of the "
+                       "floor plan (sites, vantages, room vantages, true object sites)",
+                       description="Write two PNGs: the chase camera with the first-person inset at "
+                       "the start pose (OUT), and a top-down floor plan beside it (OUT's stem + "
+                       "'_plan.png'): walls and doorways, furniture, every site numbered and named, "
+                       "where the agent stands to look at each site (its number), room vantages, "
+                       "room names, the start pose and, in red, each object's true site (for "
+                       "checking a house; the agent never sees it).")
+    p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
+                   help="scenario file or bundled name (default: %(default)s)")
+    p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
+    p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
+                   help="seed of the start pose and world (default: %(default)s)")
+    p.add_argument("--out", help="output PNG (default: SCENARIO-preview.png; the floor plan goes to "
+                   "SCENARIO-preview_plan.png)")
+    add_video_options(p)

@@ -1,0 +1,126 @@
+"""``fg-tea validate``: check scenario, model, task and world files with every check a run makes.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from fg_tea.cli.common import check_scenario, command
+from fg_tea.common.errors import InputError
+from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
+
+
+def file_kind(path: Path, data: object | None) -> str:
+    """Which kind of input file this is: ``model``, ``scenario``, ``task`` or ``world``.
+
+    TOML files are models. A JSON file is recognised by its content: a world distribution has
+    ``placement`` or ``base_scenario``, a task has ``actions``, a scenario has ``schema_version``
+    or ``house``; otherwise a file under a ``tasks`` folder is a task, else a scenario.
+    """
+    if path.suffix == ".toml":
+        return "model"
+    if isinstance(data, dict):
+        if "placement" in data or "base_scenario" in data:
+            return "world"
+        if "actions" in data or "declares_states" in data:
+            return "task"
+        if "schema_version" in data or "house" in data:
+            return "scenario"
+    if "tasks" in path.parts:
+        return "task"
+    if "worlds" in path.parts:
+        return "world"
+    return "scenario"
+
+
+@command("validate")
+def cmd_validate(args: argparse.Namespace) -> int:
+    """Check scenario (.json), model (.toml), task and world files; print one line per file.
+
+    Each file gets every check a run would make: a scenario is also laid out on the occupancy
+    grid with the navigator and given an exact belief under ``--model``; a task is checked
+    against ``--scenario`` and ``--model``; a world distribution's base scenario is checked and
+    one world is drawn.
+    """
+    from fg_tea.common.inputs import read_json
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import load_scenario, parse_scenario
+
+    for path in [p for name in args.files for p in _validate_targets(name)]:
+        data = None if path.suffix == ".toml" else read_json(path)
+        kind = file_kind(path, data)
+        if kind == "model":
+            load_model(path)
+        elif kind == "task":
+            from fg_tea.tasks.load import parse_task
+
+            scenario = args.scenario or _scenario_for_task(data)
+            parse_task(data, load_model(args.model), load_scenario(scenario), file=path)
+        elif kind == "world":
+            from fg_tea.world.distributions import parse_world
+
+            world = parse_world(data, path)
+            check_scenario(world.base if world.base is not None else world.house(0),
+                           load_model(args.model))
+            try:  # a sample moves objects and truths only: the checks above still hold for it
+                world.sample(0)
+            except ValueError as exc:
+                raise InputError(path, "$.placement", f"drawing world 0 failed: {exc}") from None
+        else:
+            scenario = parse_scenario(data, path)
+            check_scenario(scenario, load_model(args.model))
+        print(f"{path}: ok ({kind})")
+    return 0
+
+
+def _scenario_for_task(data: object) -> str:
+    """The bundled scenario a task file is checked against when none is named: the default
+    apartment, or the first bundled scenario holding every object the task's actions name."""
+    from fg_tea.common.resources import bundled
+    from fg_tea.world.scenario import load_scenario
+
+    names = set()
+    if isinstance(data, dict) and isinstance(data.get("actions"), list):
+        for action in data["actions"]:
+            if isinstance(action, dict):
+                names |= {v for k, v in action.items() if k in ("object", "destination")
+                          and isinstance(v, str)}
+    for candidate in [DEFAULT_SCENARIO] + [p.stem for p in bundled("scenarios", ".json")]:
+        try:
+            if names <= set(load_scenario(candidate).object_names):
+                return candidate
+        except InputError:
+            continue
+    return DEFAULT_SCENARIO
+
+
+def _validate_targets(name: str) -> list[Path]:
+    """The files `name` stands for in ``fg-tea validate``: itself when it exists or looks like a
+    path, else every bundled file of that name (a scenario and a world may share one)."""
+    from fg_tea.common.resources import KINDS, bundled
+
+    path = Path(name)
+    try:
+        exists = path.exists()
+    except (OSError, ValueError):
+        exists = False
+    if exists or path.suffix or len(path.parts) != 1:
+        return [path]
+    found = [p for folder, suffix, _ in KINDS.values() for p in bundled(folder, suffix)
+             if p.name == f"{name}{suffix}"]
+    return found or [path]
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("validate", help="check scenario, model, task and world files",
+                       description="Check each file with every check a run makes before its first "
+                       "step; print one line per file. The kind is recognised by content. A bundled "
+                       "name (see fg-tea list) checks every bundled file of that name.")
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="scenario (.json), model (.toml), task or world file, or a bundled name")
+    p.add_argument("--scenario", default=None,
+                   help="scenario to check task files against (default: the default apartment, or "
+                   "the first bundled scenario holding every object the task names)")
+    p.add_argument("--model", default=DEFAULT_MODEL,
+                   help="model to check scenario, task and world files against (default: %(default)s)")
