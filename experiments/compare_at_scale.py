@@ -64,8 +64,8 @@ from fg_tea.study.analysis import (markdown_table, paired_differences, save_figu
     summary_markdown, summary_table)
 from fg_tea.common.errors import run_script  # noqa: E402
 from fg_tea.common.files import atomic_write_text  # noqa: E402
-from fg_tea.study.sweep import (Job, add_execution_arguments, parse_cell, plan_sweep, read_rows,
-    run_sweep, write_csv_atomic)
+from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep
+from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}

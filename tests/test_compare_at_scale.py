@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from fg_tea.study.sweep import read_rows
+from fg_tea.study.rows import read_rows
 
 ROOT = Path(__file__).resolve().parent.parent
 

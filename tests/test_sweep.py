@@ -24,11 +24,19 @@ from pathlib import Path
 
 import pytest
 
-from fg_tea.study import sweep
-from fg_tea.study.analysis import (comparison_report, paired_differences, ratio_to_reference,
-    summary_table, t_interval, wilson_interval)
 from fg_tea.common.errors import InputError
-from fg_tea.study.sweep import CsvSink, Job, SweepError, plan_sweep, read_rows, run_sweep
+from fg_tea.study import executors, sweep
+from fg_tea.study.analysis import (
+    comparison_report,
+    paired_differences,
+    ratio_to_reference,
+    summary_table,
+    t_interval,
+    wilson_interval,
+)
+from fg_tea.study.executors import SweepError
+from fg_tea.study.rows import CsvSink, read_rows
+from fg_tea.study.sweep import Job, plan_sweep, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 #: 3 worlds x 2 models x 2 planners = 12 headless PyBullet episodes (~0.2 s each).
@@ -103,8 +111,8 @@ def sockets_of_children() -> list[tuple[str, str, str, str, str]]:
 
     As (process name, kind, status, local address, remote address); unix sockets are not listed.
     """
-    import ray  # noqa: F401  # Ray vendors psutil; the test extra also names it
     import psutil
+    import ray  # noqa: F401  # Ray vendors psutil; the test extra also names it
 
     found = []
     for proc in psutil.Process().children(recursive=True):
@@ -159,11 +167,11 @@ def test_local_ray_binds_and_talks_on_loopback_only_and_writes_the_process_pool_
     from ray._raylet import AuthenticationTokenLoader
 
     path = tmp_path / "episodes.csv"
-    before = {k: os.environ.get(k) for k in sweep.loopback_ray_env()}
+    before = {k: os.environ.get(k) for k in executors.loopback_ray_env()}
     trap = HttpTrap()  # stands in for the dead proxy, to see what Ray's processes send there
-    monkeypatch.setattr(sweep, "RAY_DEAD_PROXY", trap.url)
+    monkeypatch.setattr(executors, "RAY_DEAD_PROXY", trap.url)
     try:
-        with sweep.local_ray(workers=2):
+        with executors.local_ray(workers=2):
             run_sweep(tiny_jobs(), path, "ray", workers=2, progress=False)
             deadline = time.monotonic() + 15
             while not trap.requests and time.monotonic() < deadline:
@@ -261,7 +269,7 @@ def test_ray_that_cannot_start_or_connect_names_the_address_and_the_cause(tmp_pa
         raise ConnectionError(f"Failed to connect to Ray cluster at {kwargs.get('address')}.\nDetails")
 
     monkeypatch.setattr(ray, "init", refuse)
-    before = {k: os.environ.get(k) for k in sweep.loopback_ray_env()}
+    before = {k: os.environ.get(k) for k in executors.loopback_ray_env()}
     cluster = ray_constants.ENABLE_RAY_CLUSTER
     line = one_line_error(*fg_tea(compare_on_ray(tmp_path)))
     assert line == ("fg-tea: error: <command line>: --executor ray: cannot start a local Ray instance "

@@ -43,7 +43,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     import shlex
 
     from fg_tea.study.analysis import comparison_report
-    from fg_tea.study.sweep import SweepError, plan_sweep, run_sweep
+    from fg_tea.study.executors import SweepError
+    from fg_tea.study.sweep import plan_sweep, run_sweep
 
     if args.workers < 0:
         raise InputError("<command line>", "--workers", f"expected 0 (every core) or more, got {args.workers}")

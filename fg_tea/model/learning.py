@@ -35,7 +35,6 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from fg_tea.common.errors import InputError
-
 from fg_tea.common.inputs import Reader
 
 #: A sensor's (sensitivity, specificity) record: :class:`fg_tea.model.spec.Sensor`, which imports
@@ -461,10 +460,9 @@ def apply_to_sensors(learning: Learning, sensors: Mapping[str, Sensor], r: Reade
 # Writing a learned model file
 
 
-__all__ = ["BANDS", "Counts", "Learning", "RELATION_CLASSES", "Source", "apply_learning", "band_of",
-           "beta_interval", "counts_from_events", "learn", "learned_detection", "learned_prior",
-           "learned_probability", "learned_relation_weights", "learned_sensor", "location_weights",
-           "model_text", "predicted_relation", "read_learning", "read_log", "relation_base_rates",
-           "summary"]
+__all__ = ["BANDS", "Counts", "Learning", "RELATION_CLASSES", "Source", "band_of", "beta_interval",
+           "learned_detection", "learned_prior", "learned_probability", "learned_relation_weights",
+           "learned_sensor", "location_weights", "predicted_relation", "read_learning",
+           "relation_base_rates"]
 
 

@@ -36,7 +36,8 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 
 from fg_tea.common.files import atomic_path, atomic_write_text
-from fg_tea.study.sweep import REFUSED, STEP_LIMIT, write_csv_atomic
+from fg_tea.study.rows import write_csv_atomic
+from fg_tea.study.sweep import REFUSED, STEP_LIMIT
 
 #: Metrics summarised by default (search travel first: it is what the planners optimise).
 METRICS = ("search_distance", "total_distance", "inspections", "spl")

@@ -394,3 +394,7 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
     except OSError as exc:
         raise InputError("<command line>", "--out", f"cannot write {out}: {exc.strerror or exc}") from None
     return out, learning
+
+
+__all__ = ["base_reference", "counts_from_events", "house_of", "learn", "learn_files", "model_text",
+           "read_log", "summary"]

@@ -1,0 +1,211 @@
+"""Sweep rows on disk: one CSV line per episode, appended as episodes finish, read back typed.
+
+A crash mid-write leaves at most a partial last line, which the reader skips and the next append
+replaces; the final file is rewritten sorted by key, atomically. Progress lines go to stderr.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from fg_tea.common.errors import InputError
+from fg_tea.common.files import atomic_path
+
+
+# ---------------------------------------------------------------------------------- the CSV
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return "" if math.isnan(value) else repr(value)
+    return " ".join(str(value).split()) if isinstance(value, str) else str(value)
+
+
+def parse_cell(text: str) -> Any:
+    """A CSV cell back to Python: '' -> None, True/False -> bool, numbers -> int/float, else str."""
+    if text == "":
+        return None
+    if text in ("True", "False"):
+        return text == "True"
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _read_good_lines(path: Path) -> tuple[list[str], list[list[str]], int]:
+    """Header, complete rows, and the byte length of the valid prefix of a sweep CSV.
+
+    A last line without its newline (a crash mid-write) and any row with the wrong number of
+    fields are dropped.
+    """
+    data = path.read_bytes()
+    if b"\n" not in data:
+        return [], [], 0
+    good = data if data.endswith(b"\n") else data.rsplit(b"\n", 1)[0] + b"\n"
+    reader = csv.reader(io.StringIO(good.decode("utf-8"), newline=""))
+    try:
+        header = next(reader)
+    except StopIteration:
+        return [], [], 0
+    rows = [r for r in reader if len(r) == len(header)]
+    return header, rows, len(good)
+
+
+def read_rows(path: str | Path) -> list[dict[str, Any]]:
+    """The rows of a sweep CSV, typed with :func:`parse_cell` (a truncated last line is ignored).
+
+    Raises:
+        InputError: the file does not exist or has no ``key`` column.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "$", "file not found")
+    header, rows, _ = _read_good_lines(path)
+    if header and "key" not in header:
+        raise InputError(path, "header", "not a sweep CSV (no 'key' column)")
+    return [{h: parse_cell(v) for h, v in zip(header, r)} for r in rows]
+
+
+def _header(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Columns in the order of the row with the smallest key (else the first row), then others sorted."""
+    if not rows:
+        return []
+    first = min(rows, key=lambda r: str(r["key"])) if all("key" in r for r in rows) else rows[0]
+    header = list(first)
+    extra = sorted({c for r in rows for c in r} - set(header))
+    return header + extra
+
+
+def write_csv_atomic(path: str | Path, rows: Sequence[Mapping[str, Any]],
+                     header: Sequence[str] | None = None) -> Path:
+    """Write rows to a CSV through a temporary file and a rename (all or nothing)."""
+    path = Path(path)
+    header = list(header) if header is not None else _header(rows)
+    with atomic_path(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(header)
+        for row in rows:
+            writer.writerow([_cell(row.get(c)) for c in header])
+    return path
+
+
+class CsvSink:
+    """A sweep CSV that grows one flushed row at a time and can be resumed.
+
+    Args:
+        path: the CSV file.
+        resume: keep the rows already in `path` (their keys count as done); otherwise start empty.
+
+    Rows are kept in memory as strings keyed by ``key``; :meth:`finalize` rewrites the file sorted
+    by key. If a new row brings columns the file's header lacks, the file is rewritten with the
+    union of columns before appending.
+    """
+
+    def __init__(self, path: str | Path, resume: bool = True) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.rows: dict[str, dict[str, str]] = {}
+        self.header: list[str] = []
+        if resume and self.path.exists():
+            header, rows, valid = _read_good_lines(self.path)
+            if header and "key" not in header:
+                raise InputError(self.path, "header", "not a sweep CSV (no 'key' column); "
+                                 "choose another output or do not resume")
+            self.header = header
+            for r in rows:
+                row = dict(zip(header, r))
+                self.rows[row["key"]] = row
+            if valid != self.path.stat().st_size:  # drop a truncated last line before appending
+                with self.path.open("r+b") as fh:
+                    fh.truncate(valid)
+        elif self.path.exists():
+            self.path.unlink()
+        self.resumed = len(self.rows)
+        self._fh: io.TextIOWrapper | None = None
+
+    def done(self, key: str) -> bool:
+        return key in self.rows
+
+    def write(self, row: Mapping[str, Any]) -> None:
+        """Append one row (flushed to disk)."""
+        cells = {k: _cell(v) for k, v in row.items()}
+        self.rows[cells["key"]] = cells
+        if not self.header or set(cells) - set(self.header):
+            self._close()
+            self.header = _header(list(self.rows.values()))
+            write_csv_atomic(self.path, list(self.rows.values()), self.header)
+            return
+        if self._fh is None:
+            self._fh = self.path.open("a", newline="", encoding="utf-8")
+        csv.writer(self._fh, lineterminator="\n").writerow([cells.get(c, "") for c in self.header])
+        self._fh.flush()
+
+    def _close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+    def finalize(self) -> Path:
+        """Rewrite the CSV sorted by key (atomically); return its path."""
+        self._close()
+        rows = [self.rows[k] for k in sorted(self.rows)]
+        return write_csv_atomic(self.path, rows, _header(rows) if rows else self.header)
+
+
+# ---------------------------------------------------------------------------------- progress
+class Progress:
+    """Sweep progress on stderr: done/total, episodes per second, ETA.
+
+    On a terminal the line is redrawn in place; otherwise one line is written at most every
+    `every` seconds (and at the end).
+    """
+
+    def __init__(self, total: int, resumed: int = 0, stream=None, every: float = 10.0,
+                 label: str = "sweep") -> None:
+        self.total, self.resumed, self.done = total, resumed, resumed
+        self.stream = stream if stream is not None else sys.stderr
+        self.every, self.label = every, label
+        self.t0 = time.monotonic()
+        self._last = -math.inf
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+
+    def line(self) -> str:
+        elapsed = time.monotonic() - self.t0
+        ran = self.done - self.resumed
+        rate = ran / elapsed if elapsed > 0 else 0.0
+        left = self.total - self.done
+        eta = left / rate if rate > 0 else math.inf
+        eta_s = "?" if math.isinf(eta) else f"{int(eta // 60)}m{int(eta % 60):02d}s"
+        resumed = f" ({self.resumed} resumed)" if self.resumed else ""
+        return (f"{self.label}: {self.done}/{self.total} episodes{resumed} · {rate:.2f}/s · "
+                f"elapsed {int(elapsed // 60)}m{int(elapsed % 60):02d}s · ETA {eta_s}")
+
+    def update(self, n: int = 1) -> None:
+        self.done += n
+        now = time.monotonic()
+        if self.tty:
+            self.stream.write("\r" + self.line())
+            self.stream.flush()
+        elif now - self._last >= self.every or self.done == self.total:
+            self._last = now
+            self.stream.write(self.line() + "\n")
+            self.stream.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+__all__ = ["CsvSink", "Progress", "read_rows", "parse_cell", "write_csv_atomic"]
