@@ -49,7 +49,7 @@ class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
         default = action.default
-        if ("%(default)" in text or "(default" in text or default in (None, False)
+        if ("%(default)" in text or "(default" in text or default is None or default is False
                 or default is argparse.SUPPRESS or not action.option_strings):
             return text
         if isinstance(default, (list, tuple)):
