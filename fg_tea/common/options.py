@@ -59,6 +59,18 @@ class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return f"{text} (default: {shown.replace('%', '%%')})"
 
 
+#: Help of the options several experiment scripts share (their defaults differ per script).
+WORLD_HELP = "world distribution: a bundled name or a world JSON file"
+MODELS_HELP = "models: bundled names, bundled ablations or model .toml files"
+MODEL_HELP = "model: a bundled name, a bundled ablation or a model .toml file"
+SCENARIO_HELP = "scenario: a bundled name or a scenario JSON file"
+PLANNER_HELP = "planner name, e.g. efe, greedy, nearest, optimal"
+SEED_HELP = "random seed (an integer; the same seed gives the same run)"
+ENV_HELP = "PyBullet house or the fake oracle house (straight-line travel, oracle pixel counts)"
+WORKERS_HELP = "worker processes"
+OUT_HELP = "output folder"
+
+
 def experiment_parser(doc: str | None, file: str, section: str, **kwargs: Any) -> argparse.ArgumentParser:
     """The argparse parser of an experiment script (``experiments/NAME.py``).
 
@@ -78,4 +90,6 @@ def experiment_parser(doc: str | None, file: str, section: str, **kwargs: Any) -
     return argparse.ArgumentParser(**kwargs)
 
 
-__all__ = ["DefaultsHelpFormatter", "DeprecatedAlias", "experiment_parser"]
+__all__ = ["DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP", "MODEL_HELP", "MODELS_HELP",
+           "OUT_HELP", "PLANNER_HELP", "SCENARIO_HELP", "SEED_HELP", "WORKERS_HELP", "WORLD_HELP",
+           "experiment_parser"]
