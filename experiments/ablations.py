@@ -38,6 +38,7 @@ from fg_tea.common.files import atomic_write_text
 from fg_tea.study.analysis import (METRICS, markdown_table, paired_differences, plot_bars,
     summary_markdown, summary_table)
 from fg_tea.common.errors import InputError
+from fg_tea.common.options import PLANNER_HELP, WORLD_HELP, experiment_parser
 from fg_tea.model.spec import load_model
 from fg_tea.study.sweep import (ablation_names, add_execution_arguments, model_path, plan_sweep,
     run_sweep)
@@ -50,18 +51,22 @@ ORIGINAL = ("no_epistemic", "no_relevance", "weak_negative", "euclidean", "certa
              "no_site_association")
 
 
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--worlds", type=int, default=100, help="number of worlds (default: %(default)s)")
-    p.add_argument("--world", default="correlated", help="world distribution (default: %(default)s)")
-    p.add_argument("--full", default="factorised", help="the full model (default: %(default)s)")
+def build_parser() -> argparse.ArgumentParser:
+    p = experiment_parser(__doc__, __file__, "§11")
+    p.add_argument("--worlds", type=int, default=100, help="number of sampled worlds")
+    p.add_argument("--world", default="correlated", help=WORLD_HELP)
+    p.add_argument("--full", default="factorised", help="the full model the ablations are compared with")
     p.add_argument("--ablations", nargs="+", default=None,
                    help="ablation models (default: every file in models/ablations)")
-    p.add_argument("--planner", default="efe", help="planner (default: %(default)s)")
+    p.add_argument("--planner", default="efe", help=PLANNER_HELP)
     add_execution_arguments(p, "ablations.csv")
     p.add_argument("--out", default=str(DEFAULT_OUT),
                    help="output folder (default: %(default)s; committed: experiments/results/ablations)")
-    return p.parse_args(argv)
+    return p
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    return build_parser().parse_args(argv)
 
 
 def report(rows: list[dict], full: str, ablations: list[str], out: Path, command: str) -> Path:

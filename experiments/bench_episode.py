@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from fg_tea.env.house import PyBulletHouse
+from fg_tea.common.options import MODELS_HELP, SCENARIO_HELP, experiment_parser
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.model.spec import load_model
@@ -38,14 +39,19 @@ def headless(scenario: str, model: str, seed: int, log_path: Path) -> tuple[floa
     return time.perf_counter() - t, runner.events
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", default="default_apartment")
-    parser.add_argument("--models", nargs="+", default=["factorised", "joint"])
+def build_parser() -> argparse.ArgumentParser:
+    parser = experiment_parser(__doc__, __file__, "§11")
+    parser.add_argument("--scenario", default="default_apartment", help=SCENARIO_HELP)
+    parser.add_argument("--models", nargs="+", default=["factorised", "joint"], help=MODELS_HELP)
     parser.add_argument("--repeats", type=int, default=3, help="headless repeats (median reported)")
-    parser.add_argument("--width", type=int, default=640)
-    parser.add_argument("--height", type=int, default=360)
+    parser.add_argument("--width", type=int, default=640, help="video width, pixels")
+    parser.add_argument("--height", type=int, default=360, help="video height, pixels")
     parser.add_argument("--quick", action="store_true", help="tiny smoke run (small video, stride 10)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     width, height, stride = (160, 90, 10) if args.quick else (args.width, args.height, 1)
     rows = []

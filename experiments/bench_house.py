@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 from fg_tea.env import house as house_module
+from fg_tea.common.options import SCENARIO_HELP, experiment_parser
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.house import PyBulletHouse
 from fg_tea.world.scenario import Scenario, load_scenario
@@ -142,16 +143,21 @@ def _time(fn, repeats: int) -> float:
     return statistics.median(samples)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def build_parser() -> argparse.ArgumentParser:
+    parser = experiment_parser(__doc__, __file__, "§3.4 and §8.1")
     parser.add_argument("--repeats", type=int, default=5, help="timed repetitions per row (median)")
-    parser.add_argument("--scenario", default="default_apartment")
+    parser.add_argument("--scenario", default="default_apartment", help=SCENARIO_HELP)
     parser.add_argument("--calibration-scenario", default=None,
                         help="scenario for the expected-pixel calibration timing (default: "
                              "scenarios/generated_large.json if present, else default_apartment)")
     parser.add_argument("--clock", choices=("wall", "cpu"), default="wall",
                         help="time the per-call rows by wall clock (default) or by this process's "
                              "CPU time (less sensitive to other load on a shared machine)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     global _CLOCK
     _CLOCK = time.process_time if args.clock == "cpu" else time.perf_counter

@@ -50,6 +50,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 from fg_tea.beliefs.engine import BeliefEngine  # noqa: E402
+from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.beliefs.factors import detection_factor, miss_factor  # noqa: E402
 from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, assemble_graph  # noqa: E402
 from fg_tea.model.spec import Model, Relation, load_model  # noqa: E402
@@ -429,13 +430,19 @@ def output_path(args: argparse.Namespace) -> Path | None:
     return None if args.quick else DEFAULT_OUT
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def build_parser() -> argparse.ArgumentParser:
+    parser = experiment_parser(__doc__, __file__, "§4 (the relational factors: §3.7)")
     parser.add_argument("--quick", action="store_true", help="tiny smoke run (3×6 and 3×8 only)")
-    parser.add_argument("--budget", type=float, default=None, help="seconds per call (default 5, quick 1)")
+    parser.add_argument("--budget", type=float, default=None,
+                        help="time budget per call, seconds (default 5, quick 1)")
     parser.add_argument("--out", type=Path, default=None,
                         help=f"markdown output (default: {DEFAULT_OUT} for the full run, none for "
                              "--quick; committed: experiments/results/bench_inference.md)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     if args.quick:
         sizes, budget = [(3, 6), (3, 8)], args.budget or 1.0

@@ -57,6 +57,7 @@ import numpy as np
 
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine
+from fg_tea.common.options import SEED_HELP, experiment_parser
 from fg_tea.model.spec import load_model
 from fg_tea.planning import check_planner_name, euclidean_distances, make_planner
 from fg_tea.world.scenario import parse_scenario
@@ -240,18 +241,24 @@ def parse_size(text: str) -> tuple[int, int]:
     return n, k
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--repeats", type=int, default=10, help="decisions timed per cell (default 10)")
-    parser.add_argument("--seed", type=int, default=0)
+def build_parser() -> argparse.ArgumentParser:
+    parser = experiment_parser(__doc__, __file__, "§6.2")
+    parser.add_argument("--repeats", type=int, default=10, help="decisions timed per cell")
+    parser.add_argument("--seed", type=int, default=0, help=SEED_HELP)
     parser.add_argument("--sites", type=int, nargs="*", default=[6, 8, 12],
                         help="site counts of the 3-object close-look houses")
     parser.add_argument("--sizes", type=parse_size, nargs="*", default=[(5, 24), (8, 48)],
-                        help="OBJECTSxSITES houses with room glances (default 5x24 8x48)")
-    parser.add_argument("--json", metavar="FILE", help="write one record per model, planner, size")
+                        help="OBJECTSxSITES houses with room glances")
+    parser.add_argument("--json", metavar="FILE",
+                        help="write one JSON record per model, planner, size to FILE (default: none)")
     parser.add_argument("--planners", nargs="+", default=list(BENCH_PLANNERS),
-                        help="planners to time (default: %(default)s; the tree-search peers "
+                        help=f"planners to time (default: {' '.join(BENCH_PLANNERS)}; the tree-search peers "
                         "pouct:N/pomcp:N take about a second per decision, name them to include them)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     if args.repeats < 1:
         parser.error("--repeats must be at least 1")

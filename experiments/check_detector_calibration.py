@@ -55,6 +55,7 @@ if str(ROOT) not in sys.path:
 from fg_tea.beliefs.detection import ViewModel, slot_pixels  # noqa: E402
 from fg_tea.episode.runner import env_config_for  # noqa: E402
 from fg_tea.common.files import atomic_write_text  # noqa: E402
+from fg_tea.common.options import MODEL_HELP, SEED_HELP, experiment_parser  # noqa: E402
 from fg_tea.model.spec import load_model  # noqa: E402
 from fg_tea.world.scenario import Scenario, load_scenario  # noqa: E402
 
@@ -353,11 +354,11 @@ def default_scenarios() -> list[str]:
     return names
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def build_parser() -> argparse.ArgumentParser:
+    parser = experiment_parser(__doc__, __file__, "§3.4")
     parser.add_argument("--looks", type=int, default=3000, help="looks per scenario")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--model", default="factorised")
+    parser.add_argument("--seed", type=int, default=0, help=SEED_HELP)
+    parser.add_argument("--model", default="factorised", help=f"{MODEL_HELP}, whose detector is checked")
     parser.add_argument("--scenario", action="append", default=None,
                         help="scenario name or path (repeatable; default: default_apartment and "
                              "every scenarios/generated_*.json)")
@@ -365,6 +366,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="directory for calibration.csv and calibration.md, or a path ending "
                              "in .md (the CSV is written beside it with the suffix .csv); default: "
                              "%(default)s; committed: experiments/results/detector_calibration.md")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     if args.looks < 1:
         print("--looks: must be at least 1", file=sys.stderr)

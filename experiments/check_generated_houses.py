@@ -34,6 +34,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from fg_tea.common.files import atomic_path, atomic_write_text  # noqa: E402
+from fg_tea.common.options import MODEL_HELP, WORKERS_HELP, experiment_parser  # noqa: E402
 
 COLUMNS = ("rooms", "seed", "ok", "stage", "error", "sites", "room_vantages", "success", "reason",
            "frames", "inspections", "generate_s", "build_s", "episode_s")
@@ -84,14 +85,20 @@ def check_one(job: tuple[int, int, str, int]) -> dict:
     return row
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--seeds", type=int, default=50, help="seeds 0..N-1 per room count (default: 50)")
-    p.add_argument("--rooms", type=int, nargs="+", default=list(range(3, 11)), help="room counts (default: 3-10)")
-    p.add_argument("--model", default="factorised", help="model (default: factorised)")
-    p.add_argument("--max-steps", type=int, default=2000, help="runner steps per episode (default: 2000)")
-    p.add_argument("--workers", type=int, default=1, help="processes (default: 1)")
+def build_parser() -> argparse.ArgumentParser:
+    p = experiment_parser(__doc__, __file__, "§8.1")
+    p.add_argument("--seeds", type=int, default=50, help="house seeds 0..N-1 per room count")
+    p.add_argument("--rooms", type=int, nargs="+", default=list(range(3, 11)),
+                   help="room counts of the generated houses")
+    p.add_argument("--model", default="factorised", help=MODEL_HELP)
+    p.add_argument("--max-steps", type=int, default=2000, help="runner steps per episode")
+    p.add_argument("--workers", type=int, default=1, help=WORKERS_HELP)
     p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder (default: %(default)s)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = build_parser()
     args = p.parse_args(argv)
 
     jobs = [(r, s, args.model, args.max_steps) for r in args.rooms for s in range(args.seeds)]

@@ -64,8 +64,9 @@ from fg_tea.study.analysis import (markdown_table, paired_differences, save_figu
     summary_markdown, summary_table)
 from fg_tea.common.errors import run_script  # noqa: E402
 from fg_tea.common.files import atomic_write_text  # noqa: E402
-from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep
-from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic
+from fg_tea.common.options import experiment_parser  # noqa: E402
+from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
+from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}
@@ -82,22 +83,22 @@ DEFAULT_STRENGTHS = (0.0, 0.75, 1.0)
 
 DEFAULT_OUT = "runs/experiments/compare_at_scale"
 
-def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+def build_parser() -> argparse.ArgumentParser:
+    p = experiment_parser(__doc__, __file__, "§11 (the information gains: §6.2)")
     p.add_argument("--table", choices=("houses", "detectability"), default="houses",
                    help="which table to run (default: %(default)s)")
     p.add_argument("--worlds", type=int, default=200, help="worlds per cell (default: %(default)s)")
     p.add_argument("--first-seed", type=int, default=0, help="first world seed (default: %(default)s)")
     p.add_argument("--sizes", nargs="+", choices=tuple(SIZES), default=list(SIZES),
-                   help="house sizes: small (3 rooms, ~13 sites), medium (6, ~27), large (10, ~45)")
+                   help="house sizes: small (3 rooms, ~13 sites), medium (6, ~27), large (10, ~45) "
+                   "(default: all)")
     p.add_argument("--tasks", nargs="+", choices=tuple(TASKS), default=list(TASKS),
                    help="tasks of the houses table (default: both)")
     p.add_argument("--looks", choices=tuple(LOOKS), default="glances",
                    help="glances: factorised/joint (room glances, visibility detector); close: "
                    "factorised_close/joint_close (default: %(default)s)")
     p.add_argument("--planners", nargs="+", default=list(GAINS + BASELINES),
-                   help=f"planners (default: {' '.join(GAINS + BASELINES)})")
+                   help=f"planner names (default: {' '.join(GAINS + BASELINES)})")
     p.add_argument("--half-pixels", nargs="+", type=float, default=list(DEFAULT_HALF_PIXELS),
                    help="detectability table: n_50 of the small objects, pixels "
                    f"(default: {' '.join(map(str, DEFAULT_HALF_PIXELS))}; the models' own is 50)")
@@ -105,7 +106,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="detectability table: correlation strengths c in [0, 1] "
                    f"(default: {' '.join(map(str, DEFAULT_STRENGTHS))})")
     p.add_argument("--small-categories", nargs="+", default=["teabag"],
-                   help="object categories whose curve the detectability table changes")
+                   help="object categories whose detection curve the detectability table changes")
     p.add_argument("--timing-worlds", type=int, default=2,
                    help="worlds per house size whose decisions are timed in-process (0: none)")
     p.add_argument("--gtsam-check", action="store_true",
@@ -115,6 +116,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     add_execution_arguments(p, "episodes.csv")
     p.add_argument("--out", default=DEFAULT_OUT,
                    help="output folder; each table writes into OUT/TABLE (default: %(default)s)")
+    return p
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = build_parser()
     args = p.parse_args(argv)
     if args.worlds < 1:
         p.error("--worlds must be at least 1")

@@ -26,26 +26,33 @@ that folder (their ``summary.md`` starts with the exact command that made them):
 and these write under ``runs/experiments/compare_beliefs``:
 
     python experiments/compare_beliefs.py --quick          # 10 worlds, 4 planners (CI)
-    python experiments/compare_beliefs.py --backend ray --address auto
+    python experiments/compare_beliefs.py --executor ray --address auto
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
-from fg_tea.cli import main as fg_tea_main
+from fg_tea.cli.compare import add_compare_arguments  # noqa: E402
+from fg_tea.cli.main import main as fg_tea_main  # noqa: E402
+from fg_tea.common.options import experiment_parser
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
 DEFAULT_OUT = Path("runs") / "experiments" / "compare_beliefs"
 
 
+def build_parser() -> argparse.ArgumentParser:
+    """The options of ``fg-tea compare``, under this script's name, with ``--out`` defaulting to
+    runs/experiments/compare_beliefs."""
+    p = experiment_parser(__doc__, __file__, "§11")
+    add_compare_arguments(p, out=str(DEFAULT_OUT))
+    return p
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run ``fg-tea compare`` with ``--out`` defaulting to runs/experiments/compare_beliefs."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if any(a in ("-h", "--help") for a in argv):
-        print(__doc__)
-    return fg_tea_main(["compare", "--out", str(DEFAULT_OUT), *argv])
+    return fg_tea_main(argv, parser_factory=build_parser)
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from fg_tea.common.options import ENV_HELP, MODELS_HELP, WORKERS_HELP, WORLD_HELP, experiment_parser  # noqa: E402
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
 DEFAULT_OUT = Path("runs") / "experiments" / "failure_injection"
@@ -61,15 +62,21 @@ def reason_group(reason: str) -> str:
     return re.sub(r"failed \d+ times", "failed n times", reason)
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--worlds", type=int, default=100)
-    p.add_argument("--world", default="correlated")
-    p.add_argument("--models", nargs="+", default=["factorised", "joint"])
-    p.add_argument("--rate", type=float, default=0.2)
-    p.add_argument("--env", choices=("pybullet", "fake"), default="pybullet")
-    p.add_argument("--workers", type=int, default=2)
+def build_parser() -> argparse.ArgumentParser:
+    p = experiment_parser(__doc__, __file__, "§7.6")
+    p.add_argument("--worlds", type=int, default=100, help="number of sampled worlds (seeds 0..N-1)")
+    p.add_argument("--world", default="correlated", help=WORLD_HELP)
+    p.add_argument("--models", nargs="+", default=["factorised", "joint"], help=MODELS_HELP)
+    p.add_argument("--rate", type=float, default=0.2,
+                   help="probability in [0, 1] that each executable action fails")
+    p.add_argument("--env", choices=("pybullet", "fake"), default="pybullet", help=ENV_HELP)
+    p.add_argument("--workers", type=int, default=2, help=WORKERS_HELP)
     p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder (default: %(default)s)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = build_parser()
     a = p.parse_args(argv)
     jobs = [(a.world, s, m, a.rate, a.env) for m in a.models for s in range(a.worlds)]
     with ProcessPoolExecutor(a.workers) as pool:

@@ -26,6 +26,7 @@ import numpy as np
 from fg_tea.env.house import PyBulletHouse
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.common.files import atomic_path
+from fg_tea.common.options import MODEL_HELP, SCENARIO_HELP, experiment_parser
 from fg_tea.model.spec import load_model
 from fg_tea.world.scenario import load_scenario
 
@@ -99,12 +100,17 @@ def plot(history: list[tuple[np.ndarray, dict[str, float]]], sites: list[str], o
         plt.close(fig)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--model", default="joint", help="bundled model name or .toml path")
-    parser.add_argument("--scenario", default="default_apartment", help="scenario name or path")
-    parser.add_argument("--seed", type=int, default=0)
+def build_parser() -> argparse.ArgumentParser:
+    parser = experiment_parser(__doc__, __file__, "§4 and §11")
+    parser.add_argument("--model", default="joint", help=MODEL_HELP)
+    parser.add_argument("--scenario", default="default_apartment", help=SCENARIO_HELP)
+    parser.add_argument("--seed", type=int, default=0, help="episode seed")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="PNG to write (default: %(default)s)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
 
     # 1. Data: the house and the agent's generative model.

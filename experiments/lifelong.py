@@ -32,24 +32,28 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
+from fg_tea.common.options import (ENV_HELP, MODELS_HELP, OUT_HELP, PLANNER_HELP,  # noqa: E402
+                                   WORKERS_HELP, experiment_parser)
 from fg_tea.study.households import (HouseholdSpec, check_move, relation_pairs, run_lifelong,
     write_outputs)
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def build_parser() -> argparse.ArgumentParser:
+    p = experiment_parser(__doc__, __file__, "§12.4")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--world", default=None, help="world distribution (default: contrary_household)")
+    where.add_argument("--world", default=None,
+                       help="world distribution the placements are drawn from, a bundled name or a world "
+                       "JSON file (default: contrary_household)")
     where.add_argument("--scenario", default=None,
                        help="a scenario whose own placements every episode uses (e.g. prior_violation)")
-    p.add_argument("--models", nargs="+", default=["factorised", "joint"])
-    p.add_argument("--households", type=int, default=30)
-    p.add_argument("--episodes", type=int, default=10)
-    p.add_argument("--first-household", type=int, default=0)
-    p.add_argument("--env", choices=("fake", "pybullet"), default="fake")
-    p.add_argument("--planner", default="efe")
-    p.add_argument("--workers", type=int, default=1)
-    p.add_argument("--out", default="runs/experiments/lifelong")
+    p.add_argument("--models", nargs="+", default=["factorised", "joint"], help=MODELS_HELP)
+    p.add_argument("--households", type=int, default=30, help="number of households (one seed each)")
+    p.add_argument("--episodes", type=int, default=10, help="consecutive episodes K per household")
+    p.add_argument("--first-household", type=int, default=0, help="seed of the first household")
+    p.add_argument("--env", choices=("fake", "pybullet"), default="fake", help=ENV_HELP)
+    p.add_argument("--planner", default="efe", help=PLANNER_HELP)
+    p.add_argument("--workers", type=int, default=1, help=WORKERS_HELP)
+    p.add_argument("--out", default="runs/experiments/lifelong", help=OUT_HELP)
     p.add_argument("--forgetting", type=float, nargs="+", default=None,
                    help="forgetting factor(s) gamma of the learned arms (default 1: never forget); "
                    "several values run the learned arms once per value")
@@ -59,6 +63,11 @@ def main(argv=None) -> int:
     p.add_argument("--logs", default=None, metavar="DIR",
                    help="write every learned arm's episode logs under DIR/MODEL/ARM/householdH/ "
                    "(then `fg-tea learn` on them rebuilds that arm's learned model)")
+    return p
+
+
+def main(argv=None) -> int:
+    p = build_parser()
     args = p.parse_args(argv)
     started, cpu = time.time(), time.process_time()
     try:

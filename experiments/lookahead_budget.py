@@ -100,18 +100,24 @@ def check(args: argparse.Namespace) -> None:
         _model(m, ())
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def build_parser() -> argparse.ArgumentParser:
+    from fg_tea.common.options import MODELS_HELP, experiment_parser
+
+    p = experiment_parser(__doc__, __file__, "§6.6")
     p.add_argument("--houses", nargs="+", default=list(HOUSES),
-                   help="WORLD:WORLDS pairs (default: %(default)s)")
+                   help="houses as WORLD:WORLDS pairs (world distribution : number of worlds)")
     p.add_argument("--ladder", nargs="+", type=int, default=list(LADDER),
-                   help="node budgets, the largest is the reference (default: %(default)s)")
-    p.add_argument("--models", nargs="+", default=["factorised_close", "joint_close"],
-                   help="models, bundled names or files (default: %(default)s)")
+                   help="node budgets (tree nodes per decision); the largest is the reference")
+    p.add_argument("--models", nargs="+", default=["factorised_close", "joint_close"], help=MODELS_HELP)
     p.add_argument("--out", default="runs/experiments/lookahead_budget",
                    help="output folder: OUT/budget.md and OUT/<world>/ (default: %(default)s)")
     p.add_argument("--summary-only", action="store_true",
                    help="run nothing; summarise the episodes already under OUT/<world>/episodes")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = build_parser()
     args = p.parse_args(argv)
     check(args)
     ladder = tuple(sorted(args.ladder))

@@ -189,14 +189,18 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
     return text
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--worlds", type=int, default=100)
-    p.add_argument("--first-seed", type=int, default=0)
-    p.add_argument("--world", default="correlated")
-    p.add_argument("--models", nargs="+", default=["factorised_close", "joint_close"])
-    p.add_argument("--planners", nargs="+", default=None)
-    p.add_argument("--env", choices=("fake", "pybullet"), default="fake")
+def build_parser() -> argparse.ArgumentParser:
+    from fg_tea.common.options import ENV_HELP, MODELS_HELP, WORLD_HELP, experiment_parser
+
+    p = experiment_parser(__doc__, __file__, "§6.5, §6.6 and §6.7")
+    p.add_argument("--worlds", type=int, default=100, help="number of paired worlds")
+    p.add_argument("--first-seed", type=int, default=0, help="first world seed (and episode seed)")
+    p.add_argument("--world", default="correlated", help=WORLD_HELP)
+    p.add_argument("--models", nargs="+", default=["factorised_close", "joint_close"], help=MODELS_HELP)
+    p.add_argument("--planners", nargs="+", default=None,
+                   help=f"planner names, with options as in lookahead:depth=3 or pouct:1000 "
+                   f"(default: {' '.join(DEFAULT_PLANNERS)})")
+    p.add_argument("--env", choices=("fake", "pybullet"), default="fake", help=ENV_HELP)
     p.add_argument("--miss-rate", type=float, default=None,
                    help="injected detector miss rate (default: the model's mu)")
     p.add_argument("--out", default="runs/experiments/planner_frontier",
@@ -204,6 +208,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--summary-only", action="store_true",
                    help="run nothing: summarise the episodes already in OUT/episodes (missing "
                         "ones are left out, so a planner may cover fewer worlds)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = build_parser()
     args = p.parse_args(argv)
     planners = args.planners or list(DEFAULT_PLANNERS)
     try:

@@ -41,6 +41,7 @@ from fg_tea.common.files import atomic_write_text
 from fg_tea.study.analysis import (Interval, markdown_table, paired_differences, plot_sweep,
     step_limited)
 from fg_tea.common.errors import InputError
+from fg_tea.common.options import PLANNER_HELP, WORLD_HELP, experiment_parser
 from fg_tea.study.sweep import add_execution_arguments, plan_sweep, run_sweep
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/;
@@ -84,18 +85,23 @@ def saved(iv: Interval) -> Interval:
     return Interval(0.0 - iv.mean, 0.0 - iv.high, 0.0 - iv.low, iv.n)
 
 
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--worlds", type=int, default=30, help="worlds per sweep point (default: %(default)s)")
-    p.add_argument("--world", default="correlated", help="world distribution (default: %(default)s)")
-    p.add_argument("--planner", default="efe", help="planner (default: %(default)s)")
-    p.add_argument("--sweeps", nargs="+", choices=tuple(FULL), default=list(FULL))
+def build_parser() -> argparse.ArgumentParser:
+    p = experiment_parser(__doc__, __file__, "§11")
+    p.add_argument("--worlds", type=int, default=30, help="sampled worlds per sweep point")
+    p.add_argument("--world", default="correlated", help=WORLD_HELP)
+    p.add_argument("--planner", default="efe", help=PLANNER_HELP)
+    p.add_argument("--sweeps", nargs="+", choices=tuple(FULL), default=list(FULL),
+                   help="which sweeps to run (each varies one world or model parameter)")
     p.add_argument("--quick", action="store_true", help="two values per sweep (smoke test)")
     add_execution_arguments(p, "value_of_correlation.csv")
     p.add_argument("--out", default=str(DEFAULT_OUT),
                    help="output folder (default: %(default)s; "
                         "committed: experiments/results/value_of_correlation)")
-    return p.parse_args(argv)
+    return p
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    return build_parser().parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:

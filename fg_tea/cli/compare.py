@@ -175,14 +175,23 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub) -> None:
-    from fg_tea.study.sweep import add_execution_arguments
-
     p = sub.add_parser("compare", help="compare models and planners over many sampled worlds (paired)",
                        description="Run every model with every planner on the same N sampled worlds "
                        "(headless), then write OUT/episodes.csv (one row per episode), OUT/summary.md "
                        "(means, 95% CIs, paired differences, ratio to the Bayes-optimal planner, "
                        "ablations when other models are given) and PNG plots. Episodes already in "
                        "OUT/episodes.csv are not run again (--no-resume starts afresh).")
+    add_compare_arguments(p)
+
+
+def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) -> None:
+    """Add the options of ``fg-tea compare`` to `p` (also used by experiments/compare_beliefs.py).
+
+    `out` is the default output folder; None leaves it to the command (``runs/compare-WORLD``).
+    """
+    from fg_tea.study.sweep import add_execution_arguments
+
+    p.set_defaults(command="compare")
     p.add_argument("--worlds", type=int, default=None, help="number of worlds (default: 200; 10 with --quick)")
     p.add_argument("--world", default="correlated",
                    help="world distribution, bundled name or JSON file (default: %(default)s)")
@@ -195,7 +204,10 @@ def add_parser(sub) -> None:
                    f"(default: {' '.join(COMPARE_PLANNERS)}; "
                    f"with --quick: {' '.join(COMPARE_QUICK_PLANNERS)})")
     add_execution_arguments(p, "episodes.csv")
-    p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
+    if out is None:
+        p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
+    else:
+        p.add_argument("--out", default=out, help="output folder (default: %(default)s)")
     p.add_argument("--quick", action="store_true",
                    help=f"10 worlds and planners {' '.join(COMPARE_QUICK_PLANNERS)} (CI size)")
     p.add_argument("--lifelong", type=integer(1, 1000), default=None, metavar="K",

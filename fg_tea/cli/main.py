@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from typing import Sequence
+from typing import Callable, Sequence
 
 import fg_tea.cli.beliefs as beliefs
 import fg_tea.cli.compare as compare
@@ -54,9 +54,12 @@ def single_threaded_blas_defaults(environ=os.environ) -> list[str]:
     return chosen
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None,
+         parser_factory: Callable[[], argparse.ArgumentParser] | None = None) -> int:
+    """Run one command; `parser_factory` (default :func:`build_parser`) builds the parser, whose
+    namespace names the command in ``command`` (as experiments/compare_beliefs.py does)."""
     single_threaded_blas_defaults()
-    parser = build_parser()
+    parser = (parser_factory or build_parser)()
     args = parser.parse_args(argv)
     notes = list(getattr(args, DeprecatedAlias.NOTES, []))  # written after the command, or
     if hasattr(args, DeprecatedAlias.NOTES):                 # folded into its one error line

@@ -39,4 +39,57 @@ class DeprecatedAlias(argparse.Action):
             sys.stderr.write(f"note: {note}\n")
 
 
-__all__ = ["DeprecatedAlias"]
+class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Show each option's default after its help, unless the help already states it.
+
+    Lists are shown as they are typed (``6 8 12``); no default is shown for an option whose
+    default is None or False (a flag, or a value resolved later: its help says what happens).
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        if ("%(default)" in text or "(default" in text or default is None or default is False
+                or default is argparse.SUPPRESS or not action.option_strings):
+            return text
+        if isinstance(default, (list, tuple)):
+            shown = " ".join("x".join(map(str, d)) if isinstance(d, tuple) else str(d) for d in default)
+        else:
+            shown = str(default)
+        return f"{text} (default: {shown.replace('%', '%%')})"
+
+
+#: Help of the options several experiment scripts share (their defaults differ per script).
+WORLD_HELP = "world distribution: a bundled name or a world JSON file"
+MODELS_HELP = "models: bundled names, bundled ablations or model .toml files"
+MODEL_HELP = "model: a bundled name, a bundled ablation or a model .toml file"
+SCENARIO_HELP = "scenario: a bundled name or a scenario JSON file"
+PLANNER_HELP = "planner name, e.g. efe, greedy, nearest, optimal"
+SEED_HELP = "random seed (an integer; the same seed gives the same run)"
+ENV_HELP = "PyBullet house or the fake oracle house (straight-line travel, oracle pixel counts)"
+WORKERS_HELP = "worker processes"
+OUT_HELP = "output folder"
+
+
+def experiment_parser(doc: str | None, file: str, section: str, **kwargs: Any) -> argparse.ArgumentParser:
+    """The argparse parser of an experiment script (``experiments/NAME.py``).
+
+    `doc` is the script's module docstring: its first paragraph is the description. `file` is
+    the script's ``__file__``, whose name is the program name. `section` names the part of
+    docs/design.md the script implements (e.g. ``"§11"``), cited in the epilog. Every option's
+    default is shown after its help (:class:`DefaultsHelpFormatter`).
+    """
+    from pathlib import Path
+
+    first = (doc or "").strip().split("\n\n")[0]
+    kwargs.setdefault("prog", Path(file).name)
+    kwargs.setdefault("description", " ".join(first.split()))
+    kwargs.setdefault("epilog", f"Implements docs/design.md {section}; the module docstring of "
+                      f"experiments/{Path(file).name} has examples and what it writes.")
+    kwargs.setdefault("formatter_class", DefaultsHelpFormatter)
+    return argparse.ArgumentParser(**kwargs)
+
+
+__all__ = ["DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP", "MODEL_HELP", "MODELS_HELP",
+           "OUT_HELP", "PLANNER_HELP", "SCENARIO_HELP", "SEED_HELP", "WORKERS_HELP", "WORLD_HELP",
+           "experiment_parser"]

@@ -475,7 +475,7 @@ def add_execution_arguments(parser, csv_name: str) -> None:
     parser.add_argument("--address", default=None,
                         help="Ray cluster address (default: a local Ray instance)")
     parser.add_argument("--workers", type=int, default=0,
-                        help="processes or local Ray CPUs (0: every core)")
+                        help="processes or local Ray CPUs, 0 for every core (default: %(default)s)")
     parser.add_argument("--env", choices=ENVIRONMENTS, default="pybullet",
                         help="PyBullet house or the fake oracle house (default: %(default)s)")
     parser.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
