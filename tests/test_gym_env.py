@@ -68,6 +68,9 @@ def test_served_tea_terminates_with_the_reward():
     env.reset(seed=0)
     env.adapter._truth.set("mug", "served", True)  # the world's own truth, set by the test
     _, reward, terminated, _, _ = env.step(env.look("kitchen_counter", ["mug"]))
+    assert not terminated and reward <= 0, "a served empty mug is not tea"
+    env.adapter._truth.set("mug", "tea_brewed", True)
+    _, reward, terminated, _, _ = env.step(env.look("kitchen_counter", ["mug"]))
     assert terminated and reward > 0
 
 

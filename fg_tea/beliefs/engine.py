@@ -52,6 +52,7 @@ from fg_tea.beliefs.structured import (
     StructuredLocationModel,
 )
 from fg_tea.common.errors import ContradictionError
+from fg_tea.common.stats import entropy
 from fg_tea.model.spec import Effect, Model, Sensor
 from fg_tea.world.scenario import MAX_STATES, Scenario  # noqa: F401 - MAX_STATES re-exported
 
@@ -65,13 +66,6 @@ JOINT_COLLAPSE_TOLERANCE = 1e-13
 #: Sweeps allowed before the fit stops; IPF converges geometrically, and the bundled houses need
 #: fewer than 20 (one sweep when the objects are independent).
 JOINT_COLLAPSE_SWEEPS = 500
-
-
-def entropy(p: np.ndarray) -> float:
-    """Shannon entropy in nats, eq. 7 (and eq. 22 for a Bernoulli [1-p, p])."""
-    p = np.asarray(p, dtype=float)
-    nz = p[p > 0]
-    return float(-(nz * np.log(nz)).sum())
 
 
 class UnknownVariableError(KeyError):

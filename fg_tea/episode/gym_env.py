@@ -40,8 +40,11 @@ ENV_ID = "fg_tea/TeaMaking-v0"
 KINDS = ("look", "read", "act")
 #: Frames an episode can reach: the frame limit plus the longest single movement.
 MAX_FRAMES = 10 ** 9
-#: Reward for the tea served (the world's truth says ``mug.served``), against -1 per metre walked.
+#: Reward for the tea served, against -1 per metre walked.
 SERVED_REWARD = 10.0
+#: What "the tea is served" means in the world's truth: brewed tea, served (a served empty mug
+#: is not tea, and earns nothing).
+GOAL_STATES = ("mug.tea_brewed", "mug.served")
 
 
 class TeaEnv(gymnasium.Env):
@@ -74,19 +77,20 @@ class TeaEnv(gymnasium.Env):
     :class:`~fg_tea.world.interface.InspectionResult`, ``StateReading`` or ``ActionResult``.
 
     ## Rewards
-    Minus the metres walked in the step; :data:`SERVED_REWARD` when the tea is served.
+    Minus the metres walked in the step; :data:`SERVED_REWARD` when the tea is served: every
+    state of ``goal_states`` (default :data:`GOAL_STATES`: brewed, and served) holds in truth.
 
     ## Starting State
     The scenario's start pose and the world as the scenario's truth (and the seed) set it.
 
     ## Episode End
-    Terminated when the world's truth says the tea is served (``mug.served``); truncated at
+    Terminated when the world's truth says the tea is served (``goal_states``); truncated at
     ``max_frames`` frames (30 frames a second of simulated time).
 
     ## Arguments
     ``scenario``, ``model`` (a loaded object, a path or a bundled name; the model sets the
     camera's detector, docs/design.md §1.2), ``env`` (``"fake"`` or ``"pybullet"``),
-    ``max_frames``.
+    ``max_frames``, ``goal_states``.
 
     ## Version History
     * v0: initial version.
@@ -96,11 +100,12 @@ class TeaEnv(gymnasium.Env):
 
     def __init__(self, scenario: Scenario | str = "default_apartment",
                  model: Model | str = "factorised", env: str = "fake",
-                 max_frames: int = 50_000) -> None:
+                 max_frames: int = 50_000, goal_states: Sequence[str] = GOAL_STATES) -> None:
         self.scenario = load_scenario(scenario) if isinstance(scenario, str) else scenario
         self.model = load_model(model) if isinstance(model, str) else model
         self.adapter: EnvAdapter = make_env(self.scenario, self.model, env)
         self.max_frames = int(max_frames)
+        self.goal_states = tuple(goal_states)
         self.viewpoints = tuple(v.name for v in self.scenario.viewpoints)
         self.objects = tuple(self.scenario.object_names)
         self.sites = tuple(self.scenario.site_names)
@@ -148,7 +153,8 @@ class TeaEnv(gymnasium.Env):
         except ValueError as exc:  # a request the world cannot even attempt: a no-op step
             result = ActionResult(False, f"invalid: {exc}")
         self._frame += int(getattr(result, "frames", 0))
-        served = bool(self.adapter.truth_report().get("states", {}).get("mug.served", False))
+        truth = self.adapter.truth_report().get("states", {})
+        served = all(bool(truth.get(s, False)) for s in self.goal_states)
         reward = -float(getattr(result, "distance", 0.0)) + (SERVED_REWARD if served else 0.0)
         truncated = self._frame >= self.max_frames and not served
         return (self._observation(self.adapter.agent_pose(), result), reward, served, truncated,

@@ -64,6 +64,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from fg_tea.beliefs.structured import NumericalGuardError
+from fg_tea.common.stats import entropy
 from fg_tea.model.spec import PlanningWeights
 from fg_tea.planning.base import (
     Candidate,
@@ -83,15 +84,9 @@ PRUNE_SLACK = 1e-9       # score units: a candidate is skipped only if its lower
                          # best upper bound by more than this (rounding of the two scores)
 
 
-def _neg_xlogx(p: np.ndarray) -> np.ndarray:
-    """-p log p elementwise, 0 where p = 0 (nats)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(p > 0, -p * np.log(np.where(p > 0, p, 1.0)), 0.0)
-
-
 def entropies(q: np.ndarray) -> np.ndarray:
     """Entropy (nats, eq. 7) of each distribution along the last axis."""
-    return _neg_xlogx(np.asarray(q, dtype=float)).sum(axis=-1)
+    return entropy(q, axis=-1)
 
 
 def factorised_information_gain(q: np.ndarray, mu: float) -> np.ndarray:

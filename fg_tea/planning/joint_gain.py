@@ -59,6 +59,7 @@ from fg_tea.beliefs.structured import (
     SubsetAlgebra,
     subset_index,
 )
+from fg_tea.common.stats import entropy
 
 CHUNK_ENTRIES = 1 << 16  # looks per step of the out-of-view tables: about this many entries (half
                          # a megabyte, a core's L2 cache here; larger batches measured slower)
@@ -72,16 +73,6 @@ MATRIX_OBJECTS = 9       # up to this many objects, batches of subset convolutio
                          # multiplications instead of 3^N gathered ones, faster up to about N = 9
 
 
-_TINY = np.finfo(float).tiny
-
-
-def _neg_xlogx_sum(p: np.ndarray, axis=None) -> np.ndarray:
-    """sum -p log p (nats), 0 where p = 0."""
-    p = np.asarray(p, dtype=float)
-    logs = np.maximum(p, _TINY)        # p ln(tiny) = 0 for p = 0; the entries are never negative
-    np.log(logs, out=logs)
-    logs *= p
-    return -logs.sum(axis=axis)
 
 
 def _outcomes(x: np.ndarray, tables: Sequence[np.ndarray], nb: int) -> np.ndarray:
@@ -517,7 +508,7 @@ class JointViewGain:
         # Detection tables per look and tracked object: (G, s, class, outcome).
         tab = detection_table(prob, self.fp)                              # (G, s, class, outcome)
         y = _outcomes(p_c, [tab[:, b] for b in range(s)], 1)
-        h_y = _neg_xlogx_sum(y, axis=tuple(range(1, 1 + s)))                          # (G,)
+        h_y = entropy(y, axis=tuple(range(1, 1 + s)))                          # (G,)
         # -sum P ln P of P(C_o = c, Y_{-o}) over o's in-view classes c >= 1 (C_o = c is L_o = s_c):
         # every tracked axis but o's turned into outcomes, o's axis last (cyclic products).
         c1 = m + 1
@@ -527,15 +518,15 @@ class JointViewGain:
             for b in range(s):
                 if b != i:
                     x = np.matmul(x.reshape(g_n, c1, -1).transpose(0, 2, 1), tab[:, b])
-            h_part[:, t] = _neg_xlogx_sum(x.reshape(g_n, -1), axis=1)
+            h_part[:, t] = entropy(x.reshape(g_n, -1), axis=1)
         h_out = self._out_of_view(sites, tracked, targets, psi, tab, w_oa, emb)
         own = tab[:, targets]                                                         # (G, T, c, y)
-        h_own = _neg_xlogx_sum(own, axis=3)                                           # (G, T, c)
+        h_own = entropy(own, axis=3)                                           # (G, T, c)
         q = self.q[o_sel]                                                             # (T, K)
         p_in = q[:, sites].transpose(1, 0, 2)                          # q(L_o = s_c), (G, T, m)
         p_out = 1.0 - p_in.sum(axis=2)
         h_in = h_part + (p_in * h_own[:, :, 1:]).sum(axis=2)
-        h_o = _neg_xlogx_sum(q, axis=1)                                               # (T,)
+        h_o = entropy(q, axis=1)                                               # (T,)
         h_lo_y = h_in + h_out + p_out * h_own[:, :, 0]
         gain = h_o[None, :] + h_y[:, None] - h_lo_y
         return np.where(np.abs(gain) < MI_TOLERANCE, np.maximum(gain, 0.0), gain)
@@ -599,7 +590,7 @@ class JointViewGain:
                     p = p.reshape(gc, n_a, n_hi, n_lo).transpose(0, 2, 1, 3).reshape(gc, n_hi, -1)
                     p = np.matmul(k_hi.transpose(0, 2, 1), p)
                     p /= self.sm.z
-                    h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
+                    h_out[lo:hi, t] = entropy(p.reshape(gc, -1), axis=1)
                     continue
                 else:
                     for b in others:                                # cyclic: class axis -> end
@@ -614,7 +605,7 @@ class JointViewGain:
                 w = w_oa[lo:hi, :, o][~in_view[lo:hi]].reshape(gc, -1, len(masks))
                 p = np.matmul(w, kernel)                          # Z P(a, Y), (g, K - m, Y)
                 p /= self.sm.z
-                h_out[lo:hi, t] = _neg_xlogx_sum(p.reshape(gc, -1), axis=1)
+                h_out[lo:hi, t] = entropy(p.reshape(gc, -1), axis=1)
         return h_out
 
     def _tracked_for(self, o: int, m: int) -> list[int]:
@@ -751,9 +742,9 @@ class JointViewGain:
                                  axis=2)                                    # (G, n_obs, m + 1)
             tab = detection_table(prob, self.fp)
             p_y = np.einsum("gnc,gncy->gny", p_c, tab)
-            info = _neg_xlogx_sum(p_y, axis=2) - (p_c * _neg_xlogx_sum(tab, axis=3)).sum(axis=2)
+            info = entropy(p_y, axis=2) - (p_c * entropy(tab, axis=3)).sum(axis=2)
             own[:, members] = np.maximum(info, 0.0).T
-        h_o = _neg_xlogx_sum(q, axis=1)
+        h_o = entropy(q, axis=1)
         rest = own.sum(axis=0)[None, :] - own                           # sum over u != o
         rest = np.minimum(rest, self._independence_bound()[self.observed][:, None])
         upper = np.minimum(h_o[:, None], own + rest) + BOUND_TOLERANCE

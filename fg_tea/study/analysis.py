@@ -29,13 +29,13 @@ Every file is written atomically: to a temporary file in the same folder, then r
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from fg_tea.common.files import atomic_path, atomic_write_text
+from fg_tea.common.stats import Z95, Interval, t_interval, wilson_interval
 from fg_tea.study.rows import write_csv_atomic
 from fg_tea.study.sweep import REFUSED, STEP_LIMIT
 
@@ -53,59 +53,6 @@ LABELS = {"search_distance": "search travel (m)", "total_distance": "total trave
           "quality_brier_final": "Brier (final)", "quality_ece": "ECE"}
 #: Pairing columns: the world and the episode seed (plus whatever strata the caller adds).
 PAIR_ON = ("world", "world_seed", "seed")
-Z95 = 1.959963984540054
-
-
-# ---------------------------------------------------------------------------------- intervals
-@dataclass(frozen=True)
-class Interval:
-    """A mean with its confidence interval. Fields are NaN when undefined."""
-
-    mean: float
-    low: float
-    high: float
-    n: int
-
-    def fmt(self, digits: int = 2) -> str:
-        """``mean [low, high]`` (or ``mean`` alone when the interval is undefined)."""
-        if self.n == 0 or math.isnan(self.mean):
-            return "–"
-        if math.isnan(self.low):
-            return f"{self.mean:.{digits}f}"
-        return f"{self.mean:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"
-
-
-def t_interval(values: Iterable[float | None], confidence: float = 0.95) -> Interval:
-    """Mean and two-sided Student-t confidence interval of a sample.
-
-    Args:
-        values: the sample (None and NaN are dropped).
-        confidence: the coverage, in (0, 1).
-
-    Returns:
-        The interval ``mean ± t_{(1+c)/2, n-1} s / sqrt(n)``; NaN bounds for n < 2, all NaN for n = 0.
-    """
-    from scipy import stats
-
-    x = np.array([float(v) for v in values if v is not None and not _isnan(v)], dtype=float)
-    n = len(x)
-    if n == 0:
-        return Interval(math.nan, math.nan, math.nan, 0)
-    mean = float(x.mean())
-    if n < 2:
-        return Interval(mean, math.nan, math.nan, n)
-    half = float(stats.t.ppf(0.5 + confidence / 2, n - 1) * x.std(ddof=1) / math.sqrt(n))
-    return Interval(mean, mean - half, mean + half, n)
-
-
-def wilson_interval(successes: int, n: int, z: float = Z95) -> Interval:
-    """A proportion with its Wilson score interval (z = 1.96 for 95 %)."""
-    if n == 0:
-        return Interval(math.nan, math.nan, math.nan, 0)
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return Interval(p, centre - half, centre + half, n)
 
 
 def _isnan(v: Any) -> bool:

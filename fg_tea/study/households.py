@@ -40,6 +40,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 
 from fg_tea.common.errors import InputError
+from fg_tea.common.stats import t_interval
 
 #: The arms of a lifelong sweep (docs/design.md §12): the written model, learning with the
 #: hand-set correlations, learning the correlations too.
@@ -282,18 +283,10 @@ def run_lifelong(specs: Sequence[HouseholdSpec], workers: int = 1) -> list[dict]
 # Curves, summary and plot
 
 
-def t_interval(values: Iterable[Any]) -> tuple[float, float, float]:
-    """Mean and 95 % Student-t interval (NaN without values; the mean twice with one)."""
-    x = np.asarray([v for v in values if v is not None and v != ""], dtype=float)
-    if len(x) == 0:
-        return math.nan, math.nan, math.nan
-    mean = float(x.mean())
-    if len(x) < 2:
-        return mean, mean, mean
-    from scipy.stats import t
-
-    half = float(t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / math.sqrt(len(x)))
-    return mean, mean - half, mean + half
+def _ci(values: Iterable[Any]) -> tuple[float, float, float]:
+    """Mean and 95 % Student-t bounds (:func:`fg_tea.common.stats.t_interval`) as a tuple."""
+    iv = t_interval(values)
+    return iv.mean, iv.low, iv.high
 
 
 def pooled_ece(records: Sequence[np.ndarray], seed: int = 0) -> tuple[float, float, float]:
@@ -325,7 +318,7 @@ def curves(rows: Sequence[Mapping]) -> list[dict]:
             sel = [r for r in mine if r["episode"] == k]
             row: dict[str, Any] = {"model": model, "arm": arm, "episode": k, "n": len(sel)}
             for key in [m for m, _ in METRICS] + ["success", "prior_true_focus"]:
-                row[key], row[key + "_lo"], row[key + "_hi"] = t_interval(r[key] for r in sel)
+                row[key], row[key + "_lo"], row[key + "_hi"] = _ci(r[key] for r in sel)
             row["ece"], row["ece_lo"], row["ece_hi"] = pooled_ece(
                 [r["_calibration"] for r in sel if r.get("_calibration") is not None], seed=k)
             out.append(row)
@@ -390,9 +383,9 @@ def summary_markdown(rows: Sequence[Mapping], table: Sequence[Mapping], title: s
                 continue
             d1 = [last[h] - first[h] for h in first if h in last]
             d2 = [last[h] - hand[h] for h in last if h in hand] if arm != HAND_SET else []
-            lines.append(f"| {model} | {arm} | {label.format(focus=focus)} | {_fmt(t_interval(first.values()))} "
-                         f"| {_fmt(t_interval(last.values()))} | {_fmt(t_interval(d1))} "
-                         f"| {_fmt(t_interval(d2)) if d2 else '–'} |")
+            lines.append(f"| {model} | {arm} | {label.format(focus=focus)} | {_fmt(_ci(first.values()))} "
+                         f"| {_fmt(_ci(last.values()))} | {_fmt(_ci(d1))} "
+                         f"| {_fmt(_ci(d2)) if d2 else '–'} |")
         c1 = [c for c in table if c["model"] == model and c["arm"] == arm and c["episode"] == 1]
         cK = [c for c in table if c["model"] == model and c["arm"] == arm and c["episode"] == K]
         if c1 and cK:
@@ -444,7 +437,7 @@ def _between_arms(rows: Sequence[Mapping], keys: Sequence[tuple[str, str]], focu
                          and r["episode"] == k and r[key] not in (None, "")}
                     b = {r["household"]: r[key] for r in rows if r["model"] == model and r["arm"] == ref
                          and r["episode"] == k and r[key] not in (None, "")}
-                    d = t_interval(a[h] - b[h] for h in a if h in b)
+                    d = _ci(a[h] - b[h] for h in a if h in b)
                     cells.append("–" if math.isnan(d[0]) else f"{d[0]:.2f} [{d[1]:.2f}, {d[2]:.2f}]")
                 if all(c == "–" for c in cells):
                     continue
@@ -525,4 +518,4 @@ def check_move(move: tuple[str, str, int] | None, scenario, episodes: int) -> No
 __all__ = ["FIELDS", "HAND_SET", "HouseholdSpec", "LEARNED", "LEARNED_CORRELATIONS", "METRICS",
            "arms_of", "check_move", "curves", "plot", "pooled_ece", "relation_pairs",
            "run_household", "run_lifelong", "score_start_belief", "summary_markdown",
-           "t_interval", "write_outputs"]
+           "write_outputs"]
