@@ -323,7 +323,7 @@ def test_cli_learn_writes_a_model_that_validates_and_runs(logs, tmp_path):
 
 
 @pytest.mark.parametrize("args, fault", [
-    (["missing.jsonl"], "no such log file"),
+    (["missing.jsonl"], "file not found"),
     (["BAD"], "not a JSON line"),
     (["LOG", "LOG"], "already counted"),
     (["LOG", "--out", "FOLDER"], "is a folder"),

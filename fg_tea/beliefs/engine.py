@@ -24,8 +24,9 @@ and pairwise marginals, without mutating the belief.
 from __future__ import annotations
 
 import copy
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -185,6 +186,19 @@ class BeliefEngine:
         return PairWeights(same_site, same_room)
 
     # ------------------------------------------------------------------ bookkeeping
+    @contextmanager
+    def _trial(self) -> Iterator[None]:
+        """Evidence tried on the belief: if anything in the block raises (a contradiction, an
+        interrupt), the belief is restored exactly as it was, and the exception goes on."""
+        saved = (self._unary.copy(), list(self._loc_factors), list(self._state_factors),
+                 dict(self._slice), dict(self._cache))
+        try:
+            yield
+        except BaseException:
+            (self._unary, self._loc_factors, self._state_factors, self._slice,
+             self._cache) = saved
+            raise
+
     def copy(self) -> "BeliefEngine":
         """An independent copy (hypotheses can be applied to it freely)."""
         other = copy.copy(self)
@@ -719,17 +733,13 @@ class BeliefEngine:
                 raise KeyError(f"no object named {obj!r}")
         j, k = self._site_index[site], len(self.sites)
         before = self.locations()
-        saved = (self._unary.copy(), list(self._loc_factors), dict(self._cache))
-        try:
+        with self._trial():
             misses = [miss_factor(o, j, k, self.model.miss_likelihood)
                       for o in self.objects if detections.get(o) is False]
             self._commit_location(misses)
             self._apply_detections([(o, j, None) for o in self.objects
                                     if detections.get(o) is True])
             after = self.locations()
-        except BaseException:
-            self._unary, self._loc_factors, self._cache = saved
-            raise
         detected = tuple(o for o in self.objects if detections.get(o) is True)
         return SiteUpdate(site, dict(detections), before, after, detected)
 
@@ -759,8 +769,7 @@ class BeliefEngine:
                 raise KeyError(f"site {site!r} is not in view of {view.name!r}")
         label = str(view.sites[0]) if view.kind == "site" else view.name
         before = self.locations()
-        saved = (self._unary.copy(), list(self._loc_factors), dict(self._cache))
-        try:
+        with self._trial():
             misses = [view_miss_factor(o, view.sites, view.miss[self._obj_index[o]], k, label)
                       for o in self.objects if o in found and found[o] is None]
             self._commit_location(misses)
@@ -772,9 +781,6 @@ class BeliefEngine:
                     seen.append((o, j, float(view.miss[self._obj_index[o], view.sites.index(j)])))
             self._apply_detections(seen)
             after = self.locations()
-        except BaseException:
-            self._unary, self._loc_factors, self._cache = saved
-            raise
         detected = tuple(o for o in self.objects if found.get(o) is not None)
         return SiteUpdate(view.name, {o: found[o] is not None for o in found}, before, after,
                           detected)
@@ -852,14 +858,10 @@ class BeliefEngine:
     def _commit_states(self, factors: list[Factor], kind: str, touched: Sequence[str],
                        detail: Mapping[str, object]) -> StateUpdate:
         before = {s: self.state(s) for s in touched}
-        saved = (list(self._state_factors), dict(self._slice), dict(self._cache))
-        self._state_factors = factors
-        self._cache.pop("states", None)
-        try:
+        with self._trial():
+            self._state_factors = factors
+            self._cache.pop("states", None)
             after = {s: self.state(s) for s in touched}
-        except BaseException:
-            self._state_factors, self._slice, self._cache = saved
-            raise
         return StateUpdate(kind, before, after, detail)
 
     def observe_state(self, state: str, value: bool, sensor: Sensor) -> StateUpdate:
@@ -922,15 +924,11 @@ class BeliefEngine:
         merged = self._solver().sum_out(self._state_factors + factors, old, self._cards,
                                         "states after " + ", ".join(targets))
         before = {s: self.state(s) for s in targets}
-        saved = (list(self._state_factors), dict(self._slice), dict(self._cache))
-        self._slice.update(new_names)
-        self._state_factors = [merged]
-        self._cache.pop("states", None)
-        try:
+        with self._trial():
+            self._slice.update(new_names)
+            self._state_factors = [merged]
+            self._cache.pop("states", None)
             after = {s: self.state(s) for s in targets}
-        except BaseException:
-            self._state_factors, self._slice, self._cache = saved
-            raise
         return StateUpdate("transition", before, after,
                            {"form": "direct" if direct else "full",
                             "effects": [{"state": e.state, "value": e.value, "success": e.success,

@@ -124,21 +124,51 @@ class EventLog:
         self.close()
 
 
-def read_log(path: str | Path) -> list[dict]:
-    """Read a log back; a truncated last line (a crash mid-write) is ignored."""
+class _NonFinite(ValueError):
+    pass
+
+
+def _refuse_constant(name: str) -> float:
+    raise _NonFinite(name)
+
+
+def read_log(path: str | Path, strict: bool = False) -> list[dict]:
+    """The events of a log file, read through the guarded input reader (one reader for every
+    command that reads logs: render, learn, the quality checks).
+
+    A FIFO, a device, a folder, an oversized or non-UTF-8 file, a bare ``NaN`` or ``Infinity``
+    (not JSON, and never written by fg_tea) and nesting too deep to parse are refused in every
+    mode. A truncated last line (a crash mid-write) ends the log; with `strict`, it is an error
+    too, as is any line that is not an event object and a log that does not begin with
+    ``episode_start``.
+
+    Raises:
+        InputError: one line naming the file, the line and the fault.
+    """
+    from fg_tea.common.errors import InputError
     from fg_tea.common.inputs import read_text
 
-    events = []
-    for line in read_text(path, max_bytes=LOG_MAX_BYTES).splitlines():
+    lines = read_text(path, max_bytes=LOG_MAX_BYTES).splitlines()
+    last = max((n for n, line in enumerate(lines, 1) if line.strip()), default=0)
+    events: list[dict] = []
+    for n, line in enumerate(lines, 1):
         if not line.strip():
             continue
         try:
-            event = json.loads(line)
-        except (ValueError, RecursionError):
-            break
-        if not isinstance(event, dict):
-            break
+            event = json.loads(line, parse_constant=_refuse_constant)
+        except _NonFinite as exc:
+            raise InputError(path, f"line {n}", f"a bare {exc} is not JSON (fg_tea writes null)") from None
+        except RecursionError:
+            raise InputError(path, f"line {n}", "nested too deeply to be an event") from None
+        except ValueError:
+            if strict or n != last:
+                raise InputError(path, f"line {n}", "not a JSON line") from None
+            break  # a crash mid-write left a partial last line
+        if not isinstance(event, dict) or not isinstance(event.get("event"), str):
+            raise InputError(path, f"line {n}", "not an event (a JSON object with 'event')")
         events.append(event)
+    if strict and (not events or events[0]["event"] != "episode_start"):
+        raise InputError(path, "line 1", "a log starts with an episode_start event")
     return events
 
 

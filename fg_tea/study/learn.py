@@ -8,7 +8,6 @@ reads episode logs through the guarded reader, applies the counting rules
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 from dataclasses import replace
@@ -39,35 +38,18 @@ def _fail(file: str, where: str, fault: str) -> InputError:
 
 
 def read_log(path: str | Path) -> tuple[list[dict], str]:
-    """The events of a log file and the sha256 of its bytes.
+    """The events of a log file (:func:`fg_tea.episode.log.read_log`, strict) and the sha256 of
+    its bytes.
 
     Raises:
-        InputError: the file cannot be read, a line is not a JSON object, or the log has no
+        InputError: the file cannot be read, a line is not an event, or the log has no
             ``episode_start``.
     """
-    path = Path(path)
-    try:
-        data = path.read_bytes()
-    except IsADirectoryError:
-        raise _fail(str(path), "$", "is a folder, not a log file") from None
-    except FileNotFoundError:
-        raise _fail(str(path), "$", "no such log file") from None
-    except OSError as exc:
-        raise _fail(str(path), "$", f"cannot be read: {exc.strerror}") from None
-    events = []
-    for n, line in enumerate(data.decode("utf-8", errors="replace").splitlines(), 1):
-        if not line.strip():
-            continue
-        try:
-            event = json.loads(line)
-        except ValueError:
-            raise _fail(str(path), f"line {n}", "not a JSON line") from None
-        if not isinstance(event, dict) or not isinstance(event.get("event"), str):
-            raise _fail(str(path), f"line {n}", "not an event (a JSON object with 'event')")
-        events.append(event)
-    if not events or events[0]["event"] != "episode_start":
-        raise _fail(str(path), "line 1", "a log starts with an episode_start event")
-    return events, hashlib.sha256(data).hexdigest()
+    from fg_tea.episode.log import read_log as read_events
+    from fg_tea.episode.provenance import sha256_file
+
+    events = read_events(path, strict=True)
+    return events, sha256_file(path) or ""
 
 
 def house_of(events: Sequence[Mapping], file: str = "<log>") -> tuple[str, ...]:
