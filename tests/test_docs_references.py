@@ -5,6 +5,8 @@ must cite ``docs/design.md`` (its sections and equations) for the design, never 
 not in the repository (the original blueprint, an architecture or performance note, a style
 guide), a tracker's issue number, or a section number of such a document. Every markdown link and
 every backticked repository path (``fg_tea/...``, ``docs/...``, ``experiments/...``) must exist.
+Markdown links resolve against the linking file's folder, so the documentation site's nested
+pages (``docs/how-to/...``) are checked as they are (mkdocs.yml builds them).
 
 The checker is a pair of plain functions, so the same functions are also run on a planted bad
 tree, which shows that the test can fail.
@@ -20,7 +22,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 #: What is scanned: top-level files and folders of the source tree.
-SCANNED = ("README.md", "docs", "fg_tea", "experiments", "models", "scenarios", "tests",
+SCANNED = ("README.md", "mkdocs.yml", "docs", "fg_tea", "experiments", "models", "scenarios", "tests",
            "pyproject.toml", ".ci")
 #: Text files only; results tables (.csv) and images are data.
 SUFFIXES = {".md", ".py", ".toml", ".json", ".txt", ".cfg", ".yml", ".yaml", ".rst", ""}
@@ -129,6 +131,13 @@ def test_scan_covers_the_documentation_and_the_package(files):
     for expected in ("README.md", "docs/design.md", "fg_tea/__init__.py", "fg_tea/cli/main.py",
                      "experiments/ablations.py", "models/factorised.toml", "tests/test_episode.py"):
         assert expected in names
+    # The documentation site's pages, in nested folders too (mkdocs.yml, tests/test_docs_site.py).
+    for folder in ("concepts", "how-to", "reference"):
+        pages = [n for n in names if n.startswith(f"docs/{folder}/") and n.endswith(".md")]
+        if (ROOT / "docs" / folder).is_dir():
+            assert pages, folder
+    site_pages = {p.relative_to(ROOT).as_posix() for p in (ROOT / "docs").rglob("*.md")}
+    assert site_pages <= names
 
 
 def test_no_citation_of_a_document_or_issue_the_user_does_not_have(files):
@@ -154,6 +163,9 @@ def test_the_checker_finds_planted_faults(tmp_path):
     (tmp_path / "README.md").write_text(
         "[design](docs/design.md#10-departures) [gone](docs/gone.md) [web](https://example.org)\n"
         "![plot](docs/missing.png) see PERFORMANCE" "_NOTES.md and /work" "/shared/x\n")
+    (tmp_path / "docs" / "how-to").mkdir()
+    (tmp_path / "docs" / "how-to" / "page.md").write_text(
+        "[design](../design.md#9-the-log) [gone](../gone.md) [beside](gone.md)\n")
     files = scanned_files(tmp_path)
     forbidden = forbidden_citations(tmp_path, files)
     labels = {f.split(": ", 1)[1].split(" -- ")[0] for f in forbidden}
@@ -164,4 +176,5 @@ def test_the_checker_finds_planted_faults(tmp_path):
     assert not any(f.startswith("docs/design.md") for f in forbidden)       # its own §10
     missing = missing_paths(tmp_path, files)
     assert sorted(missing) == ["README.md:1: link docs/gone.md", "README.md:2: link docs/missing.png",
+                               "docs/how-to/page.md:1: link ../gone.md", "docs/how-to/page.md:1: link gone.md",
                                "fg_tea/mod.py:3: path fg_tea/gone.py"], missing
