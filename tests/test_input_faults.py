@@ -289,6 +289,8 @@ TASK_FAULTS = [
     ("object affordance no verb knows", _set_affordances(1, ["graspable", "fillable", "pourable",
                                                              "heatable", "levitating"]),
      lambda t: None, None, ("$.actions[8].object", "'kettle'", "'levitating'")),
+    ("misspelt fixed affordance", _set_affordances(1, ["graspabel", "fillable", "pourable", "heatable"]),
+     lambda t: None, None, ("$.actions[8].object", "'graspabel'", "did you mean 'graspable'")),
     ("misspelt object affordance", _set_affordances(1, ["graspable", "fillable", "pourable", "heatible"]),
      lambda t: None, None, ("$.actions[11].requires_affordance", "boil_kettle", "'heatable'")),
     ("requires an affordance no object has", lambda d: None,
