@@ -327,7 +327,7 @@ def test_furniture_that_touches_is_accepted(tmp_path):
     path = tmp_path / "touch.json"
     path.write_text(json.dumps(_scenario(lambda d: d["house"]["furniture"].append(
         {"name": "stool", "center": [9.0, 0.2], "size": [0.6, 0.3, 0.4]}))))  # x 8.7-9.3: touches side_table
-    status, out, err = cli(["validate", path])
+    status, _, err = cli(["validate", path])
     assert status == 0, err
 
 

@@ -237,7 +237,8 @@ def _read_house(r: Reader) -> House:
                              f"the wall (length {length:.2f} m)")
             doors.append(Doorway(at, width))
         walls.append(Wall(start, end, tuple(doors)))
-    furniture, seen = [], set()
+    furniture: list[Furniture] = []
+    seen: set[str] = set()
     for f in r.items("furniture"):
         name = f.req("name", str)
         if name in seen:
@@ -252,7 +253,7 @@ def _read_house(r: Reader) -> House:
         for i, c in enumerate(color):
             if not 0.0 <= c <= 1.0:
                 raise InputError(f.file, f"{f.path}.color[{i}]", f"colour channel {c:g} is outside [0, 1]")
-        color = color if len(color) == 4 else (*color, 1.0)
+        rgba = (color[0], color[1], color[2], color[3] if len(color) == 4 else 1.0)
         center = f.vector("center", 2)
         if size[2] > wall_height:
             raise f.fail(f"{size[2]:g} m tall: taller than the walls ({wall_height:g} m)", "size")
@@ -263,7 +264,7 @@ def _read_house(r: Reader) -> House:
             raise f.fail(f"footprint x [{lo[0]:g}, {hi[0]:g}], y [{lo[1]:g}, {hi[1]:g}] lies outside "
                          f"the floor (x [{floor_min[0]:g}, {floor_max[0]:g}], "
                          f"y [{floor_min[1]:g}, {floor_max[1]:g}])")
-        item = Furniture(name, center, size, color)
+        item = Furniture(name, center, size, rgba)
         for other in furniture:  # boxes may touch, never overlap (docs/design.md §8.1)
             if _overlap(item, other) > TOUCH_TOLERANCE:
                 raise f.fail(f"footprint overlaps furniture {other.name!r}")
