@@ -145,6 +145,15 @@ def _many_states(data):
 
 
 
+def _duplicate_site_name(tmp):
+    path = tmp / "dup.json"
+    text = json.dumps(SCENARIO)
+    first = '"name": "kitchen_counter"'
+    assert text.count(first) == 1
+    path.write_text(text.replace(first, first + ', "name": "pantry_shelf"'))
+    return path
+
+
 MODEL_HEAD = 'extends = "factorised"\nname = "m"\n'
 
 FILE_FAULTS = [
@@ -214,7 +223,47 @@ FILE_FAULTS = [
     ("duplicate co_location", _json(_world(lambda d: d["placement"]["co_location"].append(
         dict(d["placement"]["co_location"][0]))), "w.json"), ("$.placement.co_location[1]", "already")),
     ("inherited fault", _inherited_fault, ("parent.toml", "$.planning.bogus_weight", "unknown field")),
+    # Duplicate JSON keys: JSON keeps the last value silently (TOML refuses them itself).
+    ("duplicate top-level key", _bytes(b'{"schema_version": 2, "name": "a", "name": "b"}'),
+     ("$.name", "duplicate key")),
+    ("duplicate nested key", _duplicate_site_name, ("$.sites[0].name", "duplicate key")),
+    # Scenario geometry (docs/design.md §8.1: a site is the top of its furniture).
+    ("colour above 1", _json(_scenario(set_at(["house", "furniture", 0, "color"], [1.2, 0.5, 0.5, 1]))),
+     ("$.house.furniture[0].color[0]", "outside [0, 1]")),
+    ("negative colour", _json(_scenario(set_at(["house", "furniture", 1, "color"], [0.5, -0.1, 0.5]))),
+     ("$.house.furniture[1].color[1]", "outside [0, 1]")),
+    ("100 m box", _json(_scenario(set_at(["house", "furniture", 0, "size"], [2.6, 0.6, 100]))),
+     ("$.house.furniture[0].size", "taller than the walls")),
+    ("surface below its furniture top", _json(_scenario(set_at(["sites", 0, "position"], [2.0, 0.35, 0.5]))),
+     ("$.sites[0].position", "furniture 'counter'", "0.92")),
+    ("surface above its furniture top", _json(_scenario(set_at(["sites", 1, "position"], [0.35, 2.8, 1.5]))),
+     ("$.sites[1].position", "furniture 'pantry_shelf'")),
+    ("furniture off the floor", _json(_scenario(set_at(["house", "furniture", 0, "center"], [2.0, -0.1]))),
+     ("$.house.furniture[0]", "outside the floor")),
+    ("overlapping furniture", _json(_scenario(set_at(["house", "furniture", 4, "center"], [2.5, 0.9]))),
+     ("$.house.furniture[4]", "overlaps furniture 'counter'")),
+    # Model faults that `run` refused (or crashed on) but validate passed.
+    ("requires a state twice", _text(MODEL_HEAD + '[transitions.boil]\neffects = [{ state = '
+                                     '"{object}.water_hot", value = true, success = 0.9, requires = '
+                                     '["{object}.contains_water", "{object}.contains_water"] }]\n'),
+     ("$.transitions.boil.effects[0].requires[1]", "twice")),
+    ("sets a state twice", _text(MODEL_HEAD + '[transitions.fill]\neffects = [{ state = '
+                                 '"{object}.contains_water", value = true, success = 0.9 }, { state = '
+                                 '"{object}.contains_water", value = false, success = 0.9 }]\n'),
+     ("$.transitions.fill.effects[1].state", "twice")),
+    ("empty state name", _text(MODEL_HEAD + '[transitions.fill]\neffects = [{ state = "", value = true, '
+                               'success = 0.9 }]\n'), ("$.transitions.fill.effects[0].state", "empty")),
+    ("state without object", _text(MODEL_HEAD + '[transitions.fill]\neffects = [{ state = "{object}.", '
+                                   'value = true, success = 0.9 }]\n'),
+     ("$.transitions.fill.effects[0].state", "object.state")),
+    ("unknown role", _text(MODEL_HEAD + '[transitions.fill]\neffects = [{ state = "{nobody}.contains_water", '
+                           'value = true, success = 0.9 }]\n'),
+     ("$.transitions.fill.effects[0].state", "unknown role {nobody}")),
+    ("unknown role in a goal", _text(MODEL_HEAD + '[transitions.fill]\ngoals = [{ state = "{nobody}.x", '
+                                     'at_least = 0.9 }]\n'), ("$.transitions.fill.goals[0].state", "{nobody}")),
+    ("empty model name", _text('extends = "factorised"\nname = " "\n'), ("$.name", "empty")),
 ]
+
 
 
 @pytest.mark.parametrize("make,words", [f[1:] for f in FILE_FAULTS], ids=[f[0] for f in FILE_FAULTS])
@@ -222,6 +271,89 @@ def test_bad_file_is_one_line_with_exit_2(tmp_path, make, words):
     path = make(tmp_path)
     status, _, err = cli(["validate", path])
     assert_one_line_error(status, err, *words)
+
+
+def _set_affordances(obj, affordances):
+    return set_at(["objects", obj, "affordances"], affordances)
+
+
+def _task(edit):
+    data = copy.deepcopy(TASK)
+    edit(data)
+    return data
+
+
+# (id, scenario edit, task edit, model text or None, words): `validate TASK --scenario S --model M`
+# makes every check `run` makes before its first step (docs/design.md §7.5 affordances).
+TASK_FAULTS = [
+    ("object affordance no verb knows", _set_affordances(1, ["graspable", "fillable", "pourable",
+                                                             "heatable", "levitating"]),
+     lambda t: None, None, ("$.actions[8].object", "'kettle'", "'levitating'")),
+    ("misspelt fixed affordance", _set_affordances(1, ["graspabel", "fillable", "pourable", "heatable"]),
+     lambda t: None, None, ("$.actions[8].object", "'graspabel'", "did you mean 'graspable'")),
+    ("misspelt object affordance", _set_affordances(1, ["graspable", "fillable", "pourable", "heatible"]),
+     lambda t: None, None, ("$.actions[11].requires_affordance", "boil_kettle", "'heatable'")),
+    ("requires an affordance no object has", lambda d: None,
+     set_at(["actions", 11, "requires_affordance"], "boilable"), None,
+     ("$.actions[11].requires_affordance", "boil_kettle", "'boilable'")),
+    ("requires an affordance its object lacks", lambda d: None,
+     set_at(["actions", 17, "requires_affordance"], "heatable"), None,
+     ("$.actions[17].requires_affordance", "serve_tea", "'mug'", "'heatable'")),
+    ("scenario the navigator refuses", lambda d: d["house"]["walls"][6].pop("doorways"), lambda t: None,
+     None, ("$.sites[7].vantage_position", "not reachable from the start")),
+    ("a filled-in state required twice", lambda d: None, lambda t: None,
+     MODEL_HEAD + '[transitions.boil]\neffects = [{ state = "{object}.water_hot", value = true, '
+     'success = 0.9, requires = ["{object}.contains_water", "kettle.contains_water"] }]\n',
+     ("$.actions[11].transition", "'kettle.contains_water'", "twice")),
+]
+
+
+@pytest.mark.parametrize("scenario_edit,task_edit,model,words", [f[1:] for f in TASK_FAULTS],
+                         ids=[f[0] for f in TASK_FAULTS])
+def test_task_fault_against_its_scenario_is_one_line(tmp_path, scenario_edit, task_edit, model, words):
+    scenario, task = tmp_path / "s.json", tmp_path / "tasks" / "t.json"
+    task.parent.mkdir()
+    scenario.write_text(json.dumps(_scenario(scenario_edit)))
+    task.write_text(json.dumps(_task(task_edit)))
+    argv = ["validate", task, "--scenario", scenario]
+    if model is not None:
+        (tmp_path / "m.toml").write_text(model)
+        argv += ["--model", tmp_path / "m.toml"]
+    status, _, err = cli(argv)
+    assert_one_line_error(status, err, *words)
+
+
+def test_furniture_that_touches_is_accepted(tmp_path):
+    path = tmp_path / "touch.json"
+    path.write_text(json.dumps(_scenario(lambda d: d["house"]["furniture"].append(
+        {"name": "stool", "center": [9.0, 0.2], "size": [0.6, 0.3, 0.4]}))))  # x 8.7-9.3: touches side_table
+    status, _, err = cli(["validate", path])
+    assert status == 0, err
+
+
+def test_every_bundled_task_validates_against_every_bundled_scenario_holding_its_objects():
+    from fg_tea.common.resources import bundled
+    from fg_tea.world.scenario import load_scenario
+
+    checked = 0
+    for task_path in sorted(ROOT.glob("scenarios/tasks/*.json")):
+        task = json.loads(task_path.read_text())
+        names = {a.get(k) for a in task["actions"] for k in ("object", "destination")} - {None}
+        for scenario_path in bundled("scenarios", ".json"):
+            if names <= set(load_scenario(scenario_path).object_names):
+                status, _, err = cli(["validate", task_path, "--scenario", scenario_path], seconds=60)
+                assert status == 0, (task_path.name, scenario_path.name, err)
+                checked += 1
+    assert checked >= 3
+
+
+@pytest.mark.parametrize("seed", [1, 3, 7, 12])
+def test_generated_houses_validate(tmp_path, seed):
+    out = tmp_path / f"h{seed}.json"
+    status, _, err = cli(["house", "--rooms", "10", "--seed", seed, "--out", out], seconds=60)
+    assert status == 0, err
+    status, _, err = cli(["validate", out], seconds=60)
+    assert status == 0, err
 
 
 @pytest.mark.parametrize("name", ["bare.json", "task_elsewhere.json"])

@@ -40,7 +40,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
     Each file gets every check a run would make: a scenario is also laid out on the occupancy
     grid with the navigator and given an exact belief under ``--model``; a task is checked
-    against ``--scenario`` and ``--model``; a world distribution's base scenario is checked and
+    against ``--scenario`` (itself given the scenario checks) and ``--model``; a world distribution's base scenario is checked and
     one world is drawn.
     """
     from fg_tea.common.inputs import read_json
@@ -55,8 +55,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
         elif kind == "task":
             from fg_tea.tasks.load import parse_task
 
-            scenario = args.scenario or _scenario_for_task(data)
-            parse_task(data, load_model(args.model), load_scenario(scenario), file=path)
+            scenario = load_scenario(args.scenario or _scenario_for_task(data))
+            model = load_model(args.model)
+            check_scenario(scenario, model)  # as `run` does before loading its task
+            parse_task(data, model, scenario, file=path)
         elif kind == "world":
             from fg_tea.world.distributions import parse_world
 

@@ -244,13 +244,42 @@ def _short(value: Any) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+class _Duplicates(dict):
+    """A JSON object some of whose keys were given twice (`repeated`); refused by _walk_check,
+    which knows its path."""
+
+    repeated: list[str]
+
+
+def _object_pairs(pairs: list[tuple[str, Any]]) -> dict:
+    """The ``object_pairs_hook`` of :func:`read_json`: a dict, marked when a key repeats (JSON
+    itself keeps the last value silently, so a doubled key would hide its first value)."""
+    out = dict(pairs)
+    if len(out) == len(pairs):
+        return out
+    marked = _Duplicates(out)
+    seen: set[str] = set()
+    marked.repeated = []
+    for key, _ in pairs:
+        if key in seen:
+            marked.repeated.append(key)
+        seen.add(key)
+    return marked
+
+
 def _walk_check(data: Any, file: str | Path) -> None:
-    """Reject what no parser should see: deep nesting, NaN/inf, lone surrogates (not UTF-8)."""
+    """Reject what no parser should see: deep nesting, NaN/inf, lone surrogates (not UTF-8),
+    a key given twice in one JSON object."""
     stack = [(data, "$", 0)]
     while stack:
         value, path, depth = stack.pop()
         if depth > MAX_DEPTH:
             raise InputError(file, path, f"nested more than {MAX_DEPTH} levels deep")
+        if isinstance(value, _Duplicates):
+            key = value.repeated[0]
+            _check_text(key, file, path)
+            raise InputError(file, f"{path}.{key}", f"duplicate key {key!r} in one object (only "
+                             "one value can hold; JSON would keep the last silently)")
         if isinstance(value, dict):
             for key, v in value.items():
                 _check_text(key, file, path)
@@ -310,7 +339,7 @@ def read_json(path: str | Path) -> Any:
     """Parse a JSON input file; any way it cannot be read or parsed is an :class:`InputError`."""
     text = read_text(path)
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=_object_pairs)
     except json.JSONDecodeError as exc:
         raise InputError(path, f"line {exc.lineno} column {exc.colno}", f"invalid JSON: {exc.msg}") from None
     except RecursionError:

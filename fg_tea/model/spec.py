@@ -10,6 +10,7 @@ a few lines each). Parsed once into frozen dataclasses; faults are
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -24,6 +25,10 @@ STRUCTURES = ("factorised", "joint")
 #: Longest chain of ``extends`` (the bundled ablations use two levels).
 MAX_EXTENDS_DEPTH = 32
 RELATION_KINDS = ("capacity", "co_location", "exclusivity")
+#: The roles a transition's state templates may name, filled in from a task action
+#: (docs/design.md §7.3); ``{object}.contains_water`` becomes ``kettle.contains_water``.
+ROLES = ("object", "destination")
+ROLE_TEMPLATE = re.compile(r"\{([^{}]*)\}")
 
 
 @dataclass(frozen=True)
@@ -223,26 +228,64 @@ def _positive_update(detection: Reader) -> str:
     return detection.choice("positive_update", POSITIVE_UPDATES, "collapse")
 
 
+def state_template_fault(template: str) -> str | None:
+    """What is wrong with a transition's state template, or None.
+
+    A template is ``object.state`` where ``object`` may be a role (``{object}``,
+    ``{destination}``); the task loader fills the roles in and refuses anything else, so a model
+    that a run would refuse is refused when it is read.
+    """
+    if not template.strip():
+        return "a state name must not be empty"
+    unknown = [role for role in ROLE_TEMPLATE.findall(template) if role not in ROLES]
+    if unknown:
+        return (f"unknown role {{{unknown[0]}}} in {template!r} (known: "
+                f"{', '.join('{' + r + '}' for r in ROLES)})")
+    filled = ROLE_TEMPLATE.sub("x", template)
+    if "{" in filled or "}" in filled:
+        return f"unbalanced brace in {template!r}"
+    obj, dot, state = filled.partition(".")
+    if not dot or not obj.strip() or not state.strip():
+        return f"{template!r} is not a state name of the form object.state ({{object}}.state)"
+    return None
+
+
+def _state(r: Reader, key: str | int, template: str) -> str:
+    fault = state_template_fault(template)
+    if fault is not None:
+        raise r.fail(fault, key)
+    return template
+
+
 def _read_conditions(r: Reader, key: str) -> tuple[Condition, ...]:
     out = []
     for c in r.items(key, required=False):
-        out.append(Condition(c.req("state", str), c.probability("at_least")))
+        out.append(Condition(_state(c, "state", c.req("state", str)), c.probability("at_least")))
     return tuple(out)
 
 
 def _read_transition(name: str, r: Reader, override: float | None) -> TransitionSpec:
     effects = []
+    targets: set[str] = set()
     for e in r.items("effects"):
         requires = e.opt("requires", list, [])
+        sub = Reader(requires, e.file, f"{e.path}.requires")
         for i, req in enumerate(requires):
             if not isinstance(req, str):
                 raise InputError(e.file, f"{e.path}.requires[{i}]", "expected a state name")
+            _state(sub, i, req)
+            if req in requires[:i]:  # a repeated variable the belief engine cannot build
+                raise sub.fail(f"state {req!r} is required twice", i)
+        state = _state(e, "state", e.req("state", str))
+        if state in targets:  # all effects read the state before the action (eq. 27)
+            raise e.fail(f"the transition sets state {state!r} twice", "state")
+        targets.add(state)
         if override is None:
             success = e.probability("success")
         else:  # still checked, though the override replaces it
             e.probability("success", override)
             success = override
-        effects.append(Effect(e.req("state", str), e.req("value", bool), success, tuple(requires)))
+        effects.append(Effect(state, e.req("value", bool), success, tuple(requires)))
     if not effects:
         raise r.fail("a transition needs at least one effect", "effects")
     return TransitionSpec(name, tuple(effects), _read_conditions(r, "goals"),
@@ -367,8 +410,11 @@ def parse_model(data: dict, file: str | Path = "<model>",
     floor = beliefs.probability("prior_floor")
     if floor <= 0:
         raise beliefs.fail("the prior floor must be positive (eq. 2)", "prior_floor")
+    name = r.req("name", str)
+    if not name.strip():
+        raise r.fail("a model name must not be empty", "name")
     model = Model(
-        name=r.req("name", str),
+        name=name,
         description=r.opt("description", str, ""),
         structure=structure,
         prior_floor=floor,

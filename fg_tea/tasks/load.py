@@ -63,6 +63,7 @@ what is wrong; dangling dependencies and cycles name the actions involved.
 
 from __future__ import annotations
 
+import functools
 import re
 from pathlib import Path
 
@@ -86,6 +87,9 @@ _SITE_REQUIRED = ("NAVIGATE", "PLACE")
 _SITE_FORBIDDEN = ("SEARCH", "INSPECT")
 _DESTINATION_REQUIRED = ("INSERT", "POUR")
 _AFFORDANCE_VERBS = ("USE", "WAIT")
+#: The fixed affordance checks of the other verbs (docs/design.md §7.5; TaskExecutor.check).
+VERB_AFFORDANCES = {"PICK": ("graspable",), "INSERT": ("container",), "FILL": ("fillable",),
+                    "POUR": ("pourable", "container")}
 _TEMPLATE = re.compile(r"\{([^{}]*)\}")
 
 
@@ -258,6 +262,15 @@ def _read_action(r: Reader, ctx: _Context) -> tuple[TaskAction, list[str]]:
 
         effects = tuple(Effect(concrete(e.state), e.value, e.success,
                                tuple(concrete(q) for q in e.requires)) for e in spec.effects)
+        # Filled in, two templates can name one state ({object}.x and kettle.x): the belief
+        # engine cannot build a factor over a repeated variable (docs/design.md eq. 27).
+        targets = [e.state for e in effects]
+        for e in effects:
+            twice = [q for i, q in enumerate(e.requires) if q in e.requires[:i]]
+            if twice or targets.count(e.state) > 1:
+                what = "requires" if twice else "sets"
+                raise r.fail(f"{where} {what} state {(twice or [e.state])[0]!r} twice for this "
+                             "action", "transition")
         goals = tuple(Condition(concrete(c.state), c.at_least) for c in spec.goals)
         pre = tuple(Condition(concrete(c.state), c.at_least) for c in spec.preconditions)
     goals += _conditions(r, "goals", obj, dest, ctx)
@@ -267,6 +280,15 @@ def _read_action(r: Reader, ctx: _Context) -> tuple[TaskAction, list[str]]:
     if affordance is not None and verb not in _AFFORDANCE_VERBS:
         raise r.fail(f"requires_affordance is for {' and '.join(_AFFORDANCE_VERBS)}; {verb} has "
                      "fixed affordance checks", "requires_affordance")
+    if affordance is not None:  # the executor refuses the action on every try: the run is stuck
+        have = ctx.scenario.object(obj).affordances
+        if affordance not in have:
+            holders = [o.name for o in ctx.scenario.objects if affordance in o.affordances]
+            others = (f"only {', '.join(map(repr, holders))} of scenario {ctx.scenario.name!r} "
+                      "has it") if holders else f"no object of scenario {ctx.scenario.name!r} has it"
+            raise r.fail(f"action {action_id!r} ({verb}) needs object {obj!r} to be {affordance!r}, "
+                         f"but it affords {', '.join(sorted(have)) or 'nothing'}; {others}",
+                         "requires_affordance")
 
     deps = r.opt("depends_on", list, [])
     for k, dep in enumerate(deps):
@@ -301,6 +323,46 @@ def _read_declared(r: Reader, scenario: Scenario) -> dict[str, float]:
                                "its prior comes from there", state)
             out[f"{obj}.{state}"] = per.probability(state)
     return out
+
+
+@functools.lru_cache(maxsize=1)
+def known_affordances() -> frozenset[str]:
+    """The affordances some task verb checks (docs/design.md §7.5): the fixed ones of
+    :data:`VERB_AFFORDANCES` and every ``requires_affordance`` of the bundled tasks."""
+    from fg_tea.common.resources import bundled
+
+    known = {a for names in VERB_AFFORDANCES.values() for a in names}
+    for path in bundled("scenarios/tasks", ".json"):
+        try:
+            data = read_json(path)
+        except InputError:
+            continue
+        for action in data.get("actions", []) if isinstance(data, dict) else []:
+            if isinstance(action, dict) and isinstance(action.get("requires_affordance"), str):
+                known.add(action["requires_affordance"])
+    return frozenset(known)
+
+
+def _check_object_affordances(r: Reader, actions: list[TaskAction], scenario: Scenario) -> None:
+    """Refuse an affordance of an object the task acts on that no task verb checks: neither a
+    fixed one, nor a bundled task's or this task's ``requires_affordance`` (docs/design.md §7.5).
+    Such an affordance is a misspelling (``graspabel``) that leaves the object without the one
+    meant, so an action is refused on every try and the run ends stuck."""
+    known = set(known_affordances())
+    known |= {a.requires_affordance for a in actions if a.requires_affordance is not None}
+    for k, action in enumerate(actions):
+        for role in ("object", "destination"):
+            name = getattr(action, role)
+            if name is None:
+                continue
+            unknown = sorted(scenario.object(name).affordances - known)
+            if unknown:
+                raise InputError(r.file, f"{r.path}.actions[{k}].{role}",
+                                 f"action {action.id!r}: object {name!r} of scenario "
+                                 f"{scenario.name!r} affords {unknown[0]!r}, which no task verb "
+                                 f"checks{_suggest(unknown[0], known)} (known: "
+                                 f"{', '.join(sorted(known))}; a USE or WAIT action's "
+                                 "requires_affordance adds one)")
 
 
 def parse_task(data: object, model: Model, scenario: Scenario, preparation_site: str | None = None,
@@ -344,6 +406,7 @@ def parse_task(data: object, model: Model, scenario: Scenario, preparation_site:
         deps[action.id] = depends_on
     if not actions:
         raise r.fail("a task needs at least one action", "actions")
+    _check_object_affordances(r, actions, scenario)
     graph = TaskGraph(actions, deps, name=r.req("name", str), description=r.opt("description", str, ""),
                       source=str(file), declared_states=declared)
     r.finish()

@@ -7,7 +7,10 @@ the JSON path and what is wrong.
 
 Coordinates are metres, z up. A site's ``position`` is the point on its surface where objects
 stand (z = surface height); its ``vantage_position`` is the floor point from which the agent
-inspects it. Hidden truth (``true_site``, ``hidden_state_truth``) is read only by the environment.
+inspects it. A site on furniture is that box's top (docs/design.md §8.1): its surface height is
+the box's height (within :data:`SURFACE_TOLERANCE`). Furniture boxes stand on the floor inside its
+bounds, no taller than the walls, with colour channels in [0, 1], and may touch but not overlap.
+Hidden truth (``true_site``, ``hidden_state_truth``) is read only by the environment.
 """
 
 from __future__ import annotations
@@ -29,6 +32,12 @@ MAX_VANTAGE_DISTANCE = 4.0
 #: Bernoulli task states the belief engine holds jointly in its state block (a scenario with more
 #: is refused before any belief is built).
 MAX_STATES = 20
+#: How far (m) a site's surface height may differ from the top of its furniture. The site is the
+#: furniture's top (docs/design.md §8.1), where objects are put and looked for; 1 cm absorbs
+#: rounding in hand-written files, far below any object's height (the teabag's is ~2 cm).
+SURFACE_TOLERANCE = 0.01
+#: Overlap (m) below which two furniture footprints count as touching, not overlapping.
+TOUCH_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -213,6 +222,7 @@ def _read_house(r: Reader) -> House:
     floor_max = floor.vector("max", 2)
     if not (floor_max[0] > floor_min[0] and floor_max[1] > floor_min[1]):
         raise floor.fail("max must exceed min in x and y")
+    wall_height = r.positive("wall_height", 2.5)
     walls = []
     for w in r.items("walls"):
         start, end = w.vector("from", 2), w.vector("to", 2)
@@ -227,7 +237,8 @@ def _read_house(r: Reader) -> House:
                              f"the wall (length {length:.2f} m)")
             doors.append(Doorway(at, width))
         walls.append(Wall(start, end, tuple(doors)))
-    furniture, seen = [], set()
+    furniture: list[Furniture] = []
+    seen: set[str] = set()
     for f in r.items("furniture"):
         name = f.req("name", str)
         if name in seen:
@@ -236,11 +247,36 @@ def _read_house(r: Reader) -> House:
         size = f.vector("size", 3)
         if min(size) <= 0:
             raise f.fail("sizes must be positive", "size")
-        color = f.vector("color", 4, required=False, default=None) or \
-            tuple(list(f.vector("color", 3, required=False, default=(0.55, 0.42, 0.3))) + [1.0])
-        furniture.append(Furniture(name, f.vector("center", 2), size, color))
-    return House(floor_min, floor_max, r.positive("wall_height", 2.5),
-                 r.positive("wall_thickness", 0.1), tuple(walls), tuple(furniture))
+        raw_color = f.data.get("color") if isinstance(f.data, dict) else None
+        channels = 4 if isinstance(raw_color, list) and len(raw_color) == 4 else 3
+        color = f.vector("color", channels, required=False, default=(0.55, 0.42, 0.3))
+        for i, c in enumerate(color):
+            if not 0.0 <= c <= 1.0:
+                raise InputError(f.file, f"{f.path}.color[{i}]", f"colour channel {c:g} is outside [0, 1]")
+        rgba = (color[0], color[1], color[2], color[3] if len(color) == 4 else 1.0)
+        center = f.vector("center", 2)
+        if size[2] > wall_height:
+            raise f.fail(f"{size[2]:g} m tall: taller than the walls ({wall_height:g} m)", "size")
+        lo = (center[0] - size[0] / 2, center[1] - size[1] / 2)
+        hi = (center[0] + size[0] / 2, center[1] + size[1] / 2)
+        if lo[0] < floor_min[0] - TOUCH_TOLERANCE or lo[1] < floor_min[1] - TOUCH_TOLERANCE or \
+                hi[0] > floor_max[0] + TOUCH_TOLERANCE or hi[1] > floor_max[1] + TOUCH_TOLERANCE:
+            raise f.fail(f"footprint x [{lo[0]:g}, {hi[0]:g}], y [{lo[1]:g}, {hi[1]:g}] lies outside "
+                         f"the floor (x [{floor_min[0]:g}, {floor_max[0]:g}], "
+                         f"y [{floor_min[1]:g}, {floor_max[1]:g}])")
+        item = Furniture(name, center, size, rgba)
+        for other in furniture:  # boxes may touch, never overlap (docs/design.md §8.1)
+            if _overlap(item, other) > TOUCH_TOLERANCE:
+                raise f.fail(f"footprint overlaps furniture {other.name!r}")
+        furniture.append(item)
+    return House(floor_min, floor_max, wall_height, r.positive("wall_thickness", 0.1),
+                 tuple(walls), tuple(furniture))
+
+
+def _overlap(a: Furniture, b: Furniture) -> float:
+    """The smaller of the x and y overlaps (m) of two footprints; <= 0 when they do not overlap."""
+    return min(min(a.center[k] + a.size[k] / 2, b.center[k] + b.size[k] / 2)
+               - max(a.center[k] - a.size[k] / 2, b.center[k] - b.size[k] / 2) for k in (0, 1))
 
 
 def _read_site(s: Reader, house: House) -> Site:
@@ -268,6 +304,9 @@ def _read_site(s: Reader, house: House) -> Site:
         half = (box.size[0] / 2, box.size[1] / 2)
         if abs(position[0] - box.center[0]) > half[0] + 1e-6 or abs(position[1] - box.center[1]) > half[1] + 1e-6:
             raise s.fail(f"position lies off the top of furniture {furniture!r}", "position")
+        if abs(position[2] - box.height) > SURFACE_TOLERANCE:
+            raise s.fail(f"surface height {position[2]:g} m is not the top of furniture {furniture!r} "
+                         f"({box.height:g} m; at most {SURFACE_TOLERANCE:g} m apart)", "position")
     raw = s.req("vantage_position", list)
     full = s.vector("vantage_position", 3 if len(raw) == 3 else 2)
     vantage = (full[0], full[1])
