@@ -217,6 +217,28 @@ class Learning:
 # The learned quantities (eqs. 50-52)
 
 
+def posterior_mean(prior_mean: Any, counts: Any, strength: float, others: Any = None) -> Any:
+    """The posterior-predictive mean of a Dirichlet (or Beta) prior with `strength` pseudo-counts
+    centred on `prior_mean`, after `counts` (in the style of pymdp's ``dirichlet_expected_value``);
+    every learning rule, eqs. 50-54, is this one formula.
+
+        Dirichlet (eqs. 50, 54):  (S m_k + n_k) / (S + sum_j n_j)   for every outcome k
+        Beta (eqs. 51, 52):       (S p + n) / (S + n + n_other)     for the one outcome p is of
+
+    Args:
+        prior_mean: m over the outcomes (Dirichlet), or p of one outcome (Beta; an array applies
+            the same counts to several p).
+        counts: n over the same outcomes (Dirichlet), or the count n of p's outcome (Beta).
+        strength: S > 0.
+        others: None for the Dirichlet; for the Beta, the count of the other outcome.
+    """
+    m = np.asarray(prior_mean, dtype=float)
+    if others is None:
+        n = np.asarray(counts, dtype=float)
+        return (strength * m + n) / (strength + float(n.sum()))
+    return (strength * m + counts) / (strength + counts + others)
+
+
 def learned_prior(declared: np.ndarray, counts: np.ndarray, strength: float) -> np.ndarray:
     """Eq. 50: the posterior-predictive mean of a Dirichlet with S * q0 as pseudo-counts.
 
@@ -227,14 +249,12 @@ def learned_prior(declared: np.ndarray, counts: np.ndarray, strength: float) -> 
         counts: N_cj over the same sites.
         strength: S > 0.
     """
-    q0 = np.asarray(declared, dtype=float)
-    n = np.asarray(counts, dtype=float)
-    return (strength * q0 + n) / (strength + float(n.sum()))
+    return posterior_mean(declared, counts, strength)
 
 
 def learned_probability(assumed: float, hits: float, misses: float, strength: float) -> float:
     """Eqs. 51-52: the posterior mean of Beta(S p, S (1 - p)) after `hits` and `misses`."""
-    return (strength * assumed + hits) / (strength + hits + misses)
+    return float(posterior_mean(assumed, hits, strength, others=misses))
 
 
 def beta_interval(alpha: float, beta: float, level: float = 0.95) -> tuple[float, float]:
@@ -290,9 +310,8 @@ def learned_detection(learning: Learning | None, category: str, band: str,
     cell = learning.counts.detection.get(category, {}).get(band)
     if cell is None or not (cell[0] or cell[1]):
         return assumed
-    h, m = cell
-    s = learning.detection_strength
-    return (s * np.asarray(assumed, dtype=float) + h) / (s + h + m)
+    hits, misses = cell
+    return posterior_mean(assumed, hits, learning.detection_strength, others=misses)
 
 
 def learned_sensor(sensor: Sensor, counts: Mapping[str, float], strength: float) -> Sensor:
@@ -356,8 +375,7 @@ def learned_relation_weights(q_a: np.ndarray, q_b: np.ndarray, rooms: Sequence[s
     if p[2] <= 0.0:
         return same_site, same_room
     pi0 = predicted_relation(p, same_site, same_room)
-    n = np.asarray(counts, dtype=float)
-    pi = (strength * pi0 + n) / (strength + float(n.sum()))
+    pi = posterior_mean(pi0, counts, strength)
     s = float(pi[0] / pi[2] * p[2] / p[0]) if p[0] > 0 else same_site
     r = float(pi[1] / pi[2] * p[2] / p[1]) if p[1] > 0 else same_room
     return s, r
@@ -462,7 +480,7 @@ def apply_to_sensors(learning: Learning, sensors: Mapping[str, Sensor], r: Reade
 
 __all__ = ["BANDS", "Counts", "Learning", "RELATION_CLASSES", "Source", "band_of", "beta_interval",
            "learned_detection", "learned_prior", "learned_probability", "learned_relation_weights",
-           "learned_sensor", "location_weights", "predicted_relation", "read_learning",
-           "relation_base_rates"]
+           "learned_sensor", "location_weights", "posterior_mean", "predicted_relation",
+           "read_learning", "relation_base_rates"]
 
 
