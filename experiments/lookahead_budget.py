@@ -6,7 +6,8 @@ travel is not detectably worse than the largest budget's on *every* house and mo
 95 % paired bootstrap interval of mean(travel_N - travel_largest) over worlds reaches 0 or lies
 below it. Its decision time is then checked against the 5 ms target (median, wall and CPU).
 
-For each house the episodes are run by ``experiments/planner_frontier.py`` into
+For each house the episodes are run as by ``experiments/planner_frontier.py``
+(:func:`fg_tea.study.frontier.run_frontier`) into
 ``<out>/<world>/episodes/`` (so runs resume and can be shared with frontier runs), and this
 script writes ``<out>/budget.md``: per house, model and budget, the paired difference and ratio
 to the largest budget with their intervals, the median and 95th-percentile decision time (wall
@@ -26,18 +27,15 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "experiments"))
-
-import planner_frontier  # noqa: E402
+sys.path.insert(0, str(ROOT))
 
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
 from fg_tea.common.files import atomic_write_text  # noqa: E402
+from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio  # noqa: E402
+from fg_tea.study.frontier import run_frontier, summarise  # noqa: E402
 
 LADDER = (10, 20, 40, 60, 120, 240)
 HOUSES = ("correlated:100", "generated_small:30", "generated_medium:30")
-
-
-paired_interval = planner_frontier.paired_interval  # the frontier's bootstrap, shared
 
 
 def load_rows(folder: Path) -> list[dict]:
@@ -66,8 +64,8 @@ def budget_table(rows: list[dict], ladder: tuple[int, ...]) -> tuple[list[str], 
             x = np.array([by[n][s]["search_distance"] for s in seeds])
             y = np.array([by[top][s]["search_distance"] for s in seeds])
             d = x - y
-            lo, hi = paired_interval(d)
-            rlo, rhi = planner_frontier.bootstrap_ratio(x, y)
+            lo, hi = bootstrap_interval(d)
+            rlo, rhi = bootstrap_ratio(x, y)
             ok = lo <= 0.0
             verdict[(model, n)] = ok
             wall = np.concatenate([by[n][s]["decision_seconds"] for s in seeds]) * 1000
@@ -134,8 +132,8 @@ def main(argv: list[str] | None = None) -> int:
         world, _, count = house.partition(":")
         folder = out / world
         if not args.summary_only:
-            planner_frontier.main(["--world", world, "--worlds", count or "30", "--models",
-                                   *args.models, "--planners", *planners, "--out", str(folder)])
+            rows = run_frontier(world, int(count or "30"), 0, args.models, planners, "fake", None, folder)
+            print(summarise(rows, folder))
         rows = load_rows(folder)
         if not rows:
             continue

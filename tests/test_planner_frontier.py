@@ -54,7 +54,9 @@ def test_budget_rule_tabulates_and_picks(tmp_path, capsys):
     assert chosen.startswith("Smallest budget passing on every house and model: ")
     assert chosen.rstrip(".").split(": ")[1] in ("2", "20")
     import numpy as np
-    lo, hi = budget.paired_interval(np.array([1.0, 2.0, 3.0]))
+
+    from fg_tea.common.stats import bootstrap_interval
+    lo, hi = bootstrap_interval(np.array([1.0, 2.0, 3.0]))
     assert 1.0 <= lo <= 2.0 <= hi <= 3.0
     capsys.readouterr()
 

@@ -1,22 +1,48 @@
-"""Statistics used across fg_tea, each written once: entropy, Student-t and Wilson intervals.
+"""Statistics, each written once: entropy, and interval estimates (Student-t, Wilson, the percentile
+bootstrap).
 
-- :func:`entropy`: H(p) = -sum p log p in nats, with 0 log 0 = 0 (docs/design.md eqs. 7, 22),
-  over a whole distribution or along an axis, for the belief, the planners and the log alike;
-- :func:`t_interval`: a mean and its two-sided Student-t interval (``scipy.stats.t``), NaN bounds
-  for fewer than two values (a single value has a mean but no interval);
-- :func:`wilson_interval`: a proportion's Wilson score interval.
+**Entropy** (:func:`entropy`): H(p) = -sum p log p in nats with 0 log 0 = 0 (docs/design.md eqs.
+7, 22), over a whole distribution or along an axis, for the belief, the planners and the log.
+
+Every mean the package or an experiment script reports with an uncertainty goes through here,
+so one sample gets one answer everywhere.
+
+**Student-t** (:func:`t_interval`): ``mean ± t_{(1+c)/2, n-1} · s / sqrt(n)`` with the sample
+standard deviation s (ddof = 1) and the quantile from ``scipy.stats.t.ppf``. None, empty strings
+and NaN are dropped first. With no value everything is NaN; with **one value the mean is that
+value and both bounds are NaN** (one value says nothing about the spread, so no interval is
+claimed); :meth:`Interval.fmt` then prints the mean alone. ``scipy.stats.t.interval`` computes
+the same bounds but in another order of operations (``loc + ppf · scale``), which moves the
+last bit of about a third of them; the formula above is kept so committed tables reproduce.
+
+**Wilson** (:func:`wilson_interval`): a proportion, for which the t-interval collapses to a point
+when every trial succeeds: ``(p + z²/2n ± z sqrt(p(1-p)/n + z²/4n²)) / (1 + z²/n)``.
+
+**Bootstrap** (:func:`resample_indices`, :func:`bootstrap_interval`, :func:`bootstrap_ratio`):
+percentile intervals from resampling the units (worlds, households) with replacement, drawn
+from ``numpy.random.default_rng(seed)``. ``scipy.stats.bootstrap(..., method="percentile")``
+draws the same indices but asks ``numpy.percentile`` for ``100 · (1 - c) / 2`` =
+2.5000000000000022, which moves the last bit of the lower bound; the resampling below is kept so
+committed tables reproduce bit for bit. As for the t-interval, a single unit gives its value
+with NaN bounds (every resample would be that unit: no spread is measured).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable, Sequence, TypeVar
 
 import numpy as np
 
-#: The standard normal's 97.5 % quantile (two-sided 95 %).
+#: The 0.975 quantile of the standard normal (z for a two-sided 95 % interval).
 Z95 = 1.959963984540054
+#: Resamples of :func:`bootstrap_interval` and :func:`bootstrap_ratio` unless told otherwise.
+BOOTSTRAP_RESAMPLES = 4000
+
+T = TypeVar("T")
+
+
 _TINY = np.finfo(float).tiny
 
 
@@ -46,7 +72,7 @@ class Interval:
     n: int
 
     def fmt(self, digits: int = 2) -> str:
-        """``mean [low, high]`` (or ``mean`` alone when the interval is undefined)."""
+        """``mean [low, high]`` (``mean`` alone when the bounds are undefined, ``–`` without a mean)."""
         if self.n == 0 or math.isnan(self.mean):
             return "–"
         if math.isnan(self.low):
@@ -54,24 +80,23 @@ class Interval:
         return f"{self.mean:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"
 
 
-def _number(v: Any) -> bool:
-    """Whether `v` is a value of the sample: None, "" (an empty CSV cell) and NaN are not."""
-    return not (v is None or v == "" or math.isnan(float(v)))
+def _missing(v: Any) -> bool:
+    return v is None or (isinstance(v, str) and v == "") or (isinstance(v, float) and math.isnan(v))
 
 
 def t_interval(values: Iterable[Any], confidence: float = 0.95) -> Interval:
     """Mean and two-sided Student-t confidence interval of a sample.
 
     Args:
-        values: the sample (None, empty strings and NaN are dropped).
+        values: the sample; None, "" and NaN are dropped, the rest converted with ``float``.
         confidence: the coverage, in (0, 1).
 
     Returns:
-        The interval ``mean ± t_{(1+c)/2, n-1} s / sqrt(n)``; NaN bounds for n < 2, all NaN for n = 0.
+        ``mean ± t_{(1+c)/2, n-1} s / sqrt(n)``; NaN bounds for n = 1, all NaN for n = 0.
     """
     from scipy import stats
 
-    x = np.array([float(v) for v in values if _number(v)], dtype=float)
+    x = np.array([float(v) for v in values if not _missing(v)], dtype=float)
     n = len(x)
     if n == 0:
         return Interval(math.nan, math.nan, math.nan, 0)
@@ -83,8 +108,8 @@ def t_interval(values: Iterable[Any], confidence: float = 0.95) -> Interval:
 
 
 def wilson_interval(successes: int, n: int, z: float = Z95) -> Interval:
-    """The Wilson score interval of a proportion (the mean is successes / n)."""
-    if n <= 0:
+    """A proportion with its Wilson score interval (z = 1.96 for 95 %)."""
+    if n == 0:
         return Interval(math.nan, math.nan, math.nan, 0)
     p = successes / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
@@ -92,4 +117,59 @@ def wilson_interval(successes: int, n: int, z: float = Z95) -> Interval:
     return Interval(p, centre - half, centre + half, n)
 
 
-__all__ = ["Interval", "Z95", "entropy", "t_interval", "wilson_interval"]
+def _percentiles(draws: Any, confidence: float) -> tuple[float, float]:
+    tail = round(50 * (1 - confidence), 10)  # percent in each tail: 2.5 exactly for 0.95
+    lo, hi = np.percentile(draws, [tail, 100 - tail])
+    return float(lo), float(hi)
+
+
+def resample_indices(n: int, resamples: int, seed: int = 0) -> np.ndarray:
+    """``resamples`` rows of n unit indices drawn with replacement, shape (resamples, n)."""
+    return np.random.default_rng(seed).integers(0, n, size=(resamples, n))
+
+
+def bootstrap_interval(d: np.ndarray, resamples: int = BOOTSTRAP_RESAMPLES, seed: int = 0,
+                       confidence: float = 0.95) -> tuple[float, float]:
+    """Percentile bootstrap interval of the mean of `d` (one value, or one paired difference,
+    per unit)."""
+    d = np.asarray(d, dtype=float)
+    if len(d) < 2:
+        return math.nan, math.nan
+    draws = d[resample_indices(len(d), resamples, seed)].mean(axis=1)
+    return _percentiles(draws, confidence)
+
+
+def bootstrap_ratio(x: np.ndarray, y: np.ndarray, resamples: int = BOOTSTRAP_RESAMPLES, seed: int = 0,
+                    confidence: float = 0.95) -> tuple[float, float]:
+    """Paired percentile bootstrap interval of mean(x) / mean(y) (units resampled together)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if len(x) < 2:
+        return math.nan, math.nan
+    idx = resample_indices(len(x), resamples, seed)
+    return _percentiles(x[idx].mean(axis=1) / y[idx].mean(axis=1), confidence)
+
+
+def bootstrap_statistic(units: Sequence[T], statistic: Callable[[list[T]], float],
+                        resamples: int, seed: int = 0, confidence: float = 0.95) -> tuple[float, float, float]:
+    """A statistic of whole units that does not vectorise (such as a calibration error of pooled
+    records), with its percentile bootstrap interval.
+
+    Resample r draws its n unit indices with its own ``rng.integers(0, n, n)`` call, in order.
+
+    Returns:
+        ``(statistic(units), low, high)``; all NaN without units, NaN bounds with one.
+    """
+    if not units:
+        return math.nan, math.nan, math.nan
+    point = float(statistic(list(units)))
+    if len(units) < 2:
+        return point, math.nan, math.nan
+    rng = np.random.default_rng(seed)
+    n = len(units)
+    draws = [statistic([units[i] for i in rng.integers(0, n, n)]) for _ in range(resamples)]
+    lo, hi = _percentiles(draws, confidence)
+    return point, lo, hi
+
+
+__all__ = ["Z95", "BOOTSTRAP_RESAMPLES", "Interval", "t_interval", "wilson_interval", "resample_indices",
+           "bootstrap_interval", "bootstrap_ratio", "bootstrap_statistic", "entropy"]

@@ -40,7 +40,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 
 from fg_tea.common.errors import InputError
-from fg_tea.common.stats import t_interval
+from fg_tea.common.stats import Interval, bootstrap_statistic, t_interval
 
 #: The arms of a lifelong sweep (docs/design.md §12): the written model, learning with the
 #: hand-set correlations, learning the correlations too.
@@ -215,7 +215,8 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
     """
     from fg_tea.model.learning import Learning
     from fg_tea.model.spec import apply_learning, load_model
-    from fg_tea.study.learn import Source, learn
+    from fg_tea.model.learning import Source
+    from fg_tea.study.learn import learn
 
     base = load_model(spec.model)
     rows = []
@@ -283,27 +284,14 @@ def run_lifelong(specs: Sequence[HouseholdSpec], workers: int = 1) -> list[dict]
 # Curves, summary and plot
 
 
-def _ci(values: Iterable[Any]) -> tuple[float, float, float]:
-    """Mean and 95 % Student-t bounds (:func:`fg_tea.common.stats.t_interval`) as a tuple."""
-    iv = t_interval(values)
-    return iv.mean, iv.low, iv.high
-
-
 def pooled_ece(records: Sequence[np.ndarray], seed: int = 0) -> tuple[float, float, float]:
     """Expected calibration error (10 bins) of the pooled (probability, outcome) pairs of
-    several households, with a 95 % percentile interval from resampling households."""
+    several households, with a 95 % percentile interval from resampling households
+    (:func:`fg_tea.common.stats.bootstrap_statistic`: NaN bounds with one household)."""
     from fg_tea.episode.quality import calibration, expected_calibration_error
 
-    if not records:
-        return math.nan, math.nan, math.nan
-    point = expected_calibration_error(calibration(np.concatenate(records)))
-    if len(records) < 2:
-        return point, point, point
-    rng = np.random.default_rng(seed)
-    boot = [expected_calibration_error(calibration(np.concatenate(
-        [records[i] for i in rng.integers(0, len(records), len(records))]))) for _ in range(BOOTSTRAP)]
-    lo, hi = np.percentile(boot, [2.5, 97.5])
-    return float(point), float(lo), float(hi)
+    return bootstrap_statistic(records, lambda recs: expected_calibration_error(calibration(np.concatenate(recs))),
+                               BOOTSTRAP, seed)
 
 
 def curves(rows: Sequence[Mapping]) -> list[dict]:
@@ -318,7 +306,8 @@ def curves(rows: Sequence[Mapping]) -> list[dict]:
             sel = [r for r in mine if r["episode"] == k]
             row: dict[str, Any] = {"model": model, "arm": arm, "episode": k, "n": len(sel)}
             for key in [m for m, _ in METRICS] + ["success", "prior_true_focus"]:
-                row[key], row[key + "_lo"], row[key + "_hi"] = _ci(r[key] for r in sel)
+                iv = t_interval(r[key] for r in sel)
+                row[key], row[key + "_lo"], row[key + "_hi"] = iv.mean, iv.low, iv.high
             row["ece"], row["ece_lo"], row["ece_hi"] = pooled_ece(
                 [r["_calibration"] for r in sel if r.get("_calibration") is not None], seed=k)
             out.append(row)
@@ -354,10 +343,8 @@ def write_outputs(rows: Sequence[Mapping], out: Path, title: str, command: str,
             "focus_plot": out / "focus_curve.png"}
 
 
-def _fmt(c: tuple[float, float, float]) -> str:
-    if any(math.isnan(x) for x in c):
-        return "–"
-    return f"{c[0]:.3f} [{c[1]:.3f}, {c[2]:.3f}]"
+def _fmt(c: Interval) -> str:
+    return c.fmt(3)
 
 
 def summary_markdown(rows: Sequence[Mapping], table: Sequence[Mapping], title: str, command: str,
@@ -383,19 +370,22 @@ def summary_markdown(rows: Sequence[Mapping], table: Sequence[Mapping], title: s
                 continue
             d1 = [last[h] - first[h] for h in first if h in last]
             d2 = [last[h] - hand[h] for h in last if h in hand] if arm != HAND_SET else []
-            lines.append(f"| {model} | {arm} | {label.format(focus=focus)} | {_fmt(_ci(first.values()))} "
-                         f"| {_fmt(_ci(last.values()))} | {_fmt(_ci(d1))} "
-                         f"| {_fmt(_ci(d2)) if d2 else '–'} |")
+            lines.append(f"| {model} | {arm} | {label.format(focus=focus)} | {_fmt(t_interval(first.values()))} "
+                         f"| {_fmt(t_interval(last.values()))} | {_fmt(t_interval(d1))} "
+                         f"| {_fmt(t_interval(d2)) if d2 else '–'} |")
         c1 = [c for c in table if c["model"] == model and c["arm"] == arm and c["episode"] == 1]
         cK = [c for c in table if c["model"] == model and c["arm"] == arm and c["episode"] == K]
         if c1 and cK:
             lines.append(f"| {model} | {arm} | calibration error of q0 (ECE, pooled) | "
-                         f"{_fmt((c1[0]['ece'], c1[0]['ece_lo'], c1[0]['ece_hi']))} | "
-                         f"{_fmt((cK[0]['ece'], cK[0]['ece_lo'], cK[0]['ece_hi']))} | – | – |")
+                         f"{_fmt(_ece(c1[0]))} | {_fmt(_ece(cK[0]))} | – | – |")
     lines += _between_arms(rows, keys, focus)
     lines += ["", f"{len(rows)} episodes; success rate "
               f"{np.mean([r['success'] for r in rows]):.3f}."]
     return "\n".join(lines) + "\n"
+
+
+def _ece(c: Mapping) -> Interval:
+    return Interval(c["ece"], c["ece_lo"], c["ece_hi"], c["n"])
 
 
 #: Columns compared between learned arms, episode by episode (paired over households).
@@ -437,8 +427,8 @@ def _between_arms(rows: Sequence[Mapping], keys: Sequence[tuple[str, str]], focu
                          and r["episode"] == k and r[key] not in (None, "")}
                     b = {r["household"]: r[key] for r in rows if r["model"] == model and r["arm"] == ref
                          and r["episode"] == k and r[key] not in (None, "")}
-                    d = _ci(a[h] - b[h] for h in a if h in b)
-                    cells.append("–" if math.isnan(d[0]) else f"{d[0]:.2f} [{d[1]:.2f}, {d[2]:.2f}]")
+                    d = t_interval(a[h] - b[h] for h in a if h in b)
+                    cells.append(d.fmt(2))
                 if all(c == "–" for c in cells):
                     continue
                 out.append(f"| {arm} | {label.format(focus=focus)} | " + " | ".join(cells) + " |")

@@ -1,0 +1,195 @@
+"""The planner quality-cost frontier: paired episodes per (model, planner) with the wall and CPU
+time of every decision, and the table and plot that summarise them.
+
+Used by ``experiments/planner_frontier.py`` (one house) and ``experiments/lookahead_budget.py``
+(a ladder of node budgets on several houses). One JSON file per episode under
+``<out>/episodes/``; a re-run skips episodes already there, so an interrupted run resumes. Times
+are wall-clock on whatever else the machine is running, so they stay out of the episode logs
+(which remain deterministic) and are measured serially. Intervals are the paired percentile
+bootstrap of :mod:`fg_tea.common.stats` over worlds.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fg_tea.common.errors import InputError
+from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio
+from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+from fg_tea.model.spec import load_model
+from fg_tea.planning import check_planner
+from fg_tea.study.sweep import _make_env, model_path, world_path
+from fg_tea.world.distributions import load_world
+
+DEFAULT_PLANNERS = ["optimal", "efe", "factorised_efe", "nearest", "lookahead",
+                    "lookahead:depth=1", "lookahead:depth=3,width=3,nodes=150", "pouct:100",
+                    "pouct:1000", "pomcp:1000"]
+
+
+def _safe(name: str) -> str:
+    return name.replace(":", "_").replace(",", "_").replace("=", "-")
+
+
+def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: str,
+                miss_rate: float | None) -> dict:
+    """One episode; returns its metrics and the wall and CPU time of every decision (seconds)."""
+    model = load_model(model_path(model_name))
+    scenario = load_world(world_path(world)).sample(seed)
+    rate = model.miss_likelihood if miss_rate is None else miss_rate
+    if model.detector != "threshold":  # the camera's curve draws the misses (docs/design.md §3.4)
+        rate = 0.0
+    env = _make_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate))
+    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
+    times: list[float] = []
+    cpu: list[float] = []
+    choose = runner.planner.choose
+
+    def timed(*args, **kwargs):
+        start, start_cpu = time.perf_counter(), time.process_time()
+        decision = choose(*args, **kwargs)
+        times.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
+        return decision
+
+    runner.planner.choose = timed
+    steps = 0
+    while not runner.done and steps < 2000:
+        runner.step()
+        steps += 1
+    env.close()
+    m = runner.metrics()
+    return {"world": world, "seed": seed, "model": model_name, "planner": planner,
+            "env": env_kind, "miss_rate": rate, "search_distance": m["search_distance"],
+            "inspections": m["inspections"], "success": bool(m["success"]) and runner.done,
+            "spl": m.get("spl"),
+            "reason": runner.reason, "decision_seconds": times, "decision_cpu_seconds": cpu}
+
+
+def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lines = ["# Planner frontier", "",
+             "Search travel relative to the Bayes-optimal planner (`optimal`, the perfect-detection "
+             "limit) on paired worlds; 95 % paired bootstrap intervals; decision times are wall "
+             "clock, serial, on a shared machine (CPU: the process's CPU time for the same "
+             "decisions, less sensitive to what else the machine runs).", ""]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    with_spl = any(r.get("spl") is not None for r in rows)
+    with_ref = any(r["planner"] == reference for r in rows)
+    plotted = False
+    if with_spl:
+        lines[-1:-1] = ["SPL: success weighted by the clairvoyant route's search travel over the "
+                        "agent's (docs/design.md eq. 48), mean over worlds with a 95 % bootstrap "
+                        "interval (episodes recorded before SPL was logged have none).", ""]
+    for model in sorted({r["model"] for r in rows}):
+        by: dict[str, dict[int, dict]] = {}
+        for r in rows:
+            if r["model"] == model:
+                by.setdefault(r["planner"], {})[r["seed"]] = r
+        ref = by.get(reference, {})
+        lines += [f"## model `{model}`, world `{rows[0]['world']}`, env `{rows[0]['env']}`, "
+                  f"detector miss rate {rows[0]['miss_rate']}", "",
+                  "| planner | worlds | search travel (m) | ratio to optimal [95 %] | "
+                  "ms/decision median | p95 | CPU ms median | inspections | success |"
+                  + (" SPL [95 %] |" if with_spl else ""),
+                  "|---|---|---|---|---|---|---|---|---|" + ("---|" if with_spl else "")]
+        points = []
+        for planner, eps in by.items():
+            seeds = sorted(set(eps) & set(ref)) if ref else sorted(eps)
+            travel = np.array([eps[s]["search_distance"] for s in seeds])
+            times = np.concatenate([eps[s]["decision_seconds"] for s in seeds]) * 1000
+            cpu = [t for s in seeds for t in eps[s].get("decision_cpu_seconds", [])]
+            cpu_txt = f"{np.median(cpu) * 1000:.2f}" if cpu else "n/a"
+            ins = np.mean([eps[s]["inspections"] for s in seeds])
+            succ = np.mean([eps[s]["success"] for s in seeds])
+            if ref:
+                base = np.array([ref[s]["search_distance"] for s in seeds])
+                ratio = travel.mean() / base.mean()
+                lo, hi = bootstrap_ratio(travel, base)
+                ratio_txt = f"{ratio:.3f} [{lo:.3f}, {hi:.3f}]"
+            else:
+                ratio, ratio_txt = float("nan"), "n/a"
+            med, p95 = float(np.median(times)), float(np.percentile(times, 95))
+            spl = np.array([eps[s]["spl"] for s in seeds if eps[s].get("spl") is not None])
+            spl_mean = float(spl.mean()) if len(spl) else float("nan")
+            spl_txt = ""
+            if with_spl:
+                spl_txt = " n/a |"
+                if len(spl):
+                    lo, hi = bootstrap_interval(spl)
+                    part = f" (of {len(spl)} worlds)" if len(spl) < len(seeds) else ""
+                    spl_txt = f" {spl_mean:.3f} [{lo:.3f}, {hi:.3f}]{part} |"
+            lines.append(f"| {planner} | {len(seeds)} | {travel.mean():.2f} | {ratio_txt} | "
+                         f"{med:.2f} | {p95:.2f} | {cpu_txt} | {ins:.2f} | {succ:.2f} |{spl_txt}")
+            points.append((planner, med, ratio if with_ref else spl_mean))
+        lines.append("")
+        for planner, med, ratio in points:
+            if not (np.isfinite(ratio) and med > 0):  # no reference (and no SPL): nothing to plot
+                continue
+            plotted = True
+            ax.scatter(med, ratio)
+            ax.annotate(f"{planner} ({model})", (med, ratio), fontsize=7)
+    if plotted:
+        ax.set_xscale("log")
+    ax.axhline(1.0, color="grey", lw=0.8)
+    ax.set_xlabel("median ms per decision (log)")
+    ax.set_ylabel("search travel / Bayes-optimal" if with_ref else "SPL (clairvoyant route)")
+    ax.set_title("Planner quality-cost frontier")
+    fig.tight_layout()
+    fig.savefig(out / "frontier.png", dpi=120)
+    text = "\n".join(lines) + "\n"
+    (out / "frontier.md").write_text(text)
+    return text
+
+
+def check_inputs(world: str, worlds: int, models: list[str], planners: list[str],
+                 miss_rate: float | None = None) -> None:
+    """Every input checked before any episode runs.
+
+    Raises:
+        InputError: the first bad value, named by its flag.
+    """
+    if worlds < 1:
+        raise InputError("<command line>", "--worlds", f"{worlds}: must be at least 1")
+    if not world_path(world, "--world").exists():
+        raise InputError("<command line>", "--world", f"unknown world {world!r}")
+    for model in models:
+        loaded = load_model(model_path(model, "--models"))  # InputError naming the file and fault
+        if miss_rate is not None and loaded.detector != "threshold":
+            raise InputError("<command line>", "--miss-rate", f"has no effect with model {model!r}: "
+                             "its visibility detector draws each detection from the camera's curve")
+    for name in planners:
+        check_planner(name)
+
+
+def run_frontier(world: str, worlds: int, first_seed: int, models: list[str], planners: list[str],
+                 env_kind: str, miss_rate: float | None, out: Path, summary_only: bool = False) -> list[dict]:
+    """Every (model, planner, seed) episode, run or read back from ``out/episodes``; the rows."""
+    episodes = out / "episodes"
+    episodes.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for model in models:
+        for planner in planners:
+            for seed in range(first_seed, first_seed + worlds):
+                path = episodes / f"{world}__{model}__{_safe(planner)}__{seed:05d}.json"
+                if path.exists():
+                    rows.append(json.loads(path.read_text()))
+                    continue
+                if summary_only:
+                    continue
+                row = run_episode(world, seed, model, planner, env_kind, miss_rate)
+                tmp = path.with_suffix(".tmp")
+                tmp.write_text(json.dumps(row))
+                tmp.replace(path)
+                rows.append(row)
+            print(f"{model} {planner}: done", flush=True)
+    return rows
+
+
+__all__ = ["DEFAULT_PLANNERS", "run_episode", "summarise", "check_inputs", "run_frontier"]
