@@ -129,15 +129,19 @@ class _NonFinite(ValueError):
 
 
 def _refuse_constant(name: str) -> float:
-    raise _NonFinite(name)
+    """JSON's non-standard constants: the log writes an infinite distance as ``Infinity`` (an
+    unreachable site), but never ``NaN`` (:func:`encode` refuses it)."""
+    if name == "NaN":
+        raise _NonFinite(name)
+    return float(name)
 
 
 def read_log(path: str | Path, strict: bool = False) -> list[dict]:
     """The events of a log file, read through the guarded input reader (one reader for every
     command that reads logs: render, learn, the quality checks).
 
-    A FIFO, a device, a folder, an oversized or non-UTF-8 file, a bare ``NaN`` or ``Infinity``
-    (not JSON, and never written by fg_tea) and nesting too deep to parse are refused in every
+    A FIFO, a device, a folder, an oversized or non-UTF-8 file, a bare ``NaN`` (never written by
+    fg_tea, which writes only ``Infinity``) and nesting too deep to parse are refused in every
     mode. A truncated last line (a crash mid-write) ends the log; with `strict`, it is an error
     too, as is any line that is not an event object and a log that does not begin with
     ``episode_start``.
@@ -157,7 +161,7 @@ def read_log(path: str | Path, strict: bool = False) -> list[dict]:
         try:
             event = json.loads(line, parse_constant=_refuse_constant)
         except _NonFinite as exc:
-            raise InputError(path, f"line {n}", f"a bare {exc} is not JSON (fg_tea writes null)") from None
+            raise InputError(path, f"line {n}", f"a bare {exc}: not a value fg_tea writes") from None
         except RecursionError:
             raise InputError(path, f"line {n}", "nested too deeply to be an event") from None
         except ValueError:
