@@ -191,8 +191,8 @@ def main(argv: list[str] | None = None) -> int:
             house.reset(0)
             for obj in objects:  # every object on the inspected site: the costliest case
                 house.move_object(obj, site.name)
-            house.inspect_site(site.name, [])  # move and face first: movement excluded below
-            per_site.append(_time(lambda: house.inspect_site(site.name, objects), args.repeats))
+            house.inspect_viewpoint(site.name, [])  # move and face first: movement excluded below
+            per_site.append(_time(lambda: house.inspect_viewpoint(site.name, objects), args.repeats))
         inspect[roi] = statistics.mean(per_site)
         rows.append((f"one inspection, {label}, {config.ego_width}x{config.ego_height}", inspect[roi]))
     house.roi = True
@@ -225,7 +225,7 @@ def main(argv: list[str] | None = None) -> int:
                      looks["glance"]))
 
     house.reset(0)
-    house.inspect_site("kitchen_counter", [])
+    house.inspect_viewpoint("kitchen_counter", [])
     for w, h in ((160, 120), (config.ego_width, config.ego_height), (640, 360)):
         progress(f"render {w}x{h}")
         rows.append((f"egocentric frame {w}x{h}", _time(lambda: house.render_ego(w, h), args.repeats)))

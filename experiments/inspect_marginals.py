@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from fg_tea.env.house import PyBulletHouse
-from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.common.files import atomic_path
 from fg_tea.common.options import MODEL_HELP, SCENARIO_HELP, experiment_parser
+from fg_tea.env.house import PyBulletHouse
+from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.model.spec import load_model
 from fg_tea.world.scenario import load_scenario
 
@@ -38,11 +38,11 @@ def describe(event: dict) -> str | None:
     """One line for an event worth reading (None for bookkeeping events)."""
     kind = event["event"]
     if kind == "decision":
-        return (f"decide   look for {event['object']} at {event['site']} "
+        return (f"decide   look for {event['object']} at {event['viewpoint']} "
                 f"(G = {event['total']:+.2f} over {len(event['candidates'])} candidates)")
     if kind == "observation":
         seen = ", ".join(f"{o} {'SEEN' if v else 'not seen'}" for o, v in event["detections"].items())
-        return f"observe  {event['site']}: {seen}"
+        return f"observe  {event['viewpoint']}: {seen}"
     if kind == "state_reading":
         return (f"read     {event['state']} = {event['value']} "
                 f"(q {event['before']:.3f} -> {event['after']:.3f})")

@@ -25,10 +25,10 @@ TRUTH_WORDS = ("true_site", "hidden_state_truth", "truth", "site_of", "contained
 def script(env):
     """A short fixed interaction touching every result type; returns the results in order."""
     return [
-        env.inspect_site("kitchen_counter", ["mug", "kettle"]),
+        env.inspect_viewpoint("kitchen_counter", ["mug", "kettle"]),
         env.observe_state("kettle", "contains_water", "kitchen_counter", 0.7, 0.7),
         env.execute(ActionRequest("PICK", "mug", "kitchen_counter")),
-        env.inspect_site("sideboard", ["mug", "teabag"]),
+        env.inspect_viewpoint("sideboard", ["mug", "teabag"]),
         env.execute(ActionRequest("PICK", "mug", "sideboard")),
         env.observe_state("mug", "contains_water", None, 0.7, 0.7),
         env.execute(ActionRequest("PLACE", "mug", "dining_table")),
@@ -41,7 +41,7 @@ class EnvContract:
 
     def test_use_before_reset_raises(self, fresh_env):
         with pytest.raises(RuntimeError, match="reset"):
-            fresh_env.inspect_site("kitchen_counter", ["mug"])
+            fresh_env.inspect_viewpoint("kitchen_counter", ["mug"])
 
     def test_reset_returns_start_pose(self, env):
         pose = env.reset(0)
@@ -51,9 +51,9 @@ class EnvContract:
 
     def test_inspection_fields(self, env):
         env.reset(0)
-        result = env.inspect_site("sideboard", ["mug", "teabag"])
+        result = env.inspect_viewpoint("sideboard", ["mug", "teabag"])
         assert isinstance(result, InspectionResult)
-        assert result.site == "sideboard" and result.reachable
+        assert result.viewpoint == "sideboard" and result.reachable
         assert set(result.detections) == set(result.pixel_counts) == {"mug", "teabag"}
         assert all(isinstance(v, bool) for v in result.detections.values())
         assert all(isinstance(v, int) and v >= 0 for v in result.pixel_counts.values())
@@ -67,17 +67,17 @@ class EnvContract:
 
     def test_detections_only_for_considered_objects(self, env):
         env.reset(0)
-        assert env.inspect_site("kitchen_counter", []).detections == {}
-        result = env.inspect_site("kitchen_counter", ["teabag"])
+        assert env.inspect_viewpoint("kitchen_counter", []).detections == {}
+        result = env.inspect_viewpoint("kitchen_counter", ["teabag"])
         assert set(result.detections) == {"teabag"}  # the kettle stands there but was not asked about
         assert set(result.pixel_counts) == {"teabag"}
 
     def test_unknown_names_are_caller_errors(self, env):
         env.reset(0)
         with pytest.raises(ValueError):
-            env.inspect_site("attic", ["mug"])
+            env.inspect_viewpoint("attic", ["mug"])
         with pytest.raises(ValueError):
-            env.inspect_site("kitchen_counter", ["spoon"])
+            env.inspect_viewpoint("kitchen_counter", ["spoon"])
         with pytest.raises(ValueError):
             env.execute(ActionRequest("SEARCH", "mug"))
 
@@ -119,7 +119,7 @@ class EnvContract:
         sx, sy = SCENARIO.start_position
         vx, vy = SCENARIO.site("kitchen_counter").vantage
         assert d >= math.hypot(vx - sx, vy - sy) - 1e-9
-        env.inspect_site("kitchen_counter", [])
+        env.inspect_viewpoint("kitchen_counter", [])
         assert env.distance_to_site("kitchen_counter") == pytest.approx(0.0, abs=1e-9)
 
 
@@ -158,7 +158,7 @@ class TestPyBulletHouse(EnvContract):
         house = PyBulletHouse(SCENARIO)
         try:
             with pytest.raises(RuntimeError, match="reset"):
-                house.inspect_site("kitchen_counter", ["mug"])
+                house.inspect_viewpoint("kitchen_counter", ["mug"])
         finally:
             house.close()
 

@@ -111,7 +111,7 @@ def test_object_on_each_site_is_detected_from_its_vantage(house, obj):
     house.reset(0)
     for site in SCENARIO.sites:
         house.move_object(obj, site.name)
-        result = house.inspect_site(site.name, [obj])
+        result = house.inspect_viewpoint(site.name, [obj])
         assert result.detections[obj], (obj, site.name, result.pixel_counts)
         assert result.pixel_counts[obj] >= 25
 
@@ -124,7 +124,7 @@ def test_object_on_neighbouring_site_is_not_assigned(house):
         neighbour = min(others, key=lambda s: math.dist(s.position[:2], site.position[:2]))
         for obj in OBJECTS:
             house.move_object(obj, neighbour.name)
-        result = house.inspect_site(site.name, list(OBJECTS))
+        result = house.inspect_viewpoint(site.name, list(OBJECTS))
         assert not any(result.detections.values()), (site.name, neighbour.name, result.pixel_counts)
         seen_but_rejected += any(n >= 25 for n in result.pixel_counts.values())
     assert seen_but_rejected > 0  # the spatial association check [29] did real work
@@ -135,18 +135,18 @@ def test_occluded_object_is_not_detected(house):
     site = SCENARIO.site("kitchen_counter")
     house.move_object("teabag", site.name)
     house.move_object("kettle", "coffee_table")
-    assert house.inspect_site(site.name, ["teabag"]).detections["teabag"]
+    assert house.inspect_viewpoint(site.name, ["teabag"]).detections["teabag"]
     # a board standing on the counter between the camera and the teabag
     px, py, pz = site.position
     vx, vy = site.vantage
     d = math.hypot(px - vx, py - vy)
     ux, uy = (vx - px) / d, (vy - py) / d
     house.add_obstacle((px + 0.2 * ux, py + 0.2 * uy, pz + 0.15), (0.5, 0.03, 0.3))
-    hidden = house.inspect_site(site.name, ["teabag"])
+    hidden = house.inspect_viewpoint(site.name, ["teabag"])
     assert not hidden.detections["teabag"] and hidden.pixel_counts["teabag"] < 25
     house.reset(0)  # obstacles go away with a reset
     house.move_object("teabag", site.name)
-    assert house.inspect_site(site.name, ["teabag"]).detections["teabag"]
+    assert house.inspect_viewpoint(site.name, ["teabag"]).detections["teabag"]
 
 
 def test_roi_counts_equal_full_image_counts(house):
@@ -155,7 +155,7 @@ def test_roi_counts_equal_full_image_counts(house):
         for site in SCENARIO.sites:
             for obj in OBJECTS:
                 house.move_object(obj, site.name)
-            house.inspect_site(site.name, [])
+            house.inspect_viewpoint(site.name, [])
             house.roi = True
             roi = house._pixel_counts(0, OBJECTS)
             house.roi = False
@@ -181,7 +181,7 @@ def test_roi_counts_equal_full_image_counts_with_objects_behind_the_camera(house
     house.reset(0)
     try:
         house.move_object("mug", site)
-        house.inspect_site(site, [])  # stand at the close vantage, facing the site
+        house.inspect_viewpoint(site, [])  # stand at the close vantage, facing the site
         if case == "behind":  # wholly behind the lens: no pixels, and no reason to render it all
             house._positions["kettle"] = _ahead_of_camera(house, -0.6, -0.1)
             house._positions["teabag"] = _ahead_of_camera(house, -1.5, -0.3)
@@ -208,7 +208,7 @@ def test_roi_counts_equal_full_image_counts_with_objects_behind_the_camera(house
 def test_drone_and_held_object_stay_out_of_the_egocentric_view(house):
     house.reset(0)
     assert house.execute(ActionRequest("PICK", "mug", "sideboard")).ok
-    house.inspect_site("dining_table", [])
+    house.inspect_viewpoint("dining_table", [])
     w, h = house.config.ego_width, house.config.ego_height
     seg = house._render(house._ego_camera(w, h), w, h, segmentation=True)[2]
     assert house._drone not in seg and house._bodies["mug"] not in seg
@@ -223,7 +223,7 @@ def test_drone_and_held_object_stay_out_of_the_egocentric_view(house):
 def test_same_seed_same_readings_paths_and_pixels(house):
     def run(seed):
         house.reset(seed)
-        out = [house.inspect_site(s.name, list(OBJECTS)) for s in SCENARIO.sites[:4]]
+        out = [house.inspect_viewpoint(s.name, list(OBJECTS)) for s in SCENARIO.sites[:4]]
         out += [house.observe_state("kettle", "contains_water", None, 0.6, 0.6).value for _ in range(30)]
         return out
 

@@ -22,7 +22,7 @@ TOUR = ("sideboard", "kitchen_counter", "pantry_shelf", "dining_table")
 
 def tour(env, rounds: int) -> list[dict[str, bool]]:
     """Inspect the TOUR sites `rounds` times over; the detections of every inspection, in order."""
-    return [dict(env.inspect_site(site, OBJECTS).detections)
+    return [dict(env.inspect_viewpoint(site, OBJECTS).detections)
             for _ in range(rounds) for site in TOUR]
 
 
@@ -36,7 +36,7 @@ def test_rate_one_never_detects():
     results = tour(env, 3)
     assert results and all(v is False for r in results for v in r.values())
     # the pixels are still counted: only the detector's verdict is dropped
-    assert env.inspect_site("sideboard", ["mug"]).pixel_counts["mug"] > 0
+    assert env.inspect_viewpoint("sideboard", ["mug"]).pixel_counts["mug"] > 0
 
 
 def test_rate_zero_is_the_plain_detector_and_draws_nothing():
@@ -92,7 +92,7 @@ def test_pybullet_house_applies_the_rate():
                                                   detection_miss_rate=rate))
         try:
             house.reset(0)
-            result = house.inspect_site("sideboard", ["mug"])
+            result = house.inspect_viewpoint("sideboard", ["mug"])
         finally:
             house.close()
         assert result.detections["mug"] is seen

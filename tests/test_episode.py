@@ -225,7 +225,7 @@ def test_runner_can_be_stepped_and_inspected():
     second = runner.step()
     assert any(e["event"] == "decision" for e in second)
     assert second[-1]["event"] == "belief"
-    assert runner.last_decision is not None and runner.last_decision.site in s.site_names
+    assert runner.last_decision is not None and runner.last_decision.viewpoint in {v.name for v in s.viewpoints}
     entropies = []
     while not runner.done:
         q = runner.belief.location("mug")

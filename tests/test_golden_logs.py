@@ -4,8 +4,9 @@ as recorded before the modules moved, digest for digest.
 
 Each log is normalised before hashing: the first event drops what names the machine or the
 checkout (``versions``, ``git``, ``inputs``, whose sha256 of the bundled model changes with its
-text), and the one value renamed on purpose (``positive_update``: ``"blueprint"`` is now
-``"collapse"``, CHANGELOG.md) is read under its new name. Everything else must be byte for byte.
+text); what was renamed on purpose (CHANGELOG.md) is read under its new name: ``positive_update``
+``"blueprint"`` is ``"collapse"``, and a decision's, a candidate's and an observation's duplicate
+``"site"`` key (the same value as ``"viewpoint"``) is gone. Everything else must be the same.
 """
 
 from __future__ import annotations
@@ -29,7 +30,13 @@ def normalised_digest(path: Path) -> str:
     detection = first["parameters"]["detection"]
     if detection.get("positive_update") == "blue" "print":
         detection["positive_update"] = "collapse"
-    text = "\n".join([json.dumps(first, sort_keys=True)] + lines[1:])
+    events = [first] + [json.loads(line) for line in lines[1:]]
+    for e in events:
+        if e.get("event") in ("decision", "observation") and "viewpoint" in e:
+            e.pop("site", None)
+        for c in e.get("candidates", []) if e.get("event") == "decision" else []:
+            c.pop("site", None)
+    text = "\n".join(json.dumps(e, sort_keys=True) for e in events)
     return hashlib.sha256(text.encode()).hexdigest()
 
 

@@ -188,7 +188,7 @@ def test_milk_and_sugar_are_detected_on_each_site_from_its_vantage(house, obj):
     house.reset(0)
     for site in SCENARIO.sites:
         house.move_object(obj, site.name)
-        result = house.inspect_site(site.name, [obj])
+        result = house.inspect_viewpoint(site.name, [obj])
         assert result.detections[obj], (obj, site.name, result.pixel_counts)
         assert result.pixel_counts[obj] >= 25
 
@@ -203,7 +203,7 @@ def test_milk_is_medium_and_sugar_small_in_the_image(house):
         counts = {}
         for obj in SCENARIO.object_names:  # alone on the site, so nothing occludes it
             house.move_object(obj, site.name)
-            counts[obj] = house.inspect_site(site.name, [obj]).pixel_counts[obj]
+            counts[obj] = house.inspect_viewpoint(site.name, [obj]).pixel_counts[obj]
             house.move_object(obj, parking)
         assert counts["mug"] < counts["milk"] < counts["kettle"], (site.name, counts)
         assert counts["sugar"] < counts["mug"] * 1.2, (site.name, counts)
@@ -219,7 +219,7 @@ def test_five_bodies_look_different(house):
     house.reset(0)
     for obj in SCENARIO.object_names:
         house.move_object(obj, "kitchen_counter")
-    assert all(house.inspect_site("kitchen_counter", list(SCENARIO.object_names)).detections.values())
+    assert all(house.inspect_viewpoint("kitchen_counter", list(SCENARIO.object_names)).detections.values())
     rgb, _, semantic = house.render_ego(house.config.ego_width, house.config.ego_height)
     means = {o.name: rgb[semantic == o.semantic_id].mean(axis=0) / 255.0 for o in SCENARIO.objects}
     for a, b in itertools.combinations(means, 2):

@@ -46,7 +46,7 @@ PLANNER_SOURCE = textwrap.dedent('''
                                          int(inspected.get(s, 0)), float(relevance[obj]),
                                          score[s], score[s]) for s in sites)
             best = min(candidates, key=lambda c: (c.total, c.distance))
-            return Decision(obj, best.site, best.total, candidates, self.name)
+            return Decision(obj, best.viewpoint, best.total, candidates, self.name)
 
 
     def make(model):

@@ -75,9 +75,9 @@ def test_hand_worked_example(hand):
         ("kettle", "B"): (2.0, 0.2, 0.452739, 1, 0.120891, -0.629109),
         ("kettle", "C"): (4.0, 0.6, 0.591141, 0, -1.886711, -2.636711),
     }
-    assert [(c.object, c.site) for c in decision.candidates] == list(expected)
+    assert [(c.object, c.viewpoint) for c in decision.candidates] == list(expected)
     for c in decision.candidates:
-        d, q, info, repeat, base, total = expected[(c.object, c.site)]
+        d, q, info, repeat, base, total = expected[(c.object, c.viewpoint)]
         assert c.distance == pytest.approx(d, abs=1e-12)
         assert c.probability == pytest.approx(q, abs=1e-12)
         assert c.information_gain == pytest.approx(info, abs=1e-6)
@@ -85,7 +85,7 @@ def test_hand_worked_example(hand):
         assert c.relevance == relevance[c.object]
         assert c.base == pytest.approx(base, abs=1e-6)
         assert c.total == pytest.approx(total, abs=1e-6)
-    assert (decision.object, decision.site) == ("kettle", "C")
+    assert (decision.object, decision.viewpoint) == ("kettle", "C")
     assert decision.total == pytest.approx(-2.636711, abs=1e-6)
     assert decision.chosen.total == decision.total
     assert entropy(belief.location("mug")) == pytest.approx(1.029653, abs=1e-6)
@@ -98,15 +98,16 @@ def test_decision_record_is_complete_json(hand):
         euclidean_distances(scenario, (0.0, 0.0)), {})
     record = json.loads(json.dumps(decision.to_json()))
     assert record["planner"] == "efe"
-    assert (record["object"], record["site"]) == (decision.object, decision.site)
+    assert (record["object"], record["viewpoint"]) == (decision.object, decision.viewpoint)
+    assert "site" not in record  # one name for one idea: the viewpoint
     assert record["info"]["information"] == "factorised"
     # Objects in the caller's order, then sites in belief order.
-    assert [(c["object"], c["site"]) for c in record["candidates"]] == \
+    assert [(c["object"], c["viewpoint"]) for c in record["candidates"]] == \
         [(o, s) for o in ("kettle", "mug") for s in ("A", "B", "C")]
     for c in record["candidates"]:
-        assert set(c) == {"object", "site", "viewpoint", "viewpoint_kind", "distance",
+        assert set(c) == {"object", "viewpoint", "viewpoint_kind", "distance",
                           "probability", "information_gain", "repeat", "relevance", "base", "total"}
-        assert c["viewpoint"] == c["site"] and c["viewpoint_kind"] == "site"
+        assert c["viewpoint_kind"] == "site"
 
 
 def test_ties_break_by_object_then_site_order():
@@ -118,7 +119,7 @@ def test_ties_break_by_object_then_site_order():
     planner = EFEPlanner(load_model("factorised").planning)
     for objects in (["cup1", "cup2"], ["cup2", "cup1"]):
         d = planner.choose(belief, objects, {"cup1": 1.0, "cup2": 1.0}, dist, {})
-        assert (d.object, d.site) == (objects[0], "A")
+        assert (d.object, d.viewpoint) == (objects[0], "A")
 
 
 # ------------------------------------------------------------------------------- joint gain
@@ -212,7 +213,7 @@ def test_joint_gain_rewards_co_location():
     dist = euclidean_distances(scenario, scenario.start_position)
     efe = EFEPlanner(strong.planning).choose(belief, list(belief.objects), rel, dist, {})
     fact = FactorisedEFEPlanner(strong.planning).choose(belief, list(belief.objects), rel, dist, {})
-    pick = lambda d: next(c for c in d.candidates if (c.object, c.site) == ("teabag", "pantry_shelf"))
+    pick = lambda d: next(c for c in d.candidates if (c.object, c.viewpoint) == ("teabag", "pantry_shelf"))
     assert pick(efe).information_gain == pytest.approx(gain_joint[pantry], abs=1e-12)
     assert pick(fact).information_gain == pytest.approx(gain_fact[pantry], abs=1e-12)
 
@@ -285,10 +286,10 @@ def test_no_epistemic_is_probability_and_distance_search():
         manual = (w.distance_weight * dvec[None] - w.probability_weight * q + w.repeat_penalty * rep[None]
                   - w.relevance_weight * np.array([relevance[o] for o in objects])[:, None])
         i, j = np.unravel_index(np.argmin(manual), manual.shape)
-        assert (d.object, d.site) == (objects[i], belief.sites[j])
+        assert (d.object, d.viewpoint) == (objects[i], belief.sites[j])
         assert d.total == pytest.approx(manual[i, j], abs=1e-12)
         with_gain = EFEPlanner(full.planning).choose(belief, objects, relevance, dist, inspected)
-        differs += (with_gain.object, with_gain.site) != (d.object, d.site)
+        differs += (with_gain.object, with_gain.viewpoint) != (d.object, d.viewpoint)
     assert differs > 0  # the epistemic term does change decisions, so this check can fail
 
 
@@ -304,19 +305,19 @@ def test_site_found_empty_is_not_chosen_while_penalised(hand):
         belief = BeliefEngine(scenario, moderate)
         planner = EFEPlanner(replace(moderate.planning, repeat_penalty=penalty))
         first = planner.choose(belief, ["mug"], rel, dist, {})
-        assert first.site == "A"
+        assert first.viewpoint == "A"
         belief.observe_site("A", {"mug": False})  # simulate the miss
         again = planner.choose(belief, ["mug"], rel, dist, {"A": 1})
-        assert (again.site == "A") == expect_repeat
-        assert again.site in ("A", "B")
-        assert next(c for c in again.candidates if c.site == "A").repeat == 1
+        assert (again.viewpoint == "A") == expect_repeat
+        assert again.viewpoint in ("A", "B")
+        assert next(c for c in again.candidates if c.viewpoint == "A").repeat == 1
 
     # The penalty is soft: with the weak-negative ablation (mu = 0.95) q(A) stays at 0.487 and A
     # still wins by more than w_a = 1 (G(A) = -1.7642 < G(B) = -1.7547).         # regression
     weak = load_model(ABLATIONS / "weak_negative.toml")
     belief = BeliefEngine(scenario, weak)
     belief.observe_site("A", {"mug": False})
-    assert make_planner("efe", weak).choose(belief, ["mug"], rel, dist, {"A": 1}).site == "A"
+    assert make_planner("efe", weak).choose(belief, ["mug"], rel, dist, {"A": 1}).viewpoint == "A"
 
     # The default model (mu = 0.05, w_a = 1) moves on too, on every object.
     belief = BeliefEngine(scenario, model)
@@ -324,9 +325,9 @@ def test_site_found_empty_is_not_chosen_while_penalised(hand):
     inspected: dict[str, int] = {}
     for _ in range(2):
         d = planner.choose(belief, ["mug", "kettle"], {"mug": 1.0, "kettle": 1.0}, dist, inspected)
-        assert inspected.get(d.site, 0) == 0
-        belief.observe_site(d.site, {"mug": False, "kettle": False})
-        inspected[d.site] = inspected.get(d.site, 0) + 1
+        assert inspected.get(d.viewpoint, 0) == 0
+        belief.observe_site(d.viewpoint, {"mug": False, "kettle": False})
+        inspected[d.viewpoint] = inspected.get(d.viewpoint, 0) + 1
 
 
 def test_excluded_sites_and_input_faults(hand):
@@ -334,7 +335,7 @@ def test_excluded_sites_and_input_faults(hand):
     dist = euclidean_distances(scenario, (0.0, 0.0))
     planner = EFEPlanner(model.planning)
     d = planner.choose(belief, ["mug"], {"mug": 1.0}, dist, {}, excluded_sites=frozenset({"A"}))
-    assert d.site != "A" and all(c.site != "A" for c in d.candidates)
+    assert d.viewpoint != "A" and all(c.viewpoint != "A" for c in d.candidates)
     with pytest.raises(ValueError, match="every site is excluded"):
         planner.choose(belief, ["mug"], {"mug": 1.0}, dist, {}, frozenset({"A", "B", "C"}))
     with pytest.raises(ValueError, match="no unresolved objects"):
@@ -421,16 +422,16 @@ def test_baselines(hand):
     rel = {"mug": 0.5, "kettle": 1.0}
     objects = ["mug", "kettle"]
     nearest = NearestPlanner().choose(belief, objects, rel, dist, {"A": 1})
-    assert (nearest.object, nearest.site) == ("kettle", "B")  # A inspected; B (2 m) before C (4 m)
-    assert [c.site for c in nearest.candidates] == ["B", "C"]
+    assert (nearest.object, nearest.viewpoint) == ("kettle", "B")  # A inspected; B (2 m) before C (4 m)
+    assert [c.viewpoint for c in nearest.candidates] == ["B", "C"]
     all_seen = NearestPlanner().choose(belief, objects, rel, dist, {"A": 1, "B": 1, "C": 1})
-    assert all_seen.site == "A"  # every site inspected once: the nearest again
+    assert all_seen.viewpoint == "A"  # every site inspected once: the nearest again
     greedy = GreedyProbabilityPlanner().choose(belief, objects, rel, dist, {})
-    assert (greedy.object, greedy.site, greedy.total) == ("kettle", "C", -0.6)
-    draws = [RandomPlanner(np.random.default_rng(3)).choose(belief, objects, rel, dist, {"B": 2}).site
+    assert (greedy.object, greedy.viewpoint, greedy.total) == ("kettle", "C", -0.6)
+    draws = [RandomPlanner(np.random.default_rng(3)).choose(belief, objects, rel, dist, {"B": 2}).viewpoint
              for _ in range(2)]
     assert draws[0] == draws[1] and draws[0] in ("A", "C")
-    sites = {RandomPlanner(np.random.default_rng(s)).choose(belief, objects, rel, dist, {}).site
+    sites = {RandomPlanner(np.random.default_rng(s)).choose(belief, objects, rel, dist, {}).viewpoint
              for s in range(20)}
     assert sites == {"A", "B", "C"}
 
@@ -474,8 +475,8 @@ def test_zero_travel_reinspection_cannot_win_forever():
         engine, inspected, choices = belief.copy(), {n: 1 for n in names}, []
         for _ in range(6):
             decision = planner.choose(engine, ["mug"], {"mug": 1.0}, at_a, inspected)
-            choices.append(decision.site)
-            if decision.site != "A":
+            choices.append(decision.viewpoint)
+            if decision.viewpoint != "A":
                 break
             engine.observe_site("A", {"mug": False})
             if count_repeats:

@@ -366,7 +366,7 @@ def test_pruned_choice_equals_the_unpruned_choice(n, k, seed, relations):
             belief, names, relevance, dist, inspected, views=views)
         full = EFEPlanner(model.planning, information="joint", prune=False).choose(
             belief, names, relevance, dist, inspected, views=views)
-        assert (pruned.object, pruned.site) == (full.object, full.site)
+        assert (pruned.object, pruned.viewpoint) == (full.object, full.viewpoint)
         assert abs(pruned.total - full.total) < 1e-12
         assert pruned.info["gain_solver"] == "structured"
         bounded = [c.gain_bound for c in pruned.candidates]
@@ -374,7 +374,7 @@ def test_pruned_choice_equals_the_unpruned_choice(n, k, seed, relations):
         pruned_any += sum(bounded)
         assert not any(c.gain_bound for c in full.candidates)
         for p, f in zip(pruned.candidates, full.candidates):
-            assert (p.object, p.site) == (f.object, f.site)
+            assert (p.object, p.viewpoint) == (f.object, f.viewpoint)
             if p.gain_bound:
                 assert p.information_gain >= f.information_gain
                 assert p.total <= f.total and p.total > pruned.total
@@ -404,7 +404,7 @@ def test_a_tie_goes_to_the_first_candidate_with_or_without_pruning():
     relevance = {o: 1.0 for o in names}
     got = [EFEPlanner(model.planning, information="joint", prune=p).choose(
         belief, names, relevance, dist, {}, views=views) for p in (True, False)]
-    assert got[0].site == got[1].site == first
+    assert got[0].viewpoint == got[1].viewpoint == first
     assert got[0].object == got[1].object and got[0].total == got[1].total
-    twin = [c for c in got[0].candidates if c.site == first + "_twin" and c.object == got[0].object]
+    twin = [c for c in got[0].candidates if c.viewpoint == first + "_twin" and c.object == got[0].object]
     assert not twin[0].gain_bound and twin[0].total == got[0].total     # a tie, kept and exact

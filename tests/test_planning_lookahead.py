@@ -35,7 +35,7 @@ def _decisions(scenario, model, planner, seed, miss_rate=0.05):
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
     runner.run()
     env.close()
-    return [(e["object"], e["site"], e["viewpoint_kind"]) for e in runner.log.events
+    return [(e["object"], e["viewpoint"], e["viewpoint_kind"]) for e in runner.log.events
             if e["event"] == "decision"], runner
 
 
@@ -115,13 +115,13 @@ def test_relook_is_preferred_when_the_detector_misses_often():
         belief = BeliefEngine(scenario, model)
         belief.observe_site("near", {"mug": False})
         d = planner.choose(belief, ["mug"], {"mug": 1.0}, distances, {"near": 1})
-        assert d.site == expected, (mu, d.candidates)
+        assert d.viewpoint == expected, (mu, d.candidates)
     # No flat penalty: the re-look's value is its travel-free look cost plus the expected rest.
     model = load_model("factorised_close").with_overrides(miss_likelihood=0.6)
     belief = BeliefEngine(scenario, model)
     belief.observe_site("near", {"mug": False})
     d = planner.choose(belief, ["mug"], {"mug": 1.0}, distances, {"near": 5})
-    assert d.site == "near"
+    assert d.viewpoint == "near"
 
 
 @pytest.mark.parametrize("model_name", ["factorised_close", "joint_close"])

@@ -73,7 +73,7 @@ def simulate(planner, belief, truth, distances, objects, max_steps=40):
     for _ in range(max_steps):
         decision = planner.choose(belief, unresolved, {o: 1.0 for o in unresolved}, distances,
                                   inspected)
-        site = decision.site
+        site = decision.viewpoint
         travel += distances.from_agent(site)
         distances = distances.moved_to(site)
         seen = {o: truth[o] == site for o in unresolved}
@@ -97,8 +97,8 @@ def test_hand_worked_two_sites_one_object():
     d = OptimalPlanner().choose(belief, ["mug"], {"mug": 1.0}, dist, {})
     # First A: 1 + P(mug at B) * d(A, B) = 1 + 0.4 * 2 = 1.8
     # First B: 3 + P(mug at A) * d(B, A) = 3 + 0.6 * 2 = 4.2
-    assert [(c.site, round(c.total, 12)) for c in d.candidates] == [("A", 1.8), ("B", 4.2)]
-    assert (d.object, d.site, d.total) == ("mug", "A", pytest.approx(1.8))
+    assert [(c.viewpoint, round(c.total, 12)) for c in d.candidates] == [("A", 1.8), ("B", 4.2)]
+    assert (d.object, d.viewpoint, d.total) == ("mug", "A", pytest.approx(1.8))
     assert d.info["expected_travel"] == pytest.approx(1.8)
 
 
@@ -118,7 +118,7 @@ def test_hand_worked_two_objects_adaptive():
     dist = euclidean_distances(scenario, (0.0, 0.0))
     d = OptimalPlanner().choose(belief, ["mug", "teabag"], {"mug": 1.0, "teabag": 1.0}, dist, {})
     # A first: 1 (to A) + 1 (to B) + 0.5 * 5 (B to C if the mug was not at A) = 4.5
-    assert d.site == "A"
+    assert d.viewpoint == "A"
     assert d.total == pytest.approx(4.5, abs=1e-6)
 
 
@@ -191,21 +191,21 @@ def test_real_misses_start_a_new_sweep_and_never_loop():
     rel = {"mug": 1.0}
     # A first: 1 + 0.1 * 9 = 1.9; B first: 10 + 0.9 * 9 = 18.1.
     first = planner.choose(belief, ["mug"], rel, dist, {})
-    assert (first.site, first.total) == ("A", pytest.approx(1.9))
+    assert (first.viewpoint, first.total) == ("A", pytest.approx(1.9))
     belief.observe_site("A", {"mug": False})  # q = [0.45, 0.1] / 0.55 = [0.818, 0.182]
     # A counts as searched in this sweep although it still holds 0.818: only B is open (9 m).
     second = planner.choose(belief, ["mug"], rel, dist.moved_to("A"), {"A": 1})
-    assert (second.site, second.total) == ("B", pytest.approx(9.0))
-    assert [c.site for c in second.candidates] == ["B"]
+    assert (second.viewpoint, second.total) == ("B", pytest.approx(9.0))
+    assert [c.viewpoint for c in second.candidates] == ["B"]
     belief.observe_site("B", {"mug": False})  # q = [0.45, 0.05] / 0.5 = [0.9, 0.1]
     # Both searched once: a new sweep over both, from B. B first: 0 + 0.9 * 9 = 8.1;
     # A first: 9 + 0.1 * 9 = 9.9. Looking again where the agent stands is free, once per sweep.
     third = planner.choose(belief, ["mug"], rel, dist.moved_to("B"), {"A": 1, "B": 1})
-    assert [(c.site, round(c.total, 9)) for c in third.candidates] == [("A", 9.9), ("B", 8.1)]
-    assert third.site == "B"
+    assert [(c.viewpoint, round(c.total, 9)) for c in third.candidates] == [("A", 9.9), ("B", 8.1)]
+    assert third.viewpoint == "B"
     belief.observe_site("B", {"mug": False})
     fourth = planner.choose(belief, ["mug"], rel, dist.moved_to("B"), {"A": 1, "B": 2})
-    assert fourth.site == "A"
+    assert fourth.viewpoint == "A"
 
 
 def test_excluded_sites_are_conditioned_away():
@@ -216,9 +216,9 @@ def test_excluded_sites_are_conditioned_away():
     dist = euclidean_distances(scenario, (0.0, 0.0))
     d = OptimalPlanner().choose(belief, ["mug"], {"mug": 1.0}, dist, {}, frozenset({"A"}))
     # Given "not at A": q = [0.5, 0.5] over B, C. First C: 1 + 0.5 * 3 = 2.5; first B: 2 + 0.5 * 3 = 3.5
-    assert [(c.site, c.total) for c in d.candidates] == [("B", pytest.approx(3.5)),
+    assert [(c.viewpoint, c.total) for c in d.candidates] == [("B", pytest.approx(3.5)),
                                                          ("C", pytest.approx(2.5))]
-    assert d.site == "C"
+    assert d.viewpoint == "C"
 
 
 def test_optimal_refuses_more_than_ten_sites():
@@ -231,7 +231,7 @@ def test_optimal_refuses_more_than_ten_sites():
     # Excluding four sites brings the problem within the limit.
     d = OptimalPlanner().choose(belief, ["mug"], {"mug": 1.0}, dist, {},
                                 frozenset({"s10", "s11", "s12", "s13"}))
-    assert d.site == "s0" and len(d.candidates) == 10
+    assert d.viewpoint == "s0" and len(d.candidates) == 10
     with pytest.raises(ValueError, match="hidden truths"):
         OptimalPlanner(max_truths=5).choose(belief, ["mug"], {"mug": 1.0}, dist, {},
                                             frozenset({"s10", "s11", "s12", "s13"}))

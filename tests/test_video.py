@@ -34,8 +34,16 @@ VIEWPOINT_FIELDS = ("viewpoint", "viewpoint_kind", "sites_in_view", "found_at",
 
 
 def _as_old_log(events):
-    """The same events as a runner without viewpoints wrote them."""
-    return [{k: v for k, v in e.items() if k not in VIEWPOINT_FIELDS} for e in events]
+    """The same events as a runner without viewpoints wrote them: a look named by its "site"."""
+    def old(e):
+        out = {k: v for k, v in e.items() if k not in VIEWPOINT_FIELDS}
+        if e.get("event") in ("decision", "observation"):
+            out["site"] = e["viewpoint"]
+        if "candidates" in e:
+            out["candidates"] = [{**{k: v for k, v in c.items() if k not in VIEWPOINT_FIELDS},
+                                  "site": c["viewpoint"]} for c in e["candidates"]]
+        return out
+    return [old(e) for e in events]
 
 
 def test_frame_plan_replays_every_motion_frame(logged):
@@ -149,12 +157,12 @@ def _with_viewpoints(events, scenario, glance_room: str | None):
     for e in events:
         if e["event"] not in ("decision", "observation"):
             continue
-        site = e["site"]
+        site = e["viewpoint"]
         if site not in scenario.site_names:  # already a room glance in the runner's own log
             continue
         as_glance = glance is not None and not converted and scenario.site(site).room == glance.room
         vp = glance if as_glance else scenario.viewpoint(site)
-        e["site"], e["viewpoint"], e["viewpoint_kind"] = vp.name, vp.name, vp.kind
+        e["viewpoint"], e["viewpoint_kind"] = vp.name, vp.kind
         if e["event"] == "observation":
             e["sites_in_view"] = list(vp.sites)
             e["found_at"] = {o: site for o, seen in e["detections"].items() if seen}

@@ -141,10 +141,10 @@ def test_walked_legs_are_what_the_agent_walks_in_the_pybullet_house():
         pose = env.agent_pose()
         runner.step()
         look = next(e for e in runner.events if e["event"] == "observation")
-        assert env.walking_distance(look["site"], (pose.x, pose.y)) == pytest.approx(look["distance"], abs=1e-6)
+        assert env.walking_distance(look["viewpoint"], (pose.x, pose.y)) == pytest.approx(look["distance"], abs=1e-6)
         # The planner's grid estimate is longer than the walk (docs/design.md §8.2).
         decision = next(e for e in runner.events if e["event"] == "decision")
-        planned = next(c for c in decision["candidates"] if c["site"] == look["site"])["distance"]
+        planned = next(c for c in decision["candidates"] if c["viewpoint"] == look["viewpoint"])["distance"]
         assert look["distance"] <= planned + 1e-9
     finally:
         env.close()

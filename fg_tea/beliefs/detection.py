@@ -38,6 +38,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from fg_tea.model.spec import Model
+from fg_tea.world.interface import logged_viewpoint
 from fg_tea.world.scenario import Scenario
 
 #: Expected pixels: viewpoint -> site -> object category -> pixels at each placement slot of the
@@ -92,7 +93,7 @@ def view_from_log(event: Mapping, sites: Sequence[str], objects: Sequence[str], 
     miss likelihood is mu itself, as the threshold detector's close look uses it.
     """
     index = {s: i for i, s in enumerate(sites)}
-    in_view = list(event.get("sites_in_view") or [event["site"]])
+    in_view = list(event.get("sites_in_view") or [logged_viewpoint(event)])
     logged = event.get("detection_probability") or {}
     mu = model.miss_likelihood
     prob = np.zeros((len(objects), len(in_view)))
@@ -102,7 +103,7 @@ def view_from_log(event: Mapping, sites: Sequence[str], objects: Sequence[str], 
             prob[o, c] = float(row[site]) if row is not None else 1.0 - mu
     miss = np.where(prob == 1.0 - mu, mu, 1.0 - prob)
     kind = event.get("viewpoint_kind", "site")
-    name = event.get("viewpoint", event["site"])
+    name = logged_viewpoint(event)
     return View(name, kind, "", tuple(index[s] for s in in_view), prob, miss,
                 np.full(prob.shape, np.nan))
 
@@ -110,7 +111,7 @@ def view_from_log(event: Mapping, sites: Sequence[str], objects: Sequence[str], 
 def found_from_log(event: Mapping) -> dict[str, str | None]:
     """object -> the in-view site it was seen at, or None (looked, not seen), from an event."""
     found_at = event.get("found_at") or {}
-    return {o: (found_at.get(o, event["site"]) if seen else None)
+    return {o: (found_at.get(o, logged_viewpoint(event)) if seen else None)
             for o, seen in event["detections"].items()}
 
 

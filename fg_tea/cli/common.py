@@ -16,6 +16,7 @@ from fg_tea.common.files import (
     check_output_file,
 )
 from fg_tea.common.options import DeprecatedAlias
+from fg_tea.world.interface import logged_viewpoint
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
 
@@ -260,9 +261,9 @@ def summary(events: list[dict]) -> str:
     for e in events:
         if e.get("event") == "observation":
             for obj in e.get("resolved", []):
-                at = e.get("found_at", {}).get(obj, e["site"])
+                at = e.get("found_at", {}).get(obj, logged_viewpoint(e))
                 glance = e.get("viewpoint_kind") == "room"
-                sites[obj] = f"{at} (from the {e['site']} glance)" if glance else at
+                sites[obj] = f"{at} (from the {logged_viewpoint(e)} glance)" if glance else at
     for obj, n in sorted(m["inspections_until_resolved"].items(), key=lambda kv: kv[1] or 10 ** 9):
         found.append(f"the {obj} on {sites[obj]} after {n} inspection{'s' * (n != 1)}"
                      if n is not None else f"never the {obj}")

@@ -183,9 +183,6 @@ class TruthBackedAdapter(EnvAdapter):
     def walking_distance(self, target: str, xy: Sequence[float]) -> float:
         return float(self._walk_length(self._target_index(target), xy))
 
-    def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
-        return self.inspect_viewpoint(site, objects)
-
     def inspect_viewpoint(self, viewpoint: str, objects: Sequence[str]) -> InspectionResult:
         self._require_reset()
         self._start = self._pose
@@ -318,7 +315,7 @@ class TruthBackedAdapter(EnvAdapter):
                    "POUR": self._pour, "WAIT": self._wait}.get(verb)
         if handler is None:
             raise ValueError(f"verb {request.verb!r} is not an executable action here "
-                             "(SEARCH and INSPECT go through inspect_site and observe_state)")
+                             "(SEARCH and INSPECT go through inspect_viewpoint and observe_state)")
         self._spec(request.object)
         if request.site is not None:
             self._site_index(request.site)

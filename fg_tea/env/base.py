@@ -77,10 +77,6 @@ class EnvAdapter(abc.ABC):
     def distance_between_sites(self, a: str, b: str) -> float:
         """Travel distance (metres) from site a's vantage point to site b's; inf if unreachable."""
 
-    @abc.abstractmethod
-    def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
-        """Go to the site's vantage point, face it, look once, report on `objects` only."""
-
     def walking_distance(self, target: str, xy: Sequence[float]) -> float:
         """Metres the agent would walk from floor point `xy` to viewpoint `target`; inf if none.
 
@@ -90,13 +86,12 @@ class EnvAdapter(abc.ABC):
         """
         raise NotImplementedError(f"{type(self).__name__} does not report walking distances")
 
+    @abc.abstractmethod
     def inspect_viewpoint(self, viewpoint: str, objects: Sequence[str]) -> InspectionResult:
         """Go to the viewpoint, face each site in view in turn, look, report on `objects` only.
 
-        A site's close look is the viewpoint named after the site; adapters without room
-        glances need only :meth:`inspect_site`.
+        A site's close look is the viewpoint named after the site (docs/design.md §5).
         """
-        return self.inspect_site(viewpoint, objects)
 
     def expected_pixel_counts(self, categories: Sequence[str]
                               ) -> Mapping[str, Mapping[str, Mapping[str, Sequence[float]]]]:

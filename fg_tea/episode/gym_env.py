@@ -25,7 +25,14 @@ from fg_tea.env.base import EnvAdapter
 from fg_tea.env.truth import EFFECTS
 from fg_tea.episode.run import make_env
 from fg_tea.model.spec import Model, load_model
-from fg_tea.world.interface import VERBS, ActionRequest, ActionResult, InspectionResult, Pose, StateReading
+from fg_tea.world.interface import (
+    VERBS,
+    ActionRequest,
+    ActionResult,
+    InspectionResult,
+    Pose,
+    StateReading,
+)
 from fg_tea.world.scenario import Scenario, load_scenario
 
 try:
@@ -264,9 +271,6 @@ class GymAdapter(EnvAdapter):
 
     def expected_pixel_counts(self, categories: Sequence[str]):
         return self.env.adapter.expected_pixel_counts(categories)
-
-    def inspect_site(self, site: str, objects: Sequence[str]) -> InspectionResult:
-        return self.inspect_viewpoint(site, objects)
 
     def inspect_viewpoint(self, viewpoint: str, objects: Sequence[str]) -> InspectionResult:
         return self.env.step(self.env.look(viewpoint, objects))[4]["result"]

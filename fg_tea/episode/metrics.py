@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Iterable
 
 from fg_tea.episode.log import iter_events
+from fg_tea.world.interface import logged_viewpoint
 
 MOVING_EVENTS = ("observation", "state_reading", "action", "action_failed")
 
@@ -52,8 +53,8 @@ def repeated_sites(events: list[dict]) -> int:
     """Inspections of a site that had been inspected before in the episode."""
     seen, repeats = set(), 0
     for e in iter_events(events, "observation"):
-        repeats += e["site"] in seen
-        seen.add(e["site"])
+        repeats += logged_viewpoint(e) in seen
+        seen.add(logged_viewpoint(e))
     return repeats
 
 

@@ -393,7 +393,7 @@ class EpisodeRunner:
         in_view = [self.belief.sites[j] for j in view.sites]
         probability = self.views.probabilities(viewpoint)
         self._write({
-            "event": "observation", "site": viewpoint, "viewpoint": viewpoint,
+            "event": "observation", "viewpoint": viewpoint,
             "viewpoint_kind": view.kind, "sites_in_view": in_view, "objects": objects,
             "detections": dict(result.detections), "found_at": dict(result.found_at),
             "pixel_counts": dict(result.pixel_counts),

@@ -119,17 +119,18 @@ def distance_matrix(distances: DistanceModel, sites: Sequence[str]) -> np.ndarra
 # ---------------------------------------------------------------------------------- decisions
 @dataclass(frozen=True)
 class Candidate:
-    """One scored inspection "look from `site` for `object`" (eqs. 12, 16).
+    """One scored inspection "look from `viewpoint` for `object`" (eqs. 12, 16).
 
     Attributes:
         object: the object whose belief and relevance are scored.
-        site: the viewpoint to look from: a site's name (its close look) or a room vantage.
+        viewpoint: where to look from: a site's name (its close look) or a room vantage.
         distance: d_j, metres from the agent to the viewpoint's floor point.
         probability: q(L_o = j) in [0, 1] for a close look; for a viewpoint scored over what it
             sees, the chance the look finds o relative to a clear close look (docs/design.md,
             "Planning over viewpoints").
         information_gain: I(o, j) in nats (eq. 11, or the joint form of :mod:`.efe`).
-        repeat: how many times `site` was already inspected with negative evidence in this search.
+        repeat: how many times `viewpoint` was already looked from with negative evidence in this
+            search.
         relevance: r_o in [0, 1] (eq. 15).
         base: G_base(o, j) of eq. 12 (planners that are not EFE put their own score here).
         total: the score the planner minimises (eq. 16 for EFE); lower is better.
@@ -140,7 +141,7 @@ class Candidate:
     """
 
     object: str
-    site: str
+    viewpoint: str
     distance: float
     probability: float
     information_gain: float
@@ -151,12 +152,8 @@ class Candidate:
     kind: str = "site"
     gain_bound: bool = False
 
-    @property
-    def viewpoint(self) -> str:
-        return self.site
-
     def to_json(self) -> dict:
-        return {"object": self.object, "site": self.site, "viewpoint": self.site,
+        return {"object": self.object, "viewpoint": self.viewpoint,
                 "viewpoint_kind": self.kind, "distance": float(self.distance),
                 "probability": float(self.probability),
                 "information_gain": float(self.information_gain), "repeat": int(self.repeat),
@@ -171,7 +168,7 @@ class Decision:
 
     Attributes:
         object: the chosen object o*.
-        site: the chosen site j*.
+        viewpoint: the chosen viewpoint j* (a site's name for its close look, or a room vantage).
         total: the chosen candidate's score.
         candidates: every candidate, objects in the caller's order, then sites in belief order.
         planner: the planner's registry name.
@@ -179,7 +176,7 @@ class Decision:
     """
 
     object: str
-    site: str
+    viewpoint: str
     total: float
     candidates: tuple[Candidate, ...]
     planner: str
@@ -188,14 +185,9 @@ class Decision:
     @property
     def chosen(self) -> Candidate:
         for c in self.candidates:
-            if c.object == self.object and c.site == self.site:
+            if c.object == self.object and c.viewpoint == self.viewpoint:
                 return c
-        raise LookupError(f"decision ({self.object}, {self.site}) is not among its candidates")
-
-    @property
-    def viewpoint(self) -> str:
-        """The viewpoint to look from (the chosen site's name for a close look)."""
-        return self.site
+        raise LookupError(f"decision ({self.object}, {self.viewpoint}) is not among its candidates")
 
     @property
     def kind(self) -> str:
@@ -204,8 +196,8 @@ class Decision:
 
     def to_json(self) -> dict:
         """A JSON-serialisable record: the choice, planner info and every candidate with every term."""
-        return {"planner": self.planner, "object": self.object, "site": self.site,
-                "viewpoint": self.site, "viewpoint_kind": self.kind,
+        return {"planner": self.planner, "object": self.object,
+                "viewpoint": self.viewpoint, "viewpoint_kind": self.kind,
                 "total": float(self.total), "info": dict(self.info),
                 "candidates": [c.to_json() for c in self.candidates]}
 

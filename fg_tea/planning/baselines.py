@@ -62,7 +62,7 @@ def _site_decision(name: str, belief, objects: Sequence[str], relevance: Mapping
                                  float(relevance[target]), float(t), float(t))
                        for j, t in zip(pool, totals))
     best = min(candidates, key=lambda c: c.total)  # first minimum in site order
-    return Decision(best.object, best.site, best.total, candidates, name)
+    return Decision(best.object, best.viewpoint, best.total, candidates, name)
 
 
 class NearestPlanner(PlannerBase):
@@ -101,7 +101,7 @@ class GreedyProbabilityPlanner(PlannerBase):
                                      float(relevance[o]), float(-q[i, j]), float(-q[i, j]))
                            for i, o in enumerate(objects) for j in eligible)
         best = min(candidates, key=lambda c: c.total)
-        return Decision(best.object, best.site, best.total, candidates, self.name)
+        return Decision(best.object, best.viewpoint, best.total, candidates, self.name)
 
 
 class RandomPlanner(PlannerBase):

@@ -781,18 +781,18 @@ class LookaheadPlanner(PlannerBase):
         check_inputs(belief, objects, relevance, excluded_sites, views)
         if st.depth == 1 and st.rollout == "none":
             d = self.efe.choose(belief, objects, relevance, distances, inspected, excluded_sites, views)
-            return Decision(d.object, d.site, d.total, d.candidates, self.name,
+            return Decision(d.object, d.viewpoint, d.total, d.candidates, self.name,
                             {**d.info, "lookahead": st.spec(), "nodes": 0, "leaves": 0})
         ranked = self.pruner.choose(belief, objects, relevance, distances, inspected,
                                     excluded_sites, views)
         best_by_view: dict[str, Candidate] = {}
         for c in ranked.candidates:
-            if c.site not in best_by_view or c.total < best_by_view[c.site].total:
-                best_by_view[c.site] = c
+            if c.viewpoint not in best_by_view or c.total < best_by_view[c.viewpoint].total:
+                best_by_view[c.viewpoint] = c
         problem = build_problem(belief, objects, distances, excluded_sites, views, st.look)
         index = {name: a for a, name in enumerate(problem.names)}
-        order = sorted(best_by_view.values(), key=lambda c: (c.total, index[c.site]))
-        root_actions = [index[c.site] for c in order[:st.width]]
+        order = sorted(best_by_view.values(), key=lambda c: (c.total, index[c.viewpoint]))
+        root_actions = [index[c.viewpoint] for c in order[:st.width]]
         r = np.array([float(relevance[o]) for o in objects])
         history = np.array([float(inspected.get(name, 0)) for name in problem.names])
         root = _Node(-1, problem.root(), np.ones(len(objects), dtype=bool), st.depth, history)
@@ -826,7 +826,7 @@ class LookaheadPlanner(PlannerBase):
         best = int(np.argmin(q_values))  # first minimum: EFE rank
         candidates = []
         for c, q in zip(kept, q_values):
-            candidates.append(Candidate(c.object, c.site, c.distance, c.probability,
+            candidates.append(Candidate(c.object, c.viewpoint, c.distance, c.probability,
                                         c.information_gain, c.repeat, c.relevance, c.total,
                                         float(q), c.kind))
         sorted_q = np.sort(q_values)
@@ -836,7 +836,7 @@ class LookaheadPlanner(PlannerBase):
                 "second_value": float(sorted_q[1]) if len(sorted_q) > 1 else float(sorted_q[0]),
                 "look_cost": st.look}
         chosen = candidates[best]
-        return Decision(chosen.object, chosen.site, chosen.total, tuple(candidates), self.name, info)
+        return Decision(chosen.object, chosen.viewpoint, chosen.total, tuple(candidates), self.name, info)
 
 
 __all__ = ["LookaheadPlanner", "LookaheadSettings", "SearchProblem", "build_problem",

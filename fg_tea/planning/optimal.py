@@ -253,7 +253,7 @@ class OptimalPlanner(PlannerBase):
         best = candidates[int(np.argmin(values))]
         info: dict[str, float | str] = {"expected_travel": best.total, "sites": k, "truths": int(len(p)),
                 "detection": "perfect"}
-        return Decision(best.object, best.site, best.total, tuple(candidates), self.name, info)
+        return Decision(best.object, best.viewpoint, best.total, tuple(candidates), self.name, info)
 
 
 __all__ = ["OptimalPlanner", "expected_travel_table", "truth_table", "size_fault", "MAX_SITES", "MAX_TRUTHS"]

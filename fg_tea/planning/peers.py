@@ -290,7 +290,7 @@ class PeerPlanner(PlannerBase):
                                         0.0, int(inspected.get(problem.names[a], 0)),
                                         float(relevance[objects[i]]), float(visits), value,
                                         problem.kinds[a]))
-        chosen = next((c for c in candidates if c.site == problem.names[action.a]), None)
+        chosen = next((c for c in candidates if c.viewpoint == problem.names[action.a]), None)
         if chosen is None:  # the chosen action was never simulated (tiny budgets)
             i = 0
             chosen = Candidate(objects[i], problem.names[action.a], float(problem.start[action.a]),
@@ -301,7 +301,7 @@ class PeerPlanner(PlannerBase):
         info = {"simulations": self.simulations, "seed": seed, "truths": int(len(problem.p)),
                 "best_value": values[0], "second_value": values[1] if len(values) > 1 else values[0],
                 "exploration": EXPLORATION, "look_cost": self.look}
-        return Decision(chosen.object, chosen.site, chosen.total, tuple(candidates), self.name, info)
+        return Decision(chosen.object, chosen.viewpoint, chosen.total, tuple(candidates), self.name, info)
 
 
 def make_peer(kind: str, spec: str, model: Model, rng: np.random.Generator | None) -> PeerPlanner:

@@ -26,6 +26,8 @@ from typing import Mapping, Sequence
 import cv2
 import numpy as np
 
+from fg_tea.world.interface import logged_viewpoint
+
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 STATUS_COLOURS = {  # RGB
     "pending": (120, 120, 120),
@@ -253,7 +255,7 @@ def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, 
                 _text(frame, head, x, top + 2 * line, fs * 0.72, (190, 190, 190))
             for i, c in enumerate(shown):
                 yy = top + (i + 3) * line
-                where = c.get("viewpoint", c["site"])
+                where = logged_viewpoint(c)
                 if c.get("viewpoint_kind") == "room":
                     where = "glance " + where
                 colour = (255, 200, 40) if i == 0 else (235, 235, 235)

@@ -31,6 +31,7 @@ from fg_tea.common.files import atomic_path
 from fg_tea.env.base import EnvConfig
 from fg_tea.episode.log import read_log
 from fg_tea.render.overlay import OverlayState, draw_overlays
+from fg_tea.world.interface import logged_viewpoint
 
 VIEWS = ("multi", "first", "third")
 
@@ -143,11 +144,11 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
 
     def set_look(e: dict, sites_in_view: list[str] | None) -> None:
         """The viewpoint of a decision or observation; older logs name only the site."""
-        name = e.get("viewpoint", e["site"])
+        name = logged_viewpoint(e)
         kind = e.get("viewpoint_kind", "site")
         info = plan.viewpoints.get(name, {})
         if sites_in_view is None:
-            sites_in_view = list(info.get("sites", [e["site"]]))
+            sites_in_view = list(info.get("sites", [name]))
         ov.viewpoint, ov.viewpoint_kind, ov.sites_in_view = name, kind, list(sites_in_view)
         position = info.get("position") or (vantages.get(name) if kind == "site" else None)
         ov.viewpoint_position = list(position[:2]) if position else None
@@ -185,7 +186,7 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
     for e in events:
         kind = e.get("event")
         if kind == "decision":
-            ov.phase, ov.focus_object, ov.selected_site = "SEARCH", e["object"], e["site"]
+            ov.phase, ov.focus_object, ov.selected_site = "SEARCH", e["object"], logged_viewpoint(e)
             set_look(e, None)
             ov.found_at = {}
             ov.caption = f"plan: look for the {e['object']} at {where()} ({e['planner']})"
@@ -199,7 +200,7 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
             ov.locations = {**ov.locations, **e["after"]}
             seen = [o for o, v in e["detections"].items() if v]
             found_at = e.get("found_at") or {}
-            ov.found_at = {o: found_at.get(o, e["site"]) for o in seen}
+            ov.found_at = {o: found_at.get(o, logged_viewpoint(e)) for o in seen}
             if seen:
                 found = ", ".join(f"{o} on {ov.found_at[o]}" if ov.viewpoint_kind == "room" else o
                                   for o in seen)

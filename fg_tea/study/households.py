@@ -213,9 +213,8 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
         One row per (arm, episode): the :data:`FIELDS` columns plus ``_calibration`` (the start
         belief's (probability, outcome) pairs, for the pooled calibration error; not written).
     """
-    from fg_tea.model.learning import Learning
+    from fg_tea.model.learning import Learning, Source
     from fg_tea.model.spec import apply_learning, load_model
-    from fg_tea.model.learning import Source
     from fg_tea.study.learn import learn
 
     base = load_model(spec.model)

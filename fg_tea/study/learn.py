@@ -26,6 +26,7 @@ from fg_tea.model.learning import (
     band_of,
     beta_interval,
 )
+from fg_tea.world.interface import logged_viewpoint
 
 if TYPE_CHECKING:  # model imports this module; import it lazily to avoid a cycle
     pass
@@ -117,11 +118,11 @@ def counts_from_events(events: Sequence[Mapping], file: str = "<log>") -> Counts
             continue
         try:
             considered = list(e["objects"]) if "objects" in e else list(e["detections"])
-            in_view = list(e.get("sites_in_view") or [e["site"]])
+            in_view = list(e.get("sites_in_view") or [logged_viewpoint(e)])
             found_at = dict(e.get("found_at") or {})
             detections = dict(e["detections"])
             kind = e.get("viewpoint_kind", "site")
-            vp_name = e.get("viewpoint", e["site"])
+            vp_name = logged_viewpoint(e)
         except (KeyError, TypeError):
             raise _fail(file, f"event {i}: observation", "expected objects, detections and site") from None
         for obj in considered:
@@ -131,7 +132,7 @@ def counts_from_events(events: Sequence[Mapping], file: str = "<log>") -> Counts
             if i > first or site not in in_view:
                 continue
             if detections.get(obj) and obj not in found_at and kind == "site":
-                found_at[obj] = e["site"]  # logs before found_at: a close look sees its own site
+                found_at[obj] = logged_viewpoint(e)  # logs before found_at: a close look sees its own site
             distance = _distance(views.get(vp_name), site_pos.get(site))
             band = band_of(kind, distance)
             hit = bool(detections.get(obj)) and found_at.get(obj) == site

@@ -15,7 +15,7 @@ replay an episode from its log (presentation only; the agent never reads them).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import Any, Mapping
 
 VERBS = ("SEARCH", "INSPECT", "PICK", "NAVIGATE", "PLACE", "INSERT", "FILL", "POUR", "USE", "WAIT")
 
@@ -36,8 +36,8 @@ class Pose:
 class InspectionResult:
     """What one look from a viewpoint observed [28-30].
 
-    `site` is the viewpoint's name (a site's name for a close look). `detections` has an entry
-    only for objects the inspection considered: True = seen at one of the sites in view (which
+    `viewpoint` is the viewpoint looked from (a site's name for its close look). `detections` has an
+    entry only for objects the inspection considered: True = seen at one of the sites in view (which
     one is in `found_at`), False = looked and not seen. `pixel_counts` gives n_o for the same
     objects: the pixels o covered in the image that faced the in-view site o stands at (0 if it
     stands at none). `view_pixels` spreads the same counts over every in-view site (object ->
@@ -45,7 +45,7 @@ class InspectionResult:
     the sites in view.
     """
 
-    site: str
+    viewpoint: str
     detections: Mapping[str, bool]
     pixel_counts: Mapping[str, int]
     reachable: bool = True
@@ -57,10 +57,6 @@ class InspectionResult:
     sites: tuple[str, ...] = ()
     found_at: Mapping[str, str] = field(default_factory=dict)
     view_pixels: Mapping[str, Mapping[str, int]] = field(default_factory=dict)
-
-    @property
-    def viewpoint(self) -> str:
-        return self.site
 
 
 @dataclass(frozen=True)
@@ -101,3 +97,9 @@ class ActionResult:
     frames: int = 0
     motion: tuple[tuple[float, float, float], ...] = ()
     placements: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)
+
+
+def logged_viewpoint(event: Mapping[str, Any]) -> str:
+    """The viewpoint of a logged ``decision`` or ``observation``: its ``viewpoint``, or, in logs
+    written before that key was the only one, its ``site`` (docs/design.md §9)."""
+    return str(event["viewpoint"] if "viewpoint" in event else event["site"])
