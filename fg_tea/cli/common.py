@@ -150,6 +150,10 @@ def failure_rates(pairs: list[str]) -> dict[str, float]:
         if verb.upper() not in VERBS or not 0.0 <= rate <= 1.0:
             raise InputError("<command line>", "--failure-rate",
                              f"expected VERB=P with VERB in {', '.join(actions)} and P in [0, 1], got {pair!r}")
+        if verb.upper() in rates:
+            raise InputError("<command line>", "--failure-rate",
+                             f"{verb.upper()} is given twice ({verb.upper()}={rates[verb.upper()]:g} and "
+                             f"{pair!r}); give each verb once")
         rates[verb.upper()] = rate
     return rates
 

@@ -30,6 +30,9 @@ COMPARE_REPORT_OUTPUTS = ("summary.md", "summary.csv", "paired.csv", "ratio_to_o
 
 # ------------------------------------------------------------ compare (docs/design.md §11)
 #: Planners of the full comparison, and of --quick.
+#: Most worlds one comparison may ask for (each is a row per model and planner; a sweep of more is
+#: several commands with --first-seed, which resume into one CSV).
+MAX_WORLDS = 100_000
 COMPARE_PLANNERS = ("efe", "factorised_efe", "nearest", "greedy", "random", "optimal")
 
 
@@ -192,7 +195,8 @@ def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) ->
     from fg_tea.study.sweep import add_execution_arguments
 
     p.set_defaults(command="compare")
-    p.add_argument("--worlds", type=int, default=None, help="number of worlds (default: 200; 10 with --quick)")
+    p.add_argument("--worlds", type=integer(1, MAX_WORLDS), default=None,
+                   help=f"number of worlds, 1 to {MAX_WORLDS:,} (default: 200; 10 with --quick)")
     p.add_argument("--world", default="correlated",
                    help="world distribution, bundled name or JSON file (default: %(default)s)")
     p.add_argument("--first-seed", type=integer(0, MAX_SEED), default=0, help="first world seed (default: %(default)s)")

@@ -20,7 +20,7 @@ import fg_tea.cli.run as run
 import fg_tea.cli.validate as validate
 from fg_tea.cli.common import COMMANDS, Parser
 from fg_tea.common.errors import InputError
-from fg_tea.common.options import DeprecatedAlias
+from fg_tea.common.options import DeprecatedAlias, check_aliases
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -61,6 +61,7 @@ def main(argv: Sequence[str] | None = None,
     single_threaded_blas_defaults()
     parser = (parser_factory or build_parser)()
     args = parser.parse_args(argv)
+    check_aliases(parser, args, sys.argv[1:] if argv is None else list(argv))
     notes = list(getattr(args, DeprecatedAlias.NOTES, []))  # written after the command, or
     if hasattr(args, DeprecatedAlias.NOTES):                 # folded into its one error line
         delattr(args, DeprecatedAlias.NOTES)

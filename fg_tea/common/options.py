@@ -27,9 +27,13 @@ class DeprecatedAlias(argparse.Action):
         kwargs.setdefault("default", argparse.SUPPRESS)
         super().__init__(option_strings, dest, **kwargs)
 
+    #: Where the alias leaves the value it was given, for :func:`check_aliases`.
+    GIVEN = "_alias_given_"
+
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
                  values: Any, option_string: str | None = None) -> None:
         setattr(namespace, self.dest, values)
+        setattr(namespace, self.GIVEN + self.dest, (option_string, values))
         note = f"{option_string} is deprecated; use {self.new}"
         if getattr(parser, "defer_notes", False):
             notes = getattr(namespace, self.NOTES, [])
@@ -37,6 +41,30 @@ class DeprecatedAlias(argparse.Action):
                 setattr(namespace, self.NOTES, notes + [note])
         else:
             sys.stderr.write(f"note: {note}\n")
+
+
+def check_aliases(parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                  argv: Sequence[str]) -> None:
+    """After parsing: an old option name given together with its new one is an error (one line,
+    exit 2), whatever the values and their order; the alias's bookkeeping is then removed."""
+    new_names = {a.dest: a.new for a in _aliases(parser)}
+    for key in [k for k in vars(namespace) if k.startswith(DeprecatedAlias.GIVEN)]:
+        dest = key[len(DeprecatedAlias.GIVEN):]
+        option, _ = getattr(namespace, key)
+        delattr(namespace, key)
+        new = new_names.get(dest, "")
+        if new and any(a == new or a.startswith(new + "=") for a in argv):
+            parser.error(f"{option} and {new} name the same setting; give {new} once")
+
+
+def _aliases(parser: argparse.ArgumentParser) -> list[DeprecatedAlias]:
+    """Every DeprecatedAlias of `parser` and of its subcommands' parsers."""
+    found = [a for a in parser._actions if isinstance(a, DeprecatedAlias)]
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                found += _aliases(sub)
+    return found
 
 
 class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):

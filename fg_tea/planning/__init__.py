@@ -100,12 +100,17 @@ _FAMILIES: dict[str, Callable[[str, Model, np.random.Generator | None], Planner]
 }
 
 
+#: Most simulations per decision a POUCT/POMCP spec may ask for (about three hours a decision at
+#: the measured ~1 ms a simulation; pomdp-py overflows far above it).
+MAX_SIMULATIONS = 10_000_000
+
+
 def _check_family_spec(family: str, spec: str) -> None:
     if family == "lookahead":
         LookaheadSettings.parse(spec)
-    elif not (spec.isdigit() and int(spec) >= 1):
+    elif not (spec.isdigit() and 1 <= int(spec) <= MAX_SIMULATIONS):
         raise ValueError(f"planner {family}:{spec}: the setting is the number of simulations "
-                         "per decision, a positive integer")
+                         f"per decision, an integer from 1 to {MAX_SIMULATIONS:,}")
 
 
 def is_family_spec(name: str) -> bool:

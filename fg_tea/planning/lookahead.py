@@ -117,7 +117,8 @@ class LookaheadSettings:
         """Settings from ``"depth=2,width=4,..."`` (empty: the defaults).
 
         Raises:
-            ValueError: an unknown key, a malformed pair or an out-of-range value.
+            ValueError: an unknown key, a key given twice, a malformed pair or an out-of-range
+                value.
         """
         kinds = {"depth": int, "width": int, "nodes": int, "rollout": str, "look": float}
         values: dict = {}
@@ -126,6 +127,8 @@ class LookaheadSettings:
             key = key.strip()
             if not sep or key not in kinds:
                 raise ValueError(f"lookahead: bad setting {part!r} (known keys: {', '.join(kinds)})")
+            if key in values:
+                raise ValueError(f"lookahead: {key} is given twice in {spec!r}; give it once")
             try:
                 values[key] = kinds[key](raw.strip())
             except ValueError:

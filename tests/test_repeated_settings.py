@@ -1,0 +1,32 @@
+"""Repeated and out-of-range settings are errors, never a silent last-wins (docs/design.md §11):
+one line naming the option, exit 2, before any episode."""
+
+from __future__ import annotations
+
+import pytest
+
+from fg_tea.cli.main import main
+
+
+@pytest.mark.parametrize("argv,fault", [
+    (["run", "--no-video", "--planner", "lookahead:depth=2,depth=3"], "depth is given twice"),
+    (["run", "--no-video", "--failure-rate", "FILL=0.3", "--failure-rate", "FILL=0.5"],
+     "FILL is given twice"),
+    (["run", "--no-video", "--solver", "numpy", "--backend", "gtsam"], "name the same setting"),
+    (["run", "--no-video", "--backend", "gtsam", "--solver=numpy"], "name the same setting"),
+    (["run", "--no-video", "--planner", "pouct:99999999999999999999"], "an integer from 1 to"),
+    (["compare", "--env", "fake", "--worlds", "1000000000000"], "expected an integer from 1 to"),
+])
+def test_a_repeated_or_out_of_range_setting_is_one_line_and_exit_2(argv, fault, tmp_path, capsys):
+    with pytest.raises(SystemExit) as ended:
+        status = main([*argv, "--out", str(tmp_path / "out")])
+        raise SystemExit(status)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert ended.value.code == 2 and len(err) == 1 and fault in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_alias_alone_still_works_with_its_note(tmp_path, capsys):
+    assert main(["compare", "--backend", "serial", "--env", "fake", "--worlds", "1", "--planners",
+                 "nearest", "--models", "factorised", "--out", str(tmp_path)]) == 0
+    assert capsys.readouterr().err.splitlines()[-1] == "fg-tea: note: --backend is deprecated; use --executor"
