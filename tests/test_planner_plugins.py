@@ -183,5 +183,9 @@ def test_a_planner_that_returns_no_decision_is_named(tmp_path, monkeypatch):
 
     s, m = load_scenario("default_apartment"), load_model("factorised")
     runner = EpisodeRunner(s, m, FakeHouse(s, env_config_for(m)), RunConfig(planner="badplan:Lazy"))
-    with pytest.raises(TypeError, match="planner 'badplan:Lazy' returned a tuple"):
+    from fg_tea.common.errors import PlannerFault
+
+    with pytest.raises(PlannerFault, match="planner 'badplan:Lazy' returned a tuple") as fault:
         runner.run()
+    assert isinstance(fault.value.__cause__, TypeError)
+    assert runner.done and runner.events[-2]["reason"].startswith("planner_error: failed: TypeError")

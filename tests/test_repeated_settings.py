@@ -30,3 +30,43 @@ def test_the_alias_alone_still_works_with_its_note(tmp_path, capsys):
     assert main(["compare", "--backend", "serial", "--env", "fake", "--worlds", "1", "--planners",
                  "nearest", "--models", "factorised", "--out", str(tmp_path)]) == 0
     assert capsys.readouterr().err.splitlines()[-1] == "fg-tea: note: --backend is deprecated; use --executor"
+
+
+PLUGIN = '''
+class ReturnsNone:
+    name = "none"
+    def choose(self, belief, objects, relevance, distances, inspected, excluded_sites=frozenset(),
+               views=None):
+        return None
+class Raises(ReturnsNone):
+    def choose(self, *args, **kwargs):
+        raise RuntimeError("boom")
+class Exits(ReturnsNone):
+    def choose(self, *args, **kwargs):
+        raise SystemExit(0)
+class Elsewhere(ReturnsNone):
+    def choose(self, belief, objects, *args, **kwargs):
+        from fg_tea.planning import Candidate, Decision
+        c = Candidate(objects[0], "nowhere", 1.0, 0.5, 0.0, 0, 1.0, 0.0, 0.0)
+        return Decision(objects[0], "nowhere", 0.0, (c,), "elsewhere")
+'''
+
+
+@pytest.mark.parametrize("plugin,what", [("ReturnsNone", "returned a NoneType"), ("Raises", "boom"),
+                                         ("Exits", "SystemExit"), ("Elsewhere", "viewpoint 'nowhere'")])
+def test_a_plugin_fault_in_run_is_one_line_and_the_log_says_why(plugin, what, tmp_path, capsys,
+                                                               monkeypatch):
+    import json
+    import sys
+
+    (tmp_path / "faulty.py").write_text(PLUGIN)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    sys.modules.pop("faulty", None)
+    out = tmp_path / "out"
+    assert main(["run", "--no-video", "--planner", f"faulty:{plugin}", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"--planner faulty:{plugin}" in err[0] and what in err[0], err
+    events = [json.loads(line) for line in (out / "episode.jsonl").read_text().splitlines()]
+    end = next(e for e in events if e["event"] == "episode_end")
+    assert end["reason"].startswith("planner_error: ") and what in end["reason"]
+    assert events[-1]["event"] == "metrics"

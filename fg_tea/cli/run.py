@@ -26,7 +26,7 @@ from fg_tea.cli.common import (
     summary,
     video_options,
 )
-from fg_tea.common.errors import InputError
+from fg_tea.common.errors import InputError, PlannerFault
 from fg_tea.common.files import (
     atomic_path,
     atomic_write_text,
@@ -82,6 +82,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         with EventLog(log_path) as log:
             runner = EpisodeRunner(scenario, model, env, config, log, render=options)
             runner.run(progress)
+    except PlannerFault as fault:  # the log is closed by an episode_end that says why
+        raise InputError("<command line>", f"--planner {args.planner}",
+                         f"{fault.what} (the log {log_path} ends there)") from None
     finally:
         progress.close()
         env.close()

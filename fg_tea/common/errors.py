@@ -60,5 +60,17 @@ class PlannerRefused(ValueError):
         return (type(self), (str(self), self.kind, self.planner))
 
 
+class PlannerFault(RuntimeError):
+    """A planner failed while deciding (it raised, exited, or returned no valid decision).
+
+    The episode runner ends the episode with an ``episode_end`` whose reason says so, then raises
+    this; ``fg-tea run`` reports it in one line naming the planner (exit 2).
+    """
+
+    def __init__(self, planner: str, what: str) -> None:
+        super().__init__(f"planner {planner!r} {what}")
+        self.planner, self.what = planner, what
+
+
 class ContradictionError(ValueError):
     """Evidence that has probability zero under the model (the posterior would be undefined)."""

@@ -31,7 +31,7 @@ from typing import Any, Callable, Mapping
 from fg_tea.agent.agent import Agent
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
-from fg_tea.common.errors import InputError
+from fg_tea.common.errors import InputError, PlannerFault
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
@@ -372,7 +372,13 @@ class EpisodeRunner:
         excluded = frozenset(self.executor.excluded_sites)
         inspected = dict(agent.inspected)
         pose = self.env.agent_pose()
-        decision = agent.decide(action, (pose.x, pose.y), _EnvDistances(self.env))
+        try:
+            decision = agent.decide(action, (pose.x, pose.y), _EnvDistances(self.env))
+        except (Exception, SystemExit) as exc:  # a planner of the user's own, often: end, saying why
+            first = (str(exc).splitlines() or [""])[0]
+            what = f"failed: {type(exc).__name__}" + (f": {first}" if first else "")
+            self._end(f"planner_error: {what}", terminated=True)
+            raise PlannerFault(self.config.planner, what) from exc
         viewpoint = decision.viewpoint
         assert self.views is not None, "built when the episode starts"
         view = self.views.view(viewpoint)
