@@ -70,3 +70,16 @@ def test_a_plugin_fault_in_run_is_one_line_and_the_log_says_why(plugin, what, tm
     end = next(e for e in events if e["event"] == "episode_end")
     assert end["reason"].startswith("planner_error: ") and what in end["reason"]
     assert events[-1]["event"] == "metrics"
+
+
+def test_learn_refuses_an_empty_model_name(tmp_path, capsys):
+    from fg_tea.episode.run import run_episode
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import load_scenario
+
+    log = tmp_path / "e.jsonl"
+    run_episode(load_scenario("default_apartment"), load_model("factorised"), env="fake", log=log)
+    assert main(["learn", str(log), "--name", " ", "--out", str(tmp_path / "m.toml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--name: a model name must not be empty" in err[0]
+    assert not (tmp_path / "m.toml").exists()

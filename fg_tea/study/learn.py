@@ -317,6 +317,8 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
     from fg_tea.model.spec import load_model
 
     out = Path(out)
+    if name is not None and not name.strip():
+        raise InputError("<command line>", "--name", "a model name must not be empty")
     if out.is_dir():
         raise InputError("<command line>", "--out", f"{out} is a folder; name a file")
     if out.suffix != ".toml":
