@@ -438,7 +438,7 @@ def test_report_writes_every_file_atomically(process_csv, tmp_path):
 @pytest.mark.parametrize("argv, needle", [
     (["--models", "factorised", "nosuch"], "unknown model 'nosuch'"),
     (["--world", "nosuch"], "unknown world 'nosuch'"),
-    (["--worlds", "0"], "expected at least 1 world"),
+    (["--worlds", "0"], "argument --worlds: expected an integer from 1 to"),
     (["--planners", "bogus"], "unknown planner 'bogus'"),
 ])
 def test_compare_bad_input_is_one_line_and_exit_2(argv, needle, tmp_path):

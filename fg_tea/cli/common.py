@@ -136,7 +136,7 @@ def failure_rates(pairs: list[str]) -> dict[str, float]:
     from fg_tea.world.interface import VERBS
 
     actions = [v for v in VERBS if v not in OBSERVING_VERBS]
-    rates = {}
+    rates: dict[str, float] = {}
     for pair in pairs:
         verb, _, value = pair.partition("=")
         try:
