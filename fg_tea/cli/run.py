@@ -82,9 +82,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         with EventLog(log_path) as log:
             runner = EpisodeRunner(scenario, model, env, config, log, render=options)
             runner.run(progress)
-    except PlannerFault as fault:  # the log is closed by an episode_end that says why
+    except PlannerFault as failed:  # the log is closed by an episode_end that says why
         raise InputError("<command line>", f"--planner {args.planner}",
-                         f"{fault.what} (the log {log_path} ends there)") from None
+                         f"{failed.what} (the log {log_path} ends there)") from None
     finally:
         progress.close()
         env.close()
