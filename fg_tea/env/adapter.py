@@ -400,34 +400,31 @@ class TruthBackedAdapter(EnvAdapter):
         self._carry()
         return self._finish(effect, request, frames)
 
-    def _insert(self, request: ActionRequest, effect: str | None) -> ActionResult:
+    def _to_container(self, request: ActionRequest, verb: str) -> tuple[str, list[Pose], ActionResult | None]:
+        """INSERT and POUR: the held object taken to its container destination; a failure result,
+        or None when the action may go ahead."""
         dest = request.destination
         if dest is None:
-            raise ValueError("INSERT needs a destination object")
+            raise ValueError(f"{verb} needs a destination object")
         if self._truth.held != request.object:
-            return self._result(False, "not_held", [])
+            return dest, [], self._result(False, "not_held", [])
         if "container" not in self._spec(dest).affordances:
-            return self._result(False, "not_a_container", [])
+            return dest, [], self._result(False, "not_a_container", [])
         frames, ok, reason = self._approach(request.site, dest, "destination")
-        if not ok:
-            return self._result(False, reason, frames)
+        return dest, frames, (None if ok else self._result(False, reason, frames))
+
+    def _insert(self, request: ActionRequest, effect: str | None) -> ActionResult:
+        dest, frames, failed = self._to_container(request, "INSERT")
+        if failed is not None:
+            return failed
         self._truth.insert(request.object, dest)
         self._positions[request.object] = self._inside_position(request.object, dest)
         self._carry()
         return self._finish(effect, request, frames)
 
     def _pour(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        dest = request.destination
-        if dest is None:
-            raise ValueError("POUR needs a destination object")
-        if self._truth.held != request.object:
-            return self._result(False, "not_held", [])
-        if "container" not in self._spec(dest).affordances:
-            return self._result(False, "not_a_container", [])
-        frames, ok, reason = self._approach(request.site, dest, "destination")
-        if not ok:
-            return self._result(False, reason, frames)
-        return self._finish(effect, request, frames)
+        _, frames, failed = self._to_container(request, "POUR")
+        return failed if failed is not None else self._finish(effect, request, frames)
 
     def _effect_action(self, request: ActionRequest, effect: str | None) -> ActionResult:
         frames, ok, reason = self._approach(request.site, request.object, "object")
