@@ -1,7 +1,8 @@
 """Ablations (docs/design.md §11) against the full model, on the same sampled worlds.
 
 Each ablation is a named model file in ``models/ablations`` (a switch in the TOML, not a code
-edit), run with the EFE planner on the same N worlds and seeds as the full factorised model:
+edit); an ablation of the camera's side (no_site_association) also has a camera file of its
+name in ``cameras/``, which its episodes run with. Each is run with the EFE planner on the same N worlds and seeds as the full factorised model:
 
 | configuration | original ablation | what changes |
 |---|---|---|
@@ -32,6 +33,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from fg_tea.common.files import atomic_write_text
@@ -39,6 +41,7 @@ from fg_tea.study.analysis import (METRICS, markdown_table, paired_differences, 
     summary_markdown, summary_table)
 from fg_tea.common.errors import InputError
 from fg_tea.common.options import PLANNER_HELP, WORLD_HELP, experiment_parser
+from fg_tea.env.camera import camera_names
 from fg_tea.model.spec import load_model
 from fg_tea.study.sweep import (ablation_names, add_execution_arguments, model_path, plan_sweep,
     run_sweep)
@@ -112,6 +115,11 @@ def main(argv: list[str] | None = None) -> int:
                                        + [a for a in bundled if a not in ORIGINAL])
         out = Path(args.out)
         jobs = plan_sweep([args.world], args.worlds, [args.full, *ablations], [args.planner], env=args.env)
+        # An ablation of the camera's side (eq. 29's site association) is a bundled camera of the
+        # ablation's name, which that ablation's episodes run with (docs/design.md §1.3, §11).
+        cameras = set(camera_names())
+        jobs = [replace(j, camera=j.model) if j.model in cameras and j.model in ablations else j
+                for j in jobs]
         rows = run_sweep(jobs, out / "ablations.csv", args.executor, workers=args.workers or None,
                          address=args.address, resume=args.resume, label="ablations")
         command = shlex.join(["python", "experiments/ablations.py", "--worlds", str(args.worlds),

@@ -20,7 +20,7 @@ already in its CSV):
   (``make_tea``, and ``make_tea_milk_sugar`` in the ``generated_*_milk_sugar`` worlds).
 - ``--table detectability``: the detector's half-probability pixel count n_50 for the small
   objects (``--small-categories``, default the teabag; camera and agent curve changed together,
-  written as model files under OUT/TABLE/models/) × correlation strength c (the probability that the
+  written as model files under OUT/TABLE/models/ and camera files under OUT/TABLE/cameras/) × correlation strength c (the probability that the
   teabag is placed by the kettle: 2c/3 on its site, c/3 elsewhere in its room, so c = 0.75 is the
   bundled worlds' 0.5 / 0.25) × house size.
 
@@ -65,6 +65,7 @@ from fg_tea.study.analysis import (markdown_table, paired_differences, save_figu
 from fg_tea.common.errors import run_script  # noqa: E402
 from fg_tea.common.files import atomic_write_text  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
+from fg_tea.env.camera import load_camera  # noqa: E402
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
 from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
 
@@ -135,25 +136,37 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 # ---------------------------------------------------------------------------------- the jobs
 def detectability_models(out: Path, models: tuple[str, str], half_pixels: float,
-                         categories: list[str]) -> dict[str, str]:
-    """Model files (paths) that set n_50 of `categories` for the camera and the agent alike."""
-    folder = out / "models"
-    folder.mkdir(parents=True, exist_ok=True)
+                         categories: list[str]) -> tuple[dict[str, str], str]:
+    """Model files (paths) and a camera file (path) that set n_50 of `categories` alike, for the
+    agent's assumed curve and the camera's (docs/design.md §1.3)."""
     paths = {}
-    for base in models:
-        tag = f"{base}_n50_{half_pixels:g}"
-        lines = [f"# Written by experiments/compare_at_scale.py: {base} with n_50 = {half_pixels:g} px",
-                 f"# for {', '.join(categories)} (camera and agent curve alike).",
-                 f'extends = "{base}"', f'name = "{tag}"',
-                 f'description = "{base}; n_50 = {half_pixels:g} px for {", ".join(categories)}"', ""]
-        for c in categories:
-            lines += [f"[perception.visibility.categories.{c}]", f"half_pixels = {half_pixels!r}", ""]
-        path = folder / f"{tag}.toml"
-        text = "\n".join(lines)
+    n50 = f"n_50 = {half_pixels:g} px for {', '.join(categories)}"
+    curve = [line for c in categories
+             for line in (f"[{{table}}.visibility.categories.{c}]", f"half_pixels = {half_pixels!r}", "")]
+
+    def write(path: Path, head: list[str], table: str) -> str:
+        text = "\n".join(head + [line.format(table=table) for line in curve])
+        path.parent.mkdir(parents=True, exist_ok=True)
         if not path.exists() or path.read_text() != text:
             atomic_write_text(path, text)
-        paths[base] = str(path)
-    return paths
+        return str(path)
+
+    for base in models:
+        tag = f"{base}_n50_{half_pixels:g}"
+        paths[base] = write(out / "models" / f"{tag}.toml",
+                            [f"# Written by experiments/compare_at_scale.py: {base} with {n50}",
+                             "# (the agent's assumed curve; the camera file beside it sets the camera's).",
+                             f'extends = "{base}"', f'name = "{tag}"',
+                             f'description = "{base}; {n50}"', ""], "perception")
+    camera = load_camera("visibility")
+    assert camera.curve is not None  # the bundled visibility camera
+    tag = f"visibility_n50_{half_pixels:g}"
+    head = [f"# Written by experiments/compare_at_scale.py: the bundled visibility camera with {n50}.",
+            f'name = "{tag}"', f'description = "visibility camera; {n50}"', "", "[camera]",
+            'detector = "visibility"', "", "[camera.visibility]",
+            f"half_pixels = {camera.curve.half_pixels!r}", f"slope = {camera.curve.slope!r}",
+            f"max_probability = {camera.curve.max_probability!r}", ""]
+    return paths, write(out / "cameras" / f"{tag}.toml", head, "camera")
 
 
 def strength_knobs(c: float) -> dict[str, float]:
@@ -181,11 +194,13 @@ def plan(args, out: Path) -> tuple[list[Job], list[dict]]:
     else:
         for size in args.sizes:
             for n50 in args.half_pixels:
-                files = detectability_models(out, models, n50, args.small_categories)
+                files, camera = detectability_models(out, models, n50, args.small_categories)
                 for c in args.strengths:
                     add(plan_sweep([SIZES[size]], args.worlds, [files[m] for m in models],
                                    args.planners, first_seed=args.first_seed, env=args.env,
-                                   knobs=strength_knobs(c)),
+                                   knobs=strength_knobs(c),
+                                   # close looks: the threshold camera, which has no curve
+                                   camera=camera if args.looks == "glances" else ""),
                         {"size": size, "half_pixels": n50, "strength": c})
     return jobs, cells
 

@@ -76,11 +76,14 @@ def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
     _run("experiments/compare_at_scale.py", "--table", "detectability", "--worlds", "2", "--sizes",
          "small", "--half-pixels", "25", "100", "--strengths", "0", "1", "--planners", "nearest",
          "--env", "fake", "--executor", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
+    from fg_tea.env.camera import load_camera
     from fg_tea.model.spec import load_model
 
     model = load_model(table / "models" / "joint_n50_25.toml")
-    assert model.structure == "joint" and model.camera_curve.params("teabag").half_pixels == 25.0
+    camera = load_camera(table / "cameras" / "visibility_n50_25.toml")
+    assert model.structure == "joint" and camera.curve.params("teabag").half_pixels == 25.0
     assert model.detection_curve.params("teabag").half_pixels == 25.0
+    assert camera.curve.params("mug") == load_camera("visibility").curve.params("mug")
     rows = read_rows(table / "episodes.csv")
     assert len(rows) == 2 * 2 * 2 * 2  # worlds x models x n_50 x strengths
     assert sorted({round(r["same_site_teabag_kettle"], 9) for r in rows}) == [0.0, round(2 / 3, 9)]

@@ -99,14 +99,18 @@ def test_pybullet_house_applies_the_rate():
         assert result.pixel_counts["mug"] >= 25
 
 
-def test_a_miss_rate_with_no_effect_under_the_model_is_refused():
+def test_a_miss_rate_with_no_effect_under_the_camera_is_refused():
     """The visibility detector draws each detection from its curve; injected misses would be
-    silently ignored, so the setting is refused with one line naming it (docs/design.md §1.2)."""
+    silently ignored, so the setting is refused with one line naming it (docs/design.md §1.3)."""
     from fg_tea.common.errors import InputError
     from fg_tea.episode.runner import env_config_for
     from fg_tea.model.spec import load_model
 
-    with pytest.raises(InputError, match="detection_miss_rate: has no effect with model 'factorised'"):
+    with pytest.raises(InputError, match="detection_miss_rate: has no effect with camera 'visibility'"):
         env_config_for(load_model("factorised"), detection_miss_rate=0.2)
+    with pytest.raises(InputError, match="detection_miss_rate: has no effect with camera 'visibility'"):
+        env_config_for(load_model("factorised_close"), "visibility", detection_miss_rate=0.2)
     assert env_config_for(load_model("factorised_close"), detection_miss_rate=0.2).detection_miss_rate == 0.2
+    assert env_config_for(load_model("factorised"), "threshold",
+                          detection_miss_rate=0.2).detection_miss_rate == 0.2
     assert env_config_for(load_model("factorised")).detection_miss_rate == 0.0

@@ -385,8 +385,6 @@ VISIBILITY_MODEL = MODEL_HEAD + textwrap.dedent("""
     half_pixels = 30
     [perception.visibility.categories.teabag]
     slope = 1.5
-    [detection.visibility]
-    half_pixels = 50
     [viewpoints]
     room_glances = true
 """)

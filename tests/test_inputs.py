@@ -156,7 +156,7 @@ def test_ablation_models_change_only_their_switch():
     assert load_model(ROOT / "models/ablations/weak_negative.toml").miss_likelihood == 0.95
     assert load_model(ROOT / "models/ablations/euclidean.toml").planning.distance == "euclidean"
     assert load_model(ROOT / "models/ablations/no_repeat_penalty.toml").planning.repeat_penalty == 0.0
-    assert load_model(ROOT / "models/ablations/no_site_association.toml").site_association is False
+    assert load_model(ROOT / "models/ablations/no_site_association.toml").room_glances is False
     certain = load_model(ROOT / "models/ablations/certain_effects.toml")
     assert all(e.success == 1.0 for t in certain.transitions.values() for e in t.effects)
     assert load_model(ROOT / "models/ablations/direct_effects.toml").transition_form == "direct"
@@ -165,21 +165,26 @@ def test_ablation_models_change_only_their_switch():
 
 def test_a_category_curve_inherits_what_it_does_not_set(tmp_path):
     """[perception.visibility.categories.X] with half_pixels only keeps the curve's slope (3.0 in
-    the bundled models, not the library default), for the camera and for the agent alike."""
-    base = load_model("factorised")
+    the bundled models, not the library default), and so does a camera's category table."""
+    from fg_tea.env.camera import load_camera
+
+    base = load_model("factorised").detection_curve
     path = tmp_path / "n50.toml"
     path.write_text('extends = "factorised"\nname = "n50"\n'
                     "[perception.visibility.categories.teabag]\nhalf_pixels = 80.0\n")
-    model = load_model(path)
-    for curve in (model.camera_curve, model.detection_curve):
+    camera = tmp_path / "n50_camera.toml"
+    camera.write_text('name = "n50"\n[camera]\ndetector = "visibility"\n[camera.visibility]\n'
+                      "half_pixels = 50\nslope = 3.0\n[camera.visibility.categories.teabag]\n"
+                      "half_pixels = 80.0\n")
+    for curve in (load_model(path).detection_curve, load_camera(camera).curve):
         teabag, mug = curve.params("teabag"), curve.params("mug")
-        assert (teabag.half_pixels, teabag.slope) == (80.0, base.camera_curve.params("teabag").slope)
-        assert mug == base.camera_curve.params("mug")
-        assert curve.max_probability == base.camera_curve.max_probability
+        assert (teabag.half_pixels, teabag.slope) == (80.0, base.params("teabag").slope)
+        assert mug == base.params("mug")
+        assert curve.max_probability == base.max_probability
     same = tmp_path / "same.toml"
     same.write_text('extends = "factorised"\nname = "same"\n'
                     "[perception.visibility.categories.teabag]\nhalf_pixels = 50\n")
-    assert load_model(same).camera_curve.params("teabag") == base.camera_curve.params("teabag")
+    assert load_model(same).detection_curve.params("teabag") == base.params("teabag")
 
 
 def test_a_relative_extends_path_resolves_against_the_extending_file(tmp_path, monkeypatch):

@@ -239,8 +239,8 @@ def test_learned_detection_converges_to_the_camera(tmp_path):
 
     (An agent that assumes a *better* camera gives up on exactly the episodes in which it missed
     an object, and rule 2 cannot count those: docs/design.md §12.2 states this bias.)"""
-    model = parse_model({**_doc("factorised"), "detection": {
-        **_doc("factorised")["detection"],
+    model = parse_model({**_doc("factorised"), "perception": {
+        **_doc("factorised")["perception"],
         "visibility": {"half_pixels": 50.0, "slope": 3.0, "max_probability": 0.7}}},
         "assumed.toml")
     world = load_world("correlated")

@@ -26,11 +26,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
-BUNDLE = {"scenarios": "fg_tea/_bundle/scenarios", "models": "fg_tea/_bundle/models"}
+BUNDLE = {"scenarios": "fg_tea/_bundle/scenarios", "models": "fg_tea/_bundle/models",
+          "cameras": "fg_tea/_bundle/cameras"}
 
 
 def _repo_data_files() -> list[str]:
-    """Every file under scenarios/ and models/, relative to the repository root."""
+    """Every file under scenarios/, models/ and cameras/, relative to the repository root."""
     return sorted(str(p.relative_to(ROOT)) for top in BUNDLE for p in (ROOT / top).rglob("*")
                   if p.is_file() and "__pycache__" not in p.parts)
 

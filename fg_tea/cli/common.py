@@ -93,10 +93,10 @@ def check_scenario(scenario, model) -> None:
         InputError: naming the scenario file (or the model's, for a joint too large).
     """
     from fg_tea.beliefs.engine import BeliefEngine
-    from fg_tea.episode.runner import env_config_for
+    from fg_tea.env.base import EnvConfig
     from fg_tea.world.navigation import Navigator
 
-    Navigator(scenario, env_config_for(model))
+    Navigator(scenario, EnvConfig())
     try:
         BeliefEngine(scenario, model)
     except ValueError as exc:
@@ -340,6 +340,9 @@ def planner_name(text: str) -> str:
 
 # ------------------------------------------------------------------------------ bundled names
 MODEL_HELP = "model file, or bundled model or ablation name (default: %(default)s)"
+CAMERA_HELP = ("camera file, or bundled camera name (visibility, threshold, no_site_association): "
+               "what the camera reports (docs/design.md §1.3); default: the bundled camera of the "
+               "detector the model assumes")
 
 
 def add_solver_argument(p: argparse.ArgumentParser) -> None:

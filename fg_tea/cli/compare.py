@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from fg_tea.cli.common import (
+    CAMERA_HELP,
     MAX_SEED,
     check_out_dir,
     check_scenario,
@@ -64,7 +65,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from fg_tea.world.distributions import load_world
 
     check_jobs(plan_sweep([args.world], 1, args.models, planners, first_seed=args.first_seed,
-                          env=args.env))  # unknown worlds, models and planners are named first
+                          env=args.env, camera=args.camera or ""))  # unknown inputs named first
     world = load_world(world_path(args.world))
     base = world.base if world.base is not None else world.house(args.first_seed)
     if "optimal" in planners:  # the Bayes-optimal DP's size limit, checked before any episode
@@ -80,7 +81,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
                              f"{fault.split(': ', 1)[-1].split('; ')[0]} in {base.name}\n")
     check_out_dir(out)
     jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
-                      env=args.env)
+                      env=args.env, camera=args.camera or "")
     if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
         check_jobs(jobs)
         for ref in args.models:
@@ -100,7 +101,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     shown = os.path.relpath(out) if not os.path.relpath(out).startswith("..") else str(out)
     command = shlex.join(["fg-tea", "compare", "--world", args.world, "--worlds", str(n_worlds),
                           "--models", *args.models, "--planners", *planners, "--first-seed",
-                          str(args.first_seed), "--env", args.env, "--out", shown])
+                          str(args.first_seed), "--env", args.env,
+                          *(["--camera", args.camera] if args.camera else []), "--out", shown])
     files = comparison_report(rows, out, title=f"Factorised vs joint beliefs on `{args.world}` worlds",
                               command=command)
     print(f"episodes: {csv_path} ({len(rows)} rows)")
@@ -126,6 +128,9 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
     from fg_tea.study.sweep import check_jobs, model_path, plan_sweep, world_path
     from fg_tea.world.distributions import load_world
 
+    if args.camera:
+        raise InputError("<command line>", "--camera", "does not apply with --lifelong (each "
+                         "model runs with the camera of the detector it assumes)")
     k = args.lifelong
     households = args.worlds if args.worlds is not None else (10 if args.quick else 30)
     if households < 1:
@@ -202,6 +207,8 @@ def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) ->
     p.add_argument("--first-seed", type=integer(0, MAX_SEED), default=0, help="first world seed (default: %(default)s)")
     p.add_argument("--models", nargs="+", default=["factorised", "joint"],
                    help="models: bundled names, bundled ablations or files (default: factorised joint)")
+    p.add_argument("--camera", default=None, help=CAMERA_HELP.replace("the model assumes",
+                                                                       "each model assumes"))
     p.add_argument("--planners", nargs="+", type=planner_name, default=None,
                    help="planners: built-in names, names registered in the fg_tea.planners "
                    "entry-point group, or module:attribute for planners of your own "

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from fg_tea.cli.common import (
+    CAMERA_HELP,
     MAX_SEED,
     MODEL_HELP,
     Progress,
@@ -57,6 +58,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise InputError(scenario.source, "$.sites", f"--preparation-site {args.preparation_site!r} "
                          "is not a site of this scenario")
     rates = failure_rates(args.failure_rate)
+    pixels = {} if args.min_visible_pixels is None else {"min_visible_pixels": args.min_visible_pixels}
+    env_config = env_config_for(model, args.camera, failure_rates=rates, **pixels)
     from fg_tea.tasks.load import load_task
 
     check_scenario(scenario, model)
@@ -71,10 +74,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     config = RunConfig(seed=args.seed, planner=args.planner, task=args.task,
                        preparation_site=args.preparation_site, max_frames=args.max_frames,
                        belief_backend=args.solver)
-    env = PyBulletHouse(scenario, env_config_for(model, failure_rates=rates,
-                                                 min_visible_pixels=args.min_visible_pixels
-                                                 if args.min_visible_pixels is not None
-                                                 else model.min_visible_pixels))
+    env = PyBulletHouse(scenario, env_config)
     log_path = out / "episode.jsonl"
     progress = Progress(args.max_frames)
     t1 = time.perf_counter()
@@ -148,7 +148,7 @@ def cmd_preview(args: argparse.Namespace) -> int:
     check_scenario(scenario, model)
     out = check_out_file(Path(args.out) if args.out else Path(f"{safe_name(scenario.name)}-preview.png"))
     plan_out = check_out_file(out.with_name(f"{out.stem}_plan.png"))
-    config = env_config_for(model)
+    config = env_config_for(model, args.camera)
     house = PyBulletHouse(scenario, config)
     try:
         pose = house.reset(args.seed)
@@ -184,8 +184,9 @@ def add_parser(sub) -> None:
     p.add_argument("--task", default="make_tea", help="task file or bundled name (default: %(default)s)")
     p.add_argument("--preparation-site", help="site where the tea is made (default: the scenario's)")
     add_solver_argument(p)
+    p.add_argument("--camera", default=None, help=CAMERA_HELP)
     p.add_argument("--min-visible-pixels", type=integer(1, 10_000_000), default=None,
-                   help="detection threshold (default: the model's, 25)")
+                   help="the threshold camera's detection threshold (default: the camera's, 25)")
     p.add_argument("--failure-rate", action="append", default=[], metavar="VERB=P",
                    help="inject seeded failures, e.g. FILL=0.3 (repeatable)")
     add_video_options(p)
@@ -206,6 +207,7 @@ def add_parser(sub) -> None:
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                    help="scenario file or bundled name (default: %(default)s)")
     p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
+    p.add_argument("--camera", default=None, help=CAMERA_HELP)
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
                    help="seed of the start pose and world (default: %(default)s)")
     p.add_argument("--out", help="output PNG (default: SCENARIO-preview.png; the floor plan goes to "

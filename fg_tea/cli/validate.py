@@ -12,14 +12,14 @@ from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 
 
 def file_kind(path: Path, data: object | None) -> str:
-    """Which kind of input file this is: ``model``, ``scenario``, ``task`` or ``world``.
+    """Which kind of input file this is: ``model``, ``camera``, ``scenario``, ``task`` or ``world``.
 
-    TOML files are models. A JSON file is recognised by its content: a world distribution has
+    A TOML file with a ``[camera]`` table is a camera file; other TOML files are models. A JSON file is recognised by its content: a world distribution has
     ``placement`` or ``base_scenario``, a task has ``actions``, a scenario has ``schema_version``
     or ``house``; otherwise a file under a ``tasks`` folder is a task, else a scenario.
     """
     if path.suffix == ".toml":
-        return "model"
+        return "camera" if isinstance(data, dict) and "camera" in data else "model"
     if isinstance(data, dict):
         if "placement" in data or "base_scenario" in data:
             return "world"
@@ -36,21 +36,25 @@ def file_kind(path: Path, data: object | None) -> str:
 
 @command("validate")
 def cmd_validate(args: argparse.Namespace) -> int:
-    """Check scenario (.json), model (.toml), task and world files; print one line per file.
+    """Check scenario (.json), model and camera (.toml), task and world files; print one line
+    per file.
 
     Each file gets every check a run would make: a scenario is also laid out on the occupancy
     grid with the navigator and given an exact belief under ``--model``; a task is checked
     against ``--scenario`` (itself given the scenario checks) and ``--model``; a world distribution's base scenario is checked and
     one world is drawn.
     """
-    from fg_tea.common.inputs import read_json
+    from fg_tea.common.inputs import read_json, read_toml
+    from fg_tea.env.camera import parse_camera
     from fg_tea.model.spec import load_model
     from fg_tea.world.scenario import load_scenario, parse_scenario
 
     for path in [p for name in args.files for p in _validate_targets(name)]:
-        data = None if path.suffix == ".toml" else read_json(path)
+        data = read_toml(path) if path.suffix == ".toml" else read_json(path)
         kind = file_kind(path, data)
-        if kind == "model":
+        if kind == "camera":
+            parse_camera(data, path)
+        elif kind == "model":
             load_model(path)
         elif kind == "task":
             from fg_tea.tasks.load import parse_task
@@ -115,12 +119,13 @@ def _validate_targets(name: str) -> list[Path]:
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("validate", help="check scenario, model, task and world files",
+    p = sub.add_parser("validate", help="check scenario, model, camera, task and world files",
                        description="Check each file with every check a run makes before its first "
                        "step; print one line per file. The kind is recognised by content. A bundled "
                        "name (see fg-tea list) checks every bundled file of that name.")
     p.add_argument("files", nargs="+", metavar="FILE",
-                   help="scenario (.json), model (.toml), task or world file, or a bundled name")
+                   help="scenario (.json), model or camera (.toml), task or world file, or a "
+                   "bundled name")
     p.add_argument("--scenario", default=None,
                    help="scenario to check task files against (default: the default apartment, or "
                    "the first bundled scenario holding every object the task names)")

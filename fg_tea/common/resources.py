@@ -5,8 +5,8 @@ A user may pass a path, or just the name of a bundled file (``default_apartment`
 ``factorised``, ``no_epistemic``, ``make_tea``, ``correlated``). Bundled data is package data of
 :mod:`fg_tea._bundle`, read through :mod:`importlib.resources`, so it is found the same way from
 a source checkout, an editable install, a wheel or an install with ``--prefix``, from any
-directory. In the repository the files stay in the top-level ``scenarios/`` and ``models/``
-folders; the build maps them into the package.
+directory. In the repository the files stay in the top-level ``scenarios/``, ``models/`` and
+``cameras/`` folders; the build maps them into the package.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ KINDS: dict[str, tuple[str, str, str]] = {
     "ablations": ("models/ablations", ".toml", "models with one ingredient removed or changed"),
     "tasks": ("scenarios/tasks", ".json", "task graphs, for --task"),
     "worlds": ("scenarios/worlds", ".json", "world distributions, for compare --world"),
+    "cameras": ("cameras", ".toml", "what the camera reports, for --camera (docs/design.md §1.3)"),
 }
 
 _extracted = contextlib.ExitStack()  # files of a zipped install, extracted once per process
@@ -39,7 +40,8 @@ atexit.register(_extracted.close)
 
 def _package(kind: str) -> str:
     parts = [p for p in kind.replace("\\", "/").split("/") if p]
-    if not parts or parts[0] not in ("scenarios", "models") or not all(p.isidentifier() for p in parts):
+    if (not parts or parts[0] not in ("scenarios", "models", "cameras")
+            or not all(p.isidentifier() for p in parts)):
         raise FileNotFoundError(f"no bundled folder {kind!r}")
     return ".".join(["fg_tea._bundle", *parts])
 
@@ -153,6 +155,11 @@ def resolve_task(name: str | Path) -> Path:
 def resolve_world(name: str | Path) -> Path:
     """A world-distribution path, or the bundled world distribution of that name."""
     return _resolve_named(name, "world distribution", ("worlds",))
+
+
+def resolve_camera(name: str | Path) -> Path:
+    """A camera path, or the bundled camera of that name (``visibility``, ``threshold``, ...)."""
+    return _resolve_named(name, "camera", ("cameras",))
 
 
 def bundled(kind: str, suffix: str) -> list[Path]:

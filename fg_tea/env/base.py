@@ -34,6 +34,9 @@ class EnvConfig:
     detection the camera would make (eq. 29 satisfied) is dropped, so the object is reported as
     looked-and-not-seen. Both are drawn from the environment's seeded RNG, and only when the rate
     is above zero, so runs with the defaults draw exactly as before and stay byte-identical.
+
+    The camera's fields (``min_visible_pixels``, ``site_association``, its radius and
+    ``camera_curve``) come from a camera file (``fg_tea.env.camera``, docs/design.md §1.3).
     """
 
     movement_step: float = 0.018
@@ -54,6 +57,8 @@ class EnvConfig:
     failure_rates: Mapping[str, float] = field(default_factory=dict)  # verb -> P(fail), injected
     detection_miss_rate: float = 0.0  # P(a would-be detection is dropped), injected
     camera_curve: VisibilityCurve | None = None  # None: threshold detector (eq. 29)
+    #: The camera file these camera fields came from (``fg_tea.env.camera``), for provenance.
+    camera_source: str = ""
 
 
 class EnvAdapter(abc.ABC):

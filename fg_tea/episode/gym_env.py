@@ -95,9 +95,9 @@ class TeaEnv(gymnasium.Env):
     ``max_frames`` frames (30 frames a second of simulated time).
 
     ## Arguments
-    ``scenario``, ``model`` (a loaded object, a path or a bundled name; the model sets the
-    camera's detector, docs/design.md §1.2), ``env`` (``"fake"`` or ``"pybullet"``),
-    ``max_frames``, ``goal_states``.
+    ``scenario``, ``model`` (a loaded object, a path or a bundled name), ``env`` (``"fake"`` or
+    ``"pybullet"``), ``camera`` (a camera file or bundled name; None: the bundled camera of the
+    detector the model assumes, docs/design.md §1.3), ``max_frames``, ``goal_states``.
 
     ## Version History
     * v0: initial version.
@@ -107,10 +107,11 @@ class TeaEnv(gymnasium.Env):
 
     def __init__(self, scenario: Scenario | str = "default_apartment",
                  model: Model | str = "factorised", env: str = "fake",
-                 max_frames: int = 50_000, goal_states: Sequence[str] = GOAL_STATES) -> None:
+                 max_frames: int = 50_000, goal_states: Sequence[str] = GOAL_STATES,
+                 camera: str | None = None) -> None:
         self.scenario = load_scenario(scenario) if isinstance(scenario, str) else scenario
         self.model = load_model(model) if isinstance(model, str) else model
-        self.adapter: EnvAdapter = make_env(self.scenario, self.model, env)
+        self.adapter: EnvAdapter = make_env(self.scenario, self.model, env, camera=camera)
         self.max_frames = int(max_frames)
         self.goal_states = tuple(goal_states)
         self.viewpoints = tuple(v.name for v in self.scenario.viewpoints)

@@ -31,7 +31,7 @@ from typing import Any, Mapping, Sequence
 #: Distributions whose versions every log records (besides fg_tea itself and Python).
 LIBRARIES = ("gtsam", "pybullet", "numpy", "scipy", "networkx")
 #: The bundle's top-level folders; every bundled file lies in one of them.
-BUNDLE_KINDS = ("scenarios", "models")
+BUNDLE_KINDS = ("scenarios", "models", "cameras")
 _CHUNK = 1 << 20
 
 
@@ -167,7 +167,8 @@ def _walk_chain(path: str | Path) -> list[Path]:
 
 
 def input_files(scenario_source: str | None, model_source: str | None, task_path: str | Path | None,
-                world_path: str | Path | None = None) -> dict[str, Any]:
+                world_path: str | Path | None = None,
+                camera_path: str | Path | None = None) -> dict[str, Any]:
     """Portable records (name, bundle path, sha256) of every input file of an episode.
 
     Args:
@@ -176,6 +177,7 @@ def input_files(scenario_source: str | None, model_source: str | None, task_path
         model_source: ``Model.source``; its ``extends`` chain is recorded too.
         task_path: the task file the task graph was read from.
         world_path: the world distribution the scenario was sampled from, if any.
+        camera_path: the camera file of the environment (``fg_tea.env.camera``), if known.
     """
     def one(path) -> dict[str, Any] | None:
         if not path:  # None, or a scenario or model built in code ("" source)
@@ -192,6 +194,7 @@ def input_files(scenario_source: str | None, model_source: str | None, task_path
                   else [entry] if (entry := one(model_source)) else []),
         "task": one(task_path),
         "world": one(world_path),
+        "camera": one(camera_path),
     }
 
 
@@ -289,9 +292,9 @@ def without_git(events: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 def episode_provenance(scenario_source: str | None, model_source: str | None,
                        task_path: str | Path | None, world: str | Path | None = None,
-                       render: Any = None) -> dict[str, Any]:
+                       render: Any = None, camera: str | Path | None = None) -> dict[str, Any]:
     """The provenance fields of ``episode_start``: inputs, versions, git and rendering."""
-    return {"inputs": input_files(scenario_source, model_source, task_path, world),
+    return {"inputs": input_files(scenario_source, model_source, task_path, world, camera),
             "versions": versions(), "git": git_state(),
             "render": render_parameters(render)}
 

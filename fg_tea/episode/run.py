@@ -1,6 +1,7 @@
 """One episode in one call, and the environment for it: the front door of :mod:`fg_tea`.
 
-:func:`make_env` builds the PyBullet house or the fake house with the camera the model describes;
+:func:`make_env` builds the PyBullet house or the fake house with a camera (by default the one the
+model assumes);
 :func:`run_episode` runs a whole episode as ``fg-tea run --no-video`` does (docs/design.md §9).
 """
 
@@ -18,14 +19,16 @@ from fg_tea.world.scenario import Scenario
 ENVIRONMENTS = ("pybullet", "fake")
 
 
-def make_env(scenario: Scenario, model: Model, kind: str = "pybullet", **config: Any) -> EnvAdapter:
-    """An environment for `scenario`, with the camera `model` assumes (docs/design.md §8).
+def make_env(scenario: Scenario, model: Model, kind: str = "pybullet", *,
+             camera: str | Path | None = None, **config: Any) -> EnvAdapter:
+    """An environment for `scenario` with a camera (docs/design.md §1.3, §8).
 
     Args:
         scenario: the house (the environment reads its hidden truth; the agent never does).
-        model: the agent's model; its perception settings (detector, minimum pixels, site
-            association) configure the environment's camera so that what the agent assumes
-            matches what it sees (:func:`env_config_for`).
+        model: the agent's model. It does not configure the camera; it only picks the default
+            one, the bundled camera of the detector it assumes (:func:`env_config_for`).
+        camera: a camera file or bundled camera name (``"visibility"``, ``"threshold"``, ...);
+            None: the model's default camera.
         kind: ``"pybullet"`` (the rendered house with a segmentation camera) or ``"fake"`` (the
             same geometry and truth without rendering: fast, for tests and sweeps).
         **config: :class:`~fg_tea.env.base.EnvConfig` fields to override (``failure_rates``,
@@ -36,7 +39,7 @@ def make_env(scenario: Scenario, model: Model, kind: str = "pybullet", **config:
     """
     if kind not in ENVIRONMENTS:
         raise ValueError(f"unknown environment {kind!r} (known: {', '.join(ENVIRONMENTS)})")
-    env_config = env_config_for(model, **config)
+    env_config = env_config_for(model, camera, **config)
     if kind == "fake":
         from fg_tea.env.fake import FakeHouse
 

@@ -33,6 +33,7 @@ from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
 from fg_tea.common.errors import InputError, PlannerFault
 from fg_tea.env.base import EnvAdapter, EnvConfig
+from fg_tea.env.camera import Camera, default_camera, load_camera
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.episode.provenance import episode_provenance, portable_ref
@@ -70,29 +71,22 @@ class RunConfig:
     gtsam_check: bool = True
 
 
-def env_config_for(model: Model, base: EnvConfig | None = None, **overrides) -> EnvConfig:
-    """The embodiment config with the model's perception switches (eq. 29) applied.
+def env_config_for(model: Model, camera: "str | Path | Camera | None" = None,
+                   base: EnvConfig | None = None, **overrides) -> EnvConfig:
+    """The embodiment config of an episode: `base` with `camera`'s settings, then `overrides`.
 
-    Which file sets what (docs/design.md §1.2): the model file says what the agent assumes; its
-    ``[perception]`` switches also choose the camera's detector here, so that the world's camera
-    is the one the model describes (the detectability experiments set the camera's curve apart,
-    through ``camera_curve``). Everything else about the embodiment is :class:`EnvConfig`'s.
+    Which file sets what (docs/design.md §1.3): the model says what the agent assumes, the camera
+    file what the camera reports. `camera` is a :class:`~fg_tea.env.camera.Camera`, a bundled
+    camera's name or a camera file; None takes the bundled camera of the detector `model` assumes
+    (:func:`~fg_tea.env.camera.default_camera`), the world the model describes. The config's
+    ``camera_source`` names the camera file, for the log's provenance.
 
     Raises:
-        InputError: an override that would have no effect under this model's detector:
-            ``detection_miss_rate`` drops would-be detections of the threshold detector only.
+        InputError: a camera that cannot be read, or an override that would have no effect with
+            its detector (:meth:`Camera.env_config <fg_tea.env.camera.Camera.env_config>`).
     """
-    base = base or EnvConfig()
-    fields = {"min_visible_pixels": model.min_visible_pixels, "site_association": model.site_association,
-              "camera_curve": model.camera_curve if model.detector == "visibility" else None,
-              **overrides}
-    config = replace(base, **fields)
-    if config.detection_miss_rate and config.camera_curve is not None:
-        raise InputError(model.source or model.name, "detection_miss_rate",
-                         f"has no effect with model {model.name!r}: its visibility detector draws "
-                         "each detection from the camera's curve (docs/design.md §3.4); use a "
-                         "threshold-detector model (e.g. factorised_close) or change the curve")
-    return config
+    chosen = load_camera(camera if camera is not None else default_camera(model.detector))
+    return replace(chosen.env_config(base, **overrides), camera_source=chosen.source)
 
 
 class _EnvDistances:
@@ -268,7 +262,8 @@ class EpisodeRunner:
 
         world = None if self.world is None else _resolve(self.world, "scenarios/worlds", ".json")
         provenance = episode_provenance(self.scenario.source, model.source,
-                                        resolve_task(self.config.task), world, self.render)
+                                        resolve_task(self.config.task), world, self.render,
+                                        camera=getattr(self.env.config, "camera_source", None))
         return self._write({
             "event": "episode_start",
             "scenario": self.scenario.name,
@@ -546,7 +541,7 @@ class EpisodeRunner:
 def _env_params(config: EnvConfig) -> dict:
     from dataclasses import fields
 
-    out = {f.name: getattr(config, f.name) for f in fields(config)}
+    out = {f.name: getattr(config, f.name) for f in fields(config) if f.name != "camera_source"}
     out["failure_rates"] = dict(config.failure_rates)
     out["camera_curve"] = config.camera_curve.to_json() if config.camera_curve else None
     return out

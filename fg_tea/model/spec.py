@@ -19,9 +19,12 @@ from typing import Any, Mapping
 from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import Reader, read_toml
 from fg_tea.model.learning import Learning, apply_to_sensors, read_learning
-from fg_tea.world.visibility import DETECTORS, CurveParams, VisibilityCurve
+from fg_tea.world.visibility import DETECTORS, VisibilityCurve, read_curve
 
 STRUCTURES = ("factorised", "joint")
+#: Where the camera's settings live now, for the one line that refuses them in a model file.
+CAMERA_KEY_MOVED = ("the camera is configured by a camera file (--camera; bundled: cameras/), "
+                    "the model says only what the agent assumes (docs/design.md §1.3)")
 #: Longest chain of ``extends`` (the bundled ablations use two levels).
 MAX_EXTENDS_DEPTH = 32
 RELATION_KINDS = ("capacity", "co_location", "exclusivity")
@@ -168,7 +171,6 @@ class Model:
     false_positive_rate: float
     positive_update: str
     min_visible_pixels: int
-    site_association: bool
     sensors: Mapping[str, Sensor]
     transition_form: str
     transitions: Mapping[str, TransitionSpec]
@@ -176,8 +178,10 @@ class Model:
     planning: PlanningWeights = field(default_factory=PlanningWeights)
     source: str = ""
     retries: RetryModel = field(default_factory=RetryModel)
+    #: The detector the agent assumes (docs/design.md §3.4): ``"threshold"`` (eq. 29) or
+    #: ``"visibility"`` (eq. 30, with `detection_curve`). The camera's own detector is set by the
+    #: camera file (:mod:`fg_tea.env.camera`), never here.
     detector: str = "threshold"
-    camera_curve: VisibilityCurve | None = None
     detection_curve: VisibilityCurve | None = None
     room_glances: bool = False
     #: Experience learned from logs (docs/design.md §12); None or without counts: no change.
@@ -305,26 +309,6 @@ def _read_relation(r: Reader) -> Relation:
                     same_room=r.positive("same_room", 1.0))
 
 
-def _read_curve(r: Reader, base: VisibilityCurve | None = None) -> VisibilityCurve:
-    """A visibility curve: ``half_pixels``, ``slope``, ``max_probability``, ``categories``."""
-    d = base or VisibilityCurve()
-    half, slope = r.positive("half_pixels", d.half_pixels), r.positive("slope", d.slope)
-    categories = dict(d.categories)
-    cats = r.child("categories", required=False)
-    if cats is not None:
-        for name in cats.names():
-            c = cats.child(name)
-            # A category inherits what it does not set: its own earlier values, else this
-            # curve's (so half_pixels alone keeps the curve's slope).
-            default = categories.get(name) or CurveParams(half, slope)
-            categories[name] = CurveParams(c.positive("half_pixels", default.half_pixels),
-                                           c.positive("slope", default.slope))
-    max_p = r.probability("max_probability", d.max_probability)
-    if max_p <= 0:
-        raise r.fail("max_probability must be positive, or nothing is ever seen", "max_probability")
-    return VisibilityCurve(half, slope, max_p, MappingProxyType(categories))
-
-
 def parse_model(data: dict, file: str | Path = "<model>",
                 origins: "Mapping[str, str] | None" = None) -> Model:
     """Validate a parsed model document (after `extends` merging) and build a :class:`Model`.
@@ -390,13 +374,16 @@ def parse_model(data: dict, file: str | Path = "<model>",
         raise detection.fail("a miss likelihood of 0 makes a missed detection impossible; "
                              "use a small positive value", "miss_likelihood")
     detector = perception.choice("detector", DETECTORS, "threshold")
-    camera_r = perception.child("visibility", required=False)
-    camera_curve = _read_curve(camera_r) if camera_r is not None else None
-    if detector == "visibility" and camera_curve is None:
-        camera_curve = VisibilityCurve()
-    assumed_r = detection.child("visibility", required=False)
-    detection_curve = (_read_curve(assumed_r, camera_curve) if assumed_r is not None
-                       else camera_curve)
+    # The model says what the agent assumes; the camera file says what the camera does
+    # (docs/design.md §1.3). Keys that used to set the camera from here are refused by name.
+    if perception.has("site_association"):
+        raise perception.fail(f"moved to the camera file: {CAMERA_KEY_MOVED}", "site_association")
+    if detection.has("visibility"):
+        raise detection.fail("moved: the agent's assumed curve is [perception.visibility]; "
+                             f"{CAMERA_KEY_MOVED}", "visibility")
+    assumed_r = perception.child("visibility", required=False)
+    detection_curve = (read_curve(assumed_r) if assumed_r is not None
+                       else VisibilityCurve() if detector == "visibility" else None)
     viewpoints = r.child("viewpoints", required=False) or Reader({}, file, "$.viewpoints")
     learning = None
     declared_sensors = None
@@ -422,7 +409,6 @@ def parse_model(data: dict, file: str | Path = "<model>",
         false_positive_rate=detection.probability("false_positive_rate", 1e-4),
         positive_update=_positive_update(detection),
         min_visible_pixels=perception.opt("min_visible_pixels", int, 25),
-        site_association=perception.opt("site_association", bool, True),
         sensors=MappingProxyType(sensors),
         transition_form=trans_r.choice("form", ("full", "direct"), "full"),
         transitions=MappingProxyType(transitions),
@@ -430,7 +416,6 @@ def parse_model(data: dict, file: str | Path = "<model>",
         planning=planning,
         source=str(file),
         detector=detector,
-        camera_curve=camera_curve,
         detection_curve=detection_curve,
         room_glances=viewpoints.opt("room_glances", bool, False),
         retries=retries,

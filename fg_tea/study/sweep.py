@@ -104,6 +104,8 @@ class Job:
         task: the task graph (bundled name or path), ``make_tea`` by default.
         gtsam_check: cross-check the final belief against gtsam (``RunConfig.gtsam_check``). It
             changes only the log's ``gtsam_agreement``, never a row, so it is not part of the key.
+        camera: the environment's camera (bundled name such as ``"threshold"``, or a path;
+            ``fg_tea.env.camera``); empty: the bundled camera of the detector the model assumes.
 
     Mappings are stored as sorted tuples of pairs, so jobs are hashable and keys are stable.
     """
@@ -121,11 +123,13 @@ class Job:
     max_steps: int = 2_000
     task: str = "make_tea"
     gtsam_check: bool = True
+    camera: str = ""
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         set_(self, "world", str(self.world))
         set_(self, "model", str(self.model))
+        set_(self, "camera", str(self.camera or ""))
         set_(self, "world_seed", int(self.world_seed))
         set_(self, "seed", int(self.world_seed if self.seed is None else self.seed))
         knobs = _pairs(self.knobs, "knobs")
@@ -150,6 +154,8 @@ class Job:
         parts += [f"planner={self.planner}", f"seed={self.seed:06d}"]
         if self.env != "pybullet":
             parts.append(f"env={self.env}")
+        if self.camera:
+            parts.append(f"camera={self.camera}")
         if self.env_overrides:
             parts.append(f"eo={_joined(self.env_overrides)}")
         if self.max_frames != 50_000:
@@ -274,13 +280,19 @@ def check_jobs(jobs: Sequence[Job]) -> None:
                                  f"({', '.join(model_names())}) or a bundled ablation "
                                  f"({', '.join(ablation_names())})")
             _model(job.model, job.model_overrides)
+        if job.camera and ("camera", job.camera) not in seen:
+            from fg_tea.env.camera import load_camera
+
+            seen.add(("camera", job.camera))
+            load_camera(job.camera).env_config(**dict(job.env_overrides))
 
 
 def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], planners: Sequence[str], *,
                first_seed: int = 0, knobs: Mapping[str, float] | None = None,
                model_overrides: Mapping[str, Any] | None = None,
                env_overrides: Mapping[str, Any] | None = None, env: str = "pybullet",
-               max_frames: int = 50_000, max_steps: int = 2_000, task: str = "make_tea") -> list[Job]:
+               max_frames: int = 50_000, max_steps: int = 2_000, task: str = "make_tea",
+               camera: str = "") -> list[Job]:
     """The paired job list: every (world, model, planner) solves world seeds first_seed.. first_seed+n-1.
 
     The episode seed equals the world seed, so paired configurations also share sensor noise
@@ -300,6 +312,7 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
         max_frames: the frame limit of each episode.
         max_steps: the sweep's step limit of each episode (see :class:`Job`).
         task: the task graph every job runs.
+        camera: the camera of every job (see :class:`Job`); empty: each model's default.
 
     Returns:
         Jobs ordered by world, world seed, model, planner.
@@ -315,7 +328,7 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
     return [Job(world=w, world_seed=s, model=m, planner=p, knobs=_pairs(knobs, "knobs"),
                 model_overrides=_pairs(model_overrides, "model_overrides"),
                 env_overrides=_pairs(env_overrides, "env_overrides"),
-                env=env, max_frames=max_frames, max_steps=max_steps, task=task)
+                env=env, max_frames=max_frames, max_steps=max_steps, task=task, camera=camera)
             for w in worlds for s in range(first_seed, first_seed + n_worlds)
             for m in models for p in planners]
 
@@ -404,7 +417,7 @@ def run_job(job: Job) -> dict[str, Any]:
     world = _world(job.world, job.knobs)
     model = _model(job.model, job.model_overrides)
     scenario = world.sample(job.world_seed)
-    config = env_config_for(model, **dict(job.env_overrides))
+    config = env_config_for(model, job.camera or None, **dict(job.env_overrides))
     env = _make_env(job.env, scenario, config)
     seed = job.world_seed if job.seed is None else job.seed  # Job fills it in; for the type checker
     runner = None

@@ -21,7 +21,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping
+from typing import TYPE_CHECKING, Mapping
+
+if TYPE_CHECKING:
+    from fg_tea.common.inputs import Reader
 
 DETECTORS = ("threshold", "visibility")
 
@@ -73,4 +76,31 @@ class VisibilityCurve:
                                for k, v in sorted(self.categories.items())}}
 
 
-__all__ = ["DETECTORS", "CurveParams", "VisibilityCurve"]
+
+def read_curve(r: "Reader", base: VisibilityCurve | None = None) -> VisibilityCurve:
+    """A visibility curve read from a model's or a camera's table: ``half_pixels``, ``slope``,
+    ``max_probability`` and ``categories`` (each category inherits what it does not set).
+
+    Args:
+        r: the reader of the table (``[perception.visibility]`` or ``[camera.visibility]``).
+        base: the curve whose values are kept where the table is silent (default: the defaults).
+    """
+    d = base or VisibilityCurve()
+    half, slope = r.positive("half_pixels", d.half_pixels), r.positive("slope", d.slope)
+    categories = dict(d.categories)
+    cats = r.child("categories", required=False)
+    if cats is not None:
+        for name in cats.names():
+            c = cats.child(name)
+            # A category inherits what it does not set: its own earlier values, else this
+            # curve's (so half_pixels alone keeps the curve's slope).
+            default = categories.get(name) or CurveParams(half, slope)
+            categories[name] = CurveParams(c.positive("half_pixels", default.half_pixels),
+                                           c.positive("slope", default.slope))
+    max_p = r.probability("max_probability", d.max_probability)
+    if max_p <= 0:
+        raise r.fail("max_probability must be positive, or nothing is ever seen", "max_probability")
+    return VisibilityCurve(half, slope, max_p, MappingProxyType(categories))
+
+
+__all__ = ["DETECTORS", "CurveParams", "VisibilityCurve", "read_curve"]
