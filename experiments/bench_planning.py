@@ -173,7 +173,7 @@ def time_decisions(planner_name: str, model, scenario, repeats: int, seed: int,
         belief = base.copy()
         start, cpu_start = time.perf_counter(), time.process_time()
         if glances:
-            belief.observe_view(glances[int(rng.integers(len(glances)))], {o: None for o in objects})
+            belief.observe_viewpoint(glances[int(rng.integers(len(glances)))], {o: None for o in objects})
         else:
             site = scenario.site_names[int(rng.integers(len(scenario.sites)))]
             belief.observe_site(site, {o: False for o in objects})
@@ -216,7 +216,7 @@ def approximation_error(model, scenario, views: ViewModel, repeats: int, seed: i
     worst, any_restricted = 0.0, False
     for _ in range(min(3, repeats)):
         belief = base.copy()
-        belief.observe_view(glances[int(rng.integers(len(glances)))], {o: None for o in objects})
+        belief.observe_viewpoint(glances[int(rng.integers(len(glances)))], {o: None for o in objects})
         sm = belief.structured_model()
         idx = list(range(len(objects)))
         look = [(v.sites, v.probability[idx]) for v in views.views if v.kind == "room"]

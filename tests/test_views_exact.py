@@ -88,7 +88,7 @@ def check_look_chain(engine, ref, chain) -> None:
     for view, found in chain:
         before = engine.location_matrix()
         try:
-            engine.observe_view(view, found)
+            engine.observe_viewpoint(view, found)
         except ContradictionError:
             np.testing.assert_array_equal(engine.location_matrix(), before)
             continue
@@ -201,3 +201,21 @@ def test_a_blurry_glance_is_worth_less_than_a_sharp_one():
     i_sharp = view_joint_information_gain(joint, [0], [0, 1], sharp[:, :2], 0.0)
     i_blurry = view_joint_information_gain(joint, [0], [0, 1], blurry[:, :2], 0.0)
     assert i_blurry[0] < i_sharp[0]
+
+
+def test_the_old_name_of_a_viewpoint_look_warns_and_gives_the_same_update():
+    """``observe_view`` is the deprecated name of ``observe_viewpoint`` (CHANGELOG.md)."""
+    import pytest
+
+    import fg_tea as fg
+    from fg_tea.beliefs.detection import ViewModel
+    from fg_tea.beliefs.engine import BeliefEngine
+
+    scenario, model = fg.load_scenario("default_apartment"), fg.load_model("factorised_close")
+    view = ViewModel(scenario, model).view(scenario.site_names[0])
+    found = {o: None for o in scenario.object_names}
+    new = BeliefEngine(scenario, model).observe_viewpoint(view, found)
+    with pytest.warns(DeprecationWarning, match="observe_viewpoint"):
+        old = BeliefEngine(scenario, model).observe_view(view, found)
+    assert old.viewpoint == new.viewpoint == view.name
+    assert all(np.array_equal(old.after[o], new.after[o]) for o in new.after)

@@ -27,7 +27,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from fg_tea.beliefs.detection import PixelTable, ViewModel
-from fg_tea.beliefs.engine import BeliefEngine, SiteUpdate
+from fg_tea.beliefs.engine import BeliefEngine, LookUpdate
 from fg_tea.model.spec import Model
 from fg_tea.planning import Decision, DistanceModel, distances_for, make_planner
 from fg_tea.planning.base import Planner
@@ -183,7 +183,7 @@ class Agent:
 
     # ------------------------------------------------------------------ observing
     def observe_look(self, viewpoint: str, result: InspectionResult | Mapping[str, str | None]
-                     ) -> SiteUpdate:
+                     ) -> LookUpdate:
         """Absorb one look from `viewpoint` (docs/design.md eqs. 4-6, 30).
 
         Args:
@@ -202,7 +202,7 @@ class Agent:
                      for o, seen in result.detections.items()}
         else:
             found = dict(result)
-        update = self.belief.observe_view(self.views.view(viewpoint), found)
+        update = self.belief.observe_viewpoint(self.views.view(viewpoint), found)
         if any(v is None for v in found.values()):
             self.inspected[viewpoint] = self.inspected.get(viewpoint, 0) + 1
         for obj in update.detected:

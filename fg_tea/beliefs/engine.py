@@ -80,17 +80,18 @@ class UnknownVariableError(KeyError):
 
 
 @dataclass(frozen=True)
-class SiteUpdate:
-    """The effect of one inspection on the location beliefs.
+class LookUpdate:
+    """The effect of one look on the location beliefs.
 
     Attributes:
-        site: the inspected site.
+        viewpoint: what was looked from: the inspected site (:meth:`BeliefEngine.observe_site`)
+            or the viewpoint's name (:meth:`BeliefEngine.observe_viewpoint`).
         detections: the observation, object -> True (seen) / False (looked, not seen).
         before, after: location marginals of every object before and after.
-        detected: objects seen at the site, in object order.
+        detected: objects seen, in object order.
     """
 
-    site: str
+    viewpoint: str
     detections: Mapping[str, bool]
     before: Mapping[str, np.ndarray]
     after: Mapping[str, np.ndarray]
@@ -716,7 +717,7 @@ class BeliefEngine:
                 break
         return sweep
 
-    def observe_site(self, site: str, detections: Mapping[str, bool]) -> SiteUpdate:
+    def observe_site(self, site: str, detections: Mapping[str, bool]) -> LookUpdate:
         """Absorb one inspection of `site`: True = seen there, False = looked and not seen.
 
         An object absent from `detections` is "no observation" and its evidence is unchanged.
@@ -741,9 +742,9 @@ class BeliefEngine:
                                     if detections.get(o) is True])
             after = self.locations()
         detected = tuple(o for o in self.objects if detections.get(o) is True)
-        return SiteUpdate(site, dict(detections), before, after, detected)
+        return LookUpdate(site, dict(detections), before, after, detected)
 
-    def observe_view(self, view, found: Mapping[str, str | None]) -> SiteUpdate:
+    def observe_viewpoint(self, view, found: Mapping[str, str | None]) -> LookUpdate:
         """Absorb one look from a viewpoint (docs/design.md eq. 30 over every site in view).
 
         Args:
@@ -782,8 +783,16 @@ class BeliefEngine:
             self._apply_detections(seen)
             after = self.locations()
         detected = tuple(o for o in self.objects if found.get(o) is not None)
-        return SiteUpdate(view.name, {o: found[o] is not None for o in found}, before, after,
+        return LookUpdate(view.name, {o: found[o] is not None for o in found}, before, after,
                           detected)
+
+    def observe_view(self, view, found: Mapping[str, str | None]) -> LookUpdate:
+        """Deprecated name of :meth:`observe_viewpoint` (a viewpoint is called a viewpoint)."""
+        import warnings
+
+        warnings.warn("BeliefEngine.observe_view is deprecated; use observe_viewpoint",
+                      DeprecationWarning, stacklevel=2)
+        return self.observe_viewpoint(view, found)
 
     # ------------------------------------------------------------------ hypothetical evidence
     def hypothetical(self, site: str, detections: Mapping[str, bool]) -> dict[str, np.ndarray]:

@@ -86,7 +86,7 @@ def replay_location_evidence(events: Sequence[Mapping], scenario: Scenario | str
 
     Each ``observation`` event's view (sites in view and the detection probabilities the agent
     used) and detections (seen at a site, looked and not seen, absent = not considered) go
-    through :meth:`BeliefEngine.observe_view` in log order, whatever model the episode itself ran.
+    through :meth:`BeliefEngine.observe_viewpoint` in log order, whatever model the episode itself ran.
 
     Args:
         events: one episode's events (:func:`fg_tea.episode.log.read_log`, or ``runner.events``).
@@ -106,7 +106,7 @@ def replay_location_evidence(events: Sequence[Mapping], scenario: Scenario | str
     snapshots = [engine.snapshot()]
     for event in iter_events(list(events), "observation"):
         view = view_from_log(event, engine.sites, engine.objects, model)
-        engine.observe_view(view, found_from_log(event))
+        engine.observe_viewpoint(view, found_from_log(event))
         snapshots.append(engine.snapshot())
     return snapshots
 

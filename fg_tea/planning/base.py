@@ -216,7 +216,7 @@ class Planner(Protocol):
     ``location_map``, ``sites``, ``objects``, ``hypothetical``, ``hypothetical_all``, ``state``...);
     distances through ``distances.from_agent(site)`` and ``distances.between(a, b)`` (metres);
     ``views.names``, ``views.view(name)`` and ``views.probabilities(name)`` when given. It must
-    not call the belief's update methods (``observe_site``, ``observe_view``, ``observe_state``,
+    not call the belief's update methods (``observe_site``, ``observe_viewpoint``, ``observe_state``,
     ``apply_effects``); only inference writes beliefs. Randomness must come from a Generator the
     planner was built with (a plug-in factory that names ``rng`` receives one seeded from the
     episode seed), so that the same seed gives the same log.
