@@ -108,3 +108,15 @@ def test_a_misspecified_agent_runs_and_its_log_names_the_camera(tmp_path):
 def test_an_override_of_a_camera_field_is_refused():
     with pytest.raises(InputError, match="site_association: is set by the camera file"):
         load_camera("visibility").env_config(site_association=False)
+
+
+def test_a_pixel_threshold_in_a_visibility_model_is_refused(tmp_path, capsys):
+    """The agent's pixel threshold belongs to the threshold detector; a visibility model ignored it."""
+    model = tmp_path / "m.toml"
+    model.write_text('extends = "factorised"\nname = "m"\n[perception]\nmin_visible_pixels = 40\n')
+    assert main(["validate", str(model)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "min_visible_pixels: has no effect with detector = \"visibility\"" in err
+    close = tmp_path / "c.toml"
+    close.write_text('extends = "factorised_close"\nname = "c"\n[perception]\nmin_visible_pixels = 40\n')
+    assert fg.load_model(close).min_visible_pixels == 40

@@ -381,6 +381,10 @@ def parse_model(data: dict, file: str | Path = "<model>",
     if detection.has("visibility"):
         raise detection.fail("moved: the agent's assumed curve is [perception.visibility]; "
                              f"{CAMERA_KEY_MOVED}", "visibility")
+    if detector == "visibility" and perception.has("min_visible_pixels"):
+        raise perception.fail("has no effect with detector = \"visibility\" (the agent assumes the "
+                              "curve of [perception.visibility]); remove it, or assume the "
+                              "threshold detector", "min_visible_pixels")
     assumed_r = perception.child("visibility", required=False)
     detection_curve = (read_curve(assumed_r) if assumed_r is not None
                        else VisibilityCurve() if detector == "visibility" else None)
