@@ -211,23 +211,41 @@ def remove_outputs(out: Path, names: Sequence[str]) -> None:
 
 
 class Progress:
-    """A one-line progress display on a terminal; silent otherwise."""
+    """A one-line progress display on a terminal; silent otherwise.
+
+    The bar fills with the task's finished actions (complete or skipped), so it is full exactly
+    when the task is done; the frame count is shown against the frame limit beside it. The action
+    named is the one being carried out, or just carried out: the last one the executor activated
+    (a search included; each step of an episode works on one action), else ``-``.
+    """
+
+    WIDTH = 24
 
     def __init__(self, max_frames: int, stream=None) -> None:
         self.stream = stream or sys.stderr
         self.max_frames = max_frames
         self.tty = self.stream.isatty()
 
+    @staticmethod
+    def active_action(runner) -> str:
+        """The action being carried out or just carried out, or ``-`` before the first."""
+        for event in reversed(runner.events):
+            if event.get("event") == "activate":
+                return str(event.get("action", "-"))
+        return "-"
+
+    def line(self, runner) -> str:
+        """The progress line for the runner's state now."""
+        total = len(runner.graph)
+        finished = sum(runner.graph.is_finished(n) for n in runner.graph)
+        done = self.WIDTH * finished // max(total, 1)
+        return (f"[{'#' * done}{'.' * (self.WIDTH - done)}] {finished}/{total} actions · frame "
+                f"{runner.state.frame:,}/{self.max_frames:,} · {self.active_action(runner):<22}")
+
     def __call__(self, runner) -> None:
         if not self.tty:
             return
-        frame = runner.state.frame
-        width = 24
-        done = min(int(width * frame / max(self.max_frames, 1) * 10), width)  # a tenth of the cap fills it
-        active = [n for n in runner.graph if runner.graph.status(n) == "active"]
-        finished = sum(runner.graph.is_finished(n) for n in runner.graph)
-        self.stream.write(f"\r[{'#' * done}{'.' * (width - done)}] frame {frame:6d} · "
-                          f"{finished}/{len(runner.graph)} actions · {(active or ['-'])[0]:<22}")
+        self.stream.write("\r" + self.line(runner))
         self.stream.flush()
 
     def close(self) -> None:
