@@ -39,8 +39,10 @@ try:
     import gymnasium
     from gymnasium import spaces
 except ImportError:  # pragma: no cover - exercised by the missing-extra test in a subprocess
-    raise InputError("<import>", "gymnasium", 'the Gymnasium environment needs the gym extra: '
-                     'pip install "fg-tea[gym]"') from None
+    from fg_tea.common.install import install_command
+
+    raise InputError("<import>", "gymnasium", "the Gymnasium environment needs the gym extra: "
+                     f"{install_command('gym')}") from None
 
 ENV_ID = "fg_tea/TeaMaking-v0"
 #: Action kinds: look from a viewpoint, read a hidden state, carry out a practical request.

@@ -105,12 +105,23 @@ _FAMILIES: dict[str, Callable[[str, Model, np.random.Generator | None], Planner]
 MAX_SIMULATIONS = 10_000_000
 
 
+def peers_installed() -> bool:
+    """Whether pomdp-py, the optional ``[peers]`` extra of POUCT and POMCP, is installed."""
+    return importlib.util.find_spec("pomdp_py") is not None
+
+
 def _check_family_spec(family: str, spec: str) -> None:
     if family == "lookahead":
         LookaheadSettings.parse(spec)
-    elif not (spec.isdigit() and 1 <= int(spec) <= MAX_SIMULATIONS):
+        return
+    if not (spec.isdigit() and 1 <= int(spec) <= MAX_SIMULATIONS):
         raise ValueError(f"planner {family}:{spec}: the setting is the number of simulations "
                          f"per decision, an integer from 1 to {MAX_SIMULATIONS:,}")
+    if not peers_installed():
+        from fg_tea.common.install import install_command
+
+        raise ValueError(f"planner {family}:{spec} needs pomdp-py, the optional peers extra: "
+                         f"{install_command('peers')}")
 
 
 def is_family_spec(name: str) -> bool:
@@ -122,11 +133,11 @@ def is_family_spec(name: str) -> bool:
 
 def check_planner_name(name: str) -> None:
     """Raise ValueError unless `name` is a registered planner or a well-formed family spec."""
-    if name in _REGISTRY:
-        return
     family, sep, spec = name.partition(":")
-    if sep and family in _FAMILIES:
+    if sep and family in _FAMILIES:  # registered shorthands (pouct:100) too: the extra is checked
         _check_family_spec(family, spec)
+        return
+    if name in _REGISTRY:
         return
     raise ValueError(f"unknown planner {name!r} (known: {', '.join(_REGISTRY)}; families "
                      f"{', '.join(f + ':...' for f in _FAMILIES)})")
@@ -172,7 +183,7 @@ def check_planner(name: str) -> None:
     Raises:
         PlannerSpecError: unknown name, a malformed family spec, or a plug-in that fails its check.
     """
-    if name in planner_names():
+    if name in planner_names() and not is_family_spec(name):
         return
     if is_family_spec(name):  # lookahead:depth=2, pouct:500: a built-in family, not module:attribute
         try:

@@ -30,7 +30,7 @@ each: 20 s per decision at 27 sites and 3 objects).
 Randomness: pomdp-py draws from Python's ``random`` module; each decision seeds it from the
 planner's Generator and restores the caller's state afterwards, so a seeded episode is
 reproducible. Planner names: ``pouct:N`` and ``pomcp:N`` (N simulations per decision). Needs the
-optional extra ``pip install -e ".[peers]"``.
+optional extra (``pip install "fg-tea[peers]"``, or ``pip install -e ".[peers]"`` in a checkout).
 """
 
 from __future__ import annotations
@@ -65,8 +65,10 @@ def _pomdp_py():
     try:
         import pomdp_py
     except ImportError:
-        raise ValueError("planners pouct:N and pomcp:N need pomdp-py: "
-                         "pip install -e \".[peers]\"") from None
+        from fg_tea.common.install import install_command
+
+        raise ValueError("planners pouct:N and pomcp:N need pomdp-py, the optional peers extra: "
+                         f"{install_command('peers')}") from None
     return pomdp_py
 
 

@@ -59,8 +59,10 @@ def _import_ray():
     try:
         import ray
     except ImportError:
-        raise InputError("<command line>", "--executor ray", "Ray is not installed; install it with "
-                         "pip install -e \".[ray]\" (or pip install \"ray[default]>=2.9\")") from None
+        from fg_tea.common.install import install_command
+
+        raise InputError("<command line>", "--executor ray", "Ray is not installed; install it "
+                         f"with {install_command('ray')}") from None
     return ray
 
 

@@ -25,7 +25,7 @@ turns the rows into tables and plots.
 
 The ``ray`` backend ships each job as a Ray task calling :func:`run_job` by reference, so on a
 cluster (``address="auto"`` or ``"ray://head:10001"``) every worker node needs the same fg_tea
-installed (``pip install -e ".[ray]"``); without an address a local instance is started with one
+installed (the ``ray`` extra); without an address a local instance is started with one
 CPU per worker and shut down afterwards. Nothing in a row depends on where it ran.
 
 Per-step belief entropy is kept as a list column, ``entropy_trace``: the summed location entropy
