@@ -34,6 +34,12 @@ from fg_tea.common.files import (
 )
 from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 
+#: What `fg-tea run`'s exit status says (its --help epilog; docs/reference/cli.md shows it).
+RUN_EXIT_STATUS = ("Exit status: 0 when the task is complete; 1 when the episode ended without "
+                   "completing it: the frame limit (--max-frames) was reached, an object was not "
+                   "found, or an action could not be carried out (the summary and the log's "
+                   "episode_end say which; the log, timings and video are written all the same); "
+                   "2 for bad input or a planner fault, in one line.")
 #: Every file `fg-tea run` writes into its output folder (stale ones are removed first).
 RUN_OUTPUTS = ("episode.jsonl", "episode.mp4", "timings.json")
 
@@ -167,7 +173,8 @@ def cmd_preview(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)")
+    p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)",
+                       epilog=RUN_EXIT_STATUS)
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                    help="scenario file or bundled name (default: %(default)s)")
     p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
