@@ -398,8 +398,10 @@ def test_cli_compare_lifelong(tmp_path):
     learned, corr = by[("joint", "learned", "2")], by[("joint", "learned-correlations", "2")]
     assert learned["relation_log_loss"] != corr["relation_log_loss"]
     assert learned["log_loss"] != by[("joint", "hand-set", "2")]["log_loss"]
-    for name in ("curves.csv", "summary.md", "curves.png"):
+    wrote = next(line for line in done.stdout.splitlines() if line.startswith("wrote: "))
+    for name in ("curves.csv", "summary.md", "curves.png", "focus_curve.png"):
         assert (out / name).stat().st_size > 0
+        assert str(out / name) in wrote  # every file written is listed
     assert "fg-tea compare --lifelong 2" in (out / "summary.md").read_text()
 
 

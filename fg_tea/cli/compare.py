@@ -178,7 +178,7 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
     files = write_outputs(rows, out, f"Lifelong learning on `{args.world}`: {households} households "
                           f"x {k} episodes, {args.env} house", command)
     print(f"episodes: {files['episodes']} ({len(rows)} rows)")
-    print("wrote: " + ", ".join(str(files[n]) for n in ("curves", "summary", "plot")))
+    print("wrote: " + ", ".join(str(files[n]) for n in ("curves", "summary", "plot", "focus_plot")))
     return 0
 
 

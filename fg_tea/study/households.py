@@ -40,6 +40,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import numpy as np
 
 from fg_tea.common.errors import InputError
+from fg_tea.common.files import atomic_path, atomic_write_text
 from fg_tea.common.stats import Interval, bootstrap_statistic, t_interval
 
 #: The arms of a lifelong sweep (docs/design.md §12): the written model, learning with the
@@ -322,19 +323,20 @@ def _arm_order(arm: str) -> tuple[int, str]:
 
 def write_outputs(rows: Sequence[Mapping], out: Path, title: str, command: str,
                   focus: str = "mug") -> dict[str, Path]:
-    """episodes.csv, curves.csv, summary.md and curves.png under `out`."""
+    """episodes.csv, curves.csv, summary.md, curves.png and focus_curve.png under `out`, each
+    written whole or not at all (a temporary file and a rename)."""
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "episodes.csv", "w", newline="") as f:
+    with atomic_path(out / "episodes.csv") as tmp, tmp.open("w", newline="") as f:
         w = csv.DictWriter(f, FIELDS, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
     table = curves(rows)
-    with open(out / "curves.csv", "w", newline="") as f:
+    with atomic_path(out / "curves.csv") as tmp, tmp.open("w", newline="") as f:
         w = csv.DictWriter(f, list(table[0]))
         w.writeheader()
         w.writerows({k: (round(v, 6) if isinstance(v, float) else v) for k, v in c.items()}
                     for c in table)
-    (out / "summary.md").write_text(summary_markdown(rows, table, title, command, focus))
+    atomic_write_text(out / "summary.md", summary_markdown(rows, table, title, command, focus))
     plot(table, out / "curves.png", title, focus)
     plot(table, out / "focus_curve.png", title, focus, only=("focus_inspections",))
     return {"episodes": out / "episodes.csv", "curves": out / "curves.csv",
