@@ -43,7 +43,7 @@ def _env(cache: Path) -> dict:
 
 def _checkout(dest: Path, env: dict) -> str:
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
-    for name in ("fg_tea", "scenarios", "models"):
+    for name in ("fg_tea", "scenarios", "models", "cameras"):
         shutil.copytree(ROOT / name, dest / name, ignore=ignore)
     for name in ("pyproject.toml", ".gitignore"):
         shutil.copy2(ROOT / name, dest / name)

@@ -339,7 +339,8 @@ def add_video_options(p: argparse.ArgumentParser) -> None:
                    help="chase view: draw walls up to this height in metres (default: %(default)s)")
     g.add_argument("--full-walls", action="store_true", help="chase view: draw walls at full height")
     g.add_argument("--frame-stride", type=integer(1, 10_000), default=1,
-                   help="render every n-th frame of motion, for quick drafts (default: %(default)s)")
+                   help="a quick draft about N times shorter and cheaper: every N-th frame of "
+                   "motion, pauses N times shorter (default: %(default)s)")
     g.add_argument("--workers", type=integer(0, 1024), default=0, help="rendering processes (0: one per core)")
     g.add_argument("--no-overlays", action="store_true", help="camera images only")
 

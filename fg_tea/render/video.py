@@ -47,7 +47,8 @@ class VideoOptions:
         inset_scale: inset width as a fraction of the frame width (multi view).
         chase_distance, chase_height, chase_pitch_deg, chase_hfov_deg: chase camera (m, m, deg, deg).
         hold_seconds: how long selected frames are held for reading.
-        frame_stride: render every n-th frame of motion (1 = every frame).
+        frame_stride: render every n-th frame of motion and hold each pause 1/n as long: a
+            draft about n times shorter and cheaper (1 = every frame).
         workers: rendering processes (0 = one per core).
         overlays: draw the explanatory panels.
         scene_scale: the 3D views are rendered at this fraction of the output size and scaled
@@ -130,7 +131,9 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
     plan.site_positions = {s["name"]: tuple(s["position"]) for s in start["sites"] if "position" in s}
     vantages = {s["name"]: s.get("vantage") for s in start["sites"]}
     plan.viewpoints = {v["name"]: v for v in start.get("viewpoints", [])}
-    hold = max(1, int(round(options.hold_seconds * options.fps)))
+    # A draft (frame_stride n > 1) is about n times shorter and cheaper than the full video: every
+    # n-th frame of motion is rendered and shown once, and every pause is n times shorter.
+    hold = max(1, int(round(options.hold_seconds * options.fps)) // options.frame_stride)
     placements = {k: tuple(v) for k, v in start["world"]["placements"].items()}
     plan.placements.append(dict(placements))
     held: str | None = None
@@ -177,8 +180,7 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
             if i % options.frame_stride and i != len(motion) - 1:
                 continue
             pose = tuple(p)
-            plan.frames.append(FrameSpec(pose, len(plan.placements) - 1, held, index,
-                                         min(options.frame_stride, len(motion) - i)))
+            plan.frames.append(FrameSpec(pose, len(plan.placements) - 1, held, index))
         if repeat_last:
             plan.frames.append(FrameSpec(pose, len(plan.placements) - 1, held, push_overlay(), repeat_last))
 
