@@ -1,5 +1,6 @@
-"""Statistics, each written once: entropy, and interval estimates (Student-t, Wilson, the percentile
-bootstrap).
+"""Statistics, each written once: entropy, interval estimates (Student-t, Wilson, the percentile
+bootstrap), and what replication needs (t-test p-values, Holm's adjustment, Bonferroni intervals,
+the pairs a difference needs).
 
 **Entropy** (:func:`entropy`): H(p) = -sum p log p in nats with 0 log 0 = 0 (docs/design.md eqs.
 7, 22), over a whole distribution or along an axis, for the belief, the planners and the log.
@@ -171,5 +172,59 @@ def bootstrap_statistic(units: Sequence[T], statistic: Callable[[list[T]], float
     return point, lo, hi
 
 
+def t_test_p(values: Iterable[Any]) -> float:
+    """Two-sided p-value of the one-sample t-test that the mean is 0 (``scipy.stats.ttest_1samp``);
+    NaN below two values, 1.0 when every value is 0 (no difference at all)."""
+    from scipy import stats
+
+    x = np.array([float(v) for v in values if not _missing(v)], dtype=float)
+    if len(x) < 2:
+        return math.nan
+    if not np.any(x):
+        return 1.0
+    if float(x.std(ddof=1)) == 0.0:
+        return 0.0
+    return float(stats.ttest_1samp(x, 0.0).pvalue)
+
+
+def holm(pvalues: Sequence[float]) -> list[float]:
+    """Holm's step-down adjustment of p-values for `len(pvalues)` tests (NaN stays NaN and is
+    not counted): the family-wise error rate is at most the level at which they are read."""
+    known = sorted((p, i) for i, p in enumerate(pvalues) if not math.isnan(p))
+    m, out, running = len(known), [math.nan] * len(pvalues), 0.0
+    for rank, (p, i) in enumerate(known):
+        running = max(running, min(1.0, (m - rank) * p))
+        out[i] = running
+    return out
+
+
+def bonferroni_interval(values: Iterable[Any], tests: int, confidence: float = 0.95) -> Interval:
+    """A Student-t interval at coverage ``1 - (1 - confidence) / tests``: simultaneous coverage of
+    at least `confidence` over `tests` intervals."""
+    return t_interval(values, 1.0 - (1.0 - confidence) / max(int(tests), 1))
+
+
+def pairs_needed(sd: float, delta: float, confidence: float = 0.95, power: float = 0.8) -> int | None:
+    """Paired worlds a two-sided t-test at `confidence` needs to detect a mean difference `delta`
+    with probability `power`, given the paired differences' standard deviation `sd`:
+    ``n = ((t_{1-a/2, n-1} + t_{power, n-1}) sd / delta)^2``, solved by fixed-point iteration from
+    the normal approximation. None when it cannot be said (sd or delta not positive and finite).
+    """
+    from scipy import stats
+
+    if not (math.isfinite(sd) and math.isfinite(delta) and sd > 0 and delta > 0):
+        return None
+    a = 1.0 - confidence
+    n = max(2, math.ceil(((stats.norm.ppf(1 - a / 2) + stats.norm.ppf(power)) * sd / delta) ** 2))
+    for _ in range(20):
+        nxt = max(2, math.ceil(((stats.t.ppf(1 - a / 2, n - 1) + stats.t.ppf(power, n - 1))
+                                * sd / delta) ** 2))
+        if nxt == n:
+            break
+        n = nxt
+    return n
+
+
 __all__ = ["Z95", "BOOTSTRAP_RESAMPLES", "Interval", "t_interval", "wilson_interval", "resample_indices",
-           "bootstrap_interval", "bootstrap_ratio", "bootstrap_statistic", "entropy"]
+           "bootstrap_interval", "bootstrap_ratio", "bootstrap_statistic", "entropy", "t_test_p",
+           "holm", "bonferroni_interval", "pairs_needed"]
