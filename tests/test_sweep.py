@@ -507,5 +507,7 @@ def test_quick_compare_is_the_ten_world_ci_run(tmp_path):
     assert len(rows) == 10 * 2 * 4
     assert {r["world_seed"] for r in rows} == set(range(10))
     assert {r["planner"] for r in rows} == {"efe", "greedy", "nearest", "optimal"}
+    resolution = [line for line in proc.stdout.splitlines() if line.startswith("resolution: ")]
+    assert len(resolution) == 4 and all("over 10 pairs" in line for line in resolution)
     summary = (out / "summary.md").read_text()
     assert "## Paired differences: joint − factorised" in summary and "Bayes-optimal limit" in summary

@@ -107,6 +107,11 @@ def cmd_compare(args: argparse.Namespace) -> int:
                               command=command)
     print(f"episodes: {csv_path} ({len(rows)} rows)")
     print("wrote: " + ", ".join(str(files[name]) for name in sorted(files)))
+    if len(args.models) > 1:  # how far these worlds go, and how many would settle each cell
+        from fg_tea.study.replication import pairs_to_resolve_lines
+
+        for line in pairs_to_resolve_lines(rows, "model", load_model(model_path(args.models[0])).name):
+            print(f"resolution: {line}")
     return 0
 
 

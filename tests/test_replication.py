@@ -1,0 +1,75 @@
+"""Replication built into the method (fg_tea.study.replication, docs/design.md §11.1)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fg_tea.common.errors import InputError
+from fg_tea.study.replication import (ESTABLISHED, NO_DIFFERENCE, NOT_RESOLVED, SeedSet,
+                                      declare_seed_sets, pairs_to_resolve_lines, read_seed_sets,
+                                      replication_cells, replication_markdown)
+
+SETS = [SeedSet("discovery", 0, 60), SeedSet("confirmation", 5000, 60)]
+
+
+def _rows(effect: dict, seeds, rng, planner="efe", world="w", same_share=0.0):
+    """Sweep-like rows: factorised travels 20 +- 3 m; joint differs by `effect[set]` on the worlds
+    that do not repeat the factorised searches (a share `same_share` of them)."""
+    rows = []
+    for seed in seeds:
+        base = 20 + 3 * rng.standard_normal()
+        same = rng.random() < same_share
+        shift = 0.0 if same else effect(seed) + rng.standard_normal()
+        for model, travel in (("factorised", base), ("joint", base + shift)):
+            rows.append({"world": world, "world_seed": seed, "seed": seed, "task": "make_tea",
+                         "planner": planner, "model": model, "search_distance": travel,
+                         "inspections": 5 if same or model == "factorised" else 4,
+                         "success": True, "reason": "complete"})
+    return rows
+
+
+def test_a_real_effect_is_established_and_a_chance_one_is_not():
+    rng = np.random.default_rng(1)
+    seeds = list(range(60)) + list(range(5000, 5060))
+    rows = _rows(lambda s: -1.0, seeds, rng, planner="real", same_share=0.5)
+    # discovery shows an effect that the confirmation set does not have
+    rows += _rows(lambda s: -1.0 if s < 5000 else 0.0, seeds, rng, planner="chance")
+    rows += _rows(lambda s: 0.0, seeds, rng, planner="none", same_share=1.0)
+    cells = {c["planner"]: c for c in replication_cells(rows, SETS)}
+    assert cells["real"]["verdict"] == ESTABLISHED
+    assert cells["chance"]["verdict"] == NOT_RESOLVED
+    assert cells["none"]["verdict"] == NO_DIFFERENCE
+    real = cells["real"]
+    assert 0.3 < real["discovery"]["share_differ"] < 0.7
+    assert real["discovery"]["if_differ"].mean < real["discovery"]["difference"].mean < 0
+    adjusted, raw = real["confirmation"]["adjusted"], real["confirmation"]["difference"]
+    assert adjusted.low < raw.low and adjusted.high > raw.high
+    assert real["confirmation"]["p_holm"] >= real["confirmation"]["p"]
+    from fg_tea.common.stats import pairs_needed
+
+    diffs = np.array(real["discovery"]["diffs"])
+    assert real["pairs_needed"] == pairs_needed(float(diffs.std(ddof=1)),
+                                                0.03 * real["discovery"]["baseline"])
+    assert 8 < real["pairs_needed"] < 40  # 3 % of ~20 m is ~0.6 m; the differences' sd is ~0.9 m
+    text = replication_markdown(list(cells.values()), SETS)
+    assert "confirmation (world seeds 5000-5059)" in text and "**established**" in text
+
+
+def test_seed_sets_are_declared_once_and_must_be_disjoint(tmp_path):
+    path = declare_seed_sets(tmp_path, SETS)
+    assert json.loads(path.read_text())["sets"][1] == {"name": "confirmation", "first": 5000, "count": 60}
+    assert declare_seed_sets(tmp_path, SETS) == path and read_seed_sets(tmp_path) == SETS
+    with pytest.raises(InputError, match="a run with other seed sets goes to another --out"):
+        declare_seed_sets(tmp_path, [SeedSet("discovery", 0, 60), SeedSet("confirmation", 6000, 60)])
+    with pytest.raises(InputError, match="overlap"):
+        declare_seed_sets(tmp_path / "b", [SeedSet("discovery", 0, 60), SeedSet("confirmation", 30, 60)])
+    assert read_seed_sets(tmp_path / "none") == []
+
+
+def test_a_single_comparison_says_how_many_pairs_would_resolve_it():
+    rng = np.random.default_rng(2)
+    lines = pairs_to_resolve_lines(_rows(lambda s: -0.5, range(20), rng), "model", "factorised")
+    assert len(lines) == 1 and "over 20 pairs" in lines[0] and "pairs would resolve 3% of search_distance" in lines[0]
