@@ -51,11 +51,12 @@ import argparse
 import csv
 import math
 import shlex
-import statistics
 import sys
 import time
 from dataclasses import replace
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
@@ -66,6 +67,8 @@ from fg_tea.common.errors import run_script  # noqa: E402
 from fg_tea.common.files import atomic_write_text  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.env.camera import load_camera  # noqa: E402
+from fg_tea.study.replication import (SeedSet, check_seed_sets, declare_seed_sets,  # noqa: E402
+                                      read_seed_sets, replication_cells, replication_markdown)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
 from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
 
@@ -77,7 +80,7 @@ BASELINES = ("nearest", "greedy")
 METRICS = ("search_distance", "inspections", "spl")
 LABEL = {"search_distance": "search travel (m)", "inspections": "inspections", "spl": "SPL"}
 GAIN_LABEL = {"factorised_efe": "eqs. 10-11", "mi_efe": "exact MI", "nearest": "nearest",
-              "greedy": "most probable"}
+              "greedy": "most probable", "lookahead": "lookahead"}
 DEFAULT_HALF_PIXELS = (25.0, 50.0, 100.0)
 DEFAULT_STRENGTHS = (0.0, 0.75, 1.0)
 
@@ -89,7 +92,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--table", choices=("houses", "detectability"), default="houses",
                    help="which table to run (default: %(default)s)")
     p.add_argument("--worlds", type=int, default=200, help="worlds per cell (default: %(default)s)")
-    p.add_argument("--first-seed", type=int, default=0, help="first world seed (default: %(default)s)")
+    p.add_argument("--first-seed", type=int, default=0,
+                   help="first world seed (of the discovery set, with --confirmation-first-seed; "
+                   "default: %(default)s)")
+    p.add_argument("--confirmation-first-seed", type=int, default=None,
+                   help="declare a confirmation set of worlds from this seed, disjoint from the "
+                   "discovery set (--first-seed, --worlds); both are written to seed_sets.json "
+                   "before any episode, and the report judges every cell on it "
+                   "(docs/design.md §11.1)")
+    p.add_argument("--confirmation-worlds", type=int, default=None,
+                   help="worlds of the confirmation set (default: --worlds)")
     p.add_argument("--sizes", nargs="+", choices=tuple(SIZES), default=list(SIZES),
                    help="house sizes: small (3 rooms, ~13 sites), medium (6, ~27), large (10, ~45) "
                    "(default: all)")
@@ -125,6 +137,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     args = p.parse_args(argv)
     if args.worlds < 1:
         p.error("--worlds must be at least 1")
+    if args.confirmation_worlds is not None and args.confirmation_first_seed is None:
+        p.error("--confirmation-worlds needs --confirmation-first-seed")
+    if args.first_seed < 0 or (args.confirmation_first_seed or 0) < 0:
+        p.error("world seeds must not be negative")
     for c in args.strengths:
         if not 0.0 <= c <= 1.0:
             p.error(f"--strengths: {c} is outside [0, 1]")
@@ -205,9 +221,21 @@ def plan(args, out: Path) -> tuple[list[Job], list[dict]]:
     return jobs, cells
 
 
+def seed_sets(args) -> list[SeedSet]:
+    """The discovery and confirmation sets of a replicated run (empty without one)."""
+    if args.confirmation_first_seed is None:
+        return []
+    sets = [SeedSet("discovery", args.first_seed, args.worlds),
+            SeedSet("confirmation", args.confirmation_first_seed,
+                    args.confirmation_worlds or args.worlds)]
+    check_seed_sets(sets)
+    return sets
+
+
 # ---------------------------------------------------------------------------------- decision time
 def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
-    """Median wall time (ms) per planner decision, per house size, model and planner.
+    """Wall and CPU time (ms) per planner decision, median and 95th percentile, per house size,
+    model and planner.
 
     Runs the first `worlds` worlds of each (world, model, planner) again in this process, timing
     every ``planner.choose``; the episodes are the sweep's own (same seeds), only their clock is
@@ -218,7 +246,7 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
 
     first = min(j.world_seed for j in jobs) if jobs else 0
     picked = [j for j in jobs if j.world_seed < first + worlds]
-    samples: dict[tuple, list[float]] = {}
+    samples: dict[tuple, list[tuple[float, float]]] = {}
     for job in picked:
         world, model = _world(job.world, job.knobs), _model(job.model, job.model_overrides)
         scenario = world.sample(job.world_seed)
@@ -232,11 +260,12 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
                 (job.world, job.task, model.name, model.structure, job.planner), [])
 
             def timed(*a, _choose=choose, _times=times, **k):
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 try:
                     return _choose(*a, **k)
                 finally:
-                    _times.append((time.perf_counter() - t0) * 1e3)
+                    _times.append(((time.perf_counter() - t0) * 1e3,
+                                   (time.process_time() - c0) * 1e3))
 
             runner.planner.choose = timed
             for _ in range(job.max_steps):
@@ -247,8 +276,12 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
             pass  # a refusal (dense limit, optimal size): no time to report for this cell
         finally:
             env.close()
-    return [{"world": w, "task": t, "model": m, "structure": s, "planner": p,
-             "decisions": len(v), "median_ms": round(statistics.median(v), 4) if v else None}
+    def stat(values: list[float], q: float) -> float | None:
+        return round(float(np.quantile(values, q)), 4) if values else None
+
+    return [{"world": w, "task": t, "model": m, "structure": s, "planner": p, "decisions": len(v),
+             "median_ms": stat([x for x, _ in v], 0.5), "p95_ms": stat([x for x, _ in v], 0.95),
+             "cpu_median_ms": stat([c for _, c in v], 0.5), "cpu_p95_ms": stat([c for _, c in v], 0.95)}
             for (w, t, m, s, p), v in sorted(samples.items())]
 
 
@@ -409,26 +442,66 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
              + (f" ({seconds / ran:.2f} s per episode on this machine)" if ran else "") + ".", "",
              "## Paired differences", "", markdown_table(header, body), "",
              f"Heat map: `{png.name}`.", "",
-             "## Decision time (median ms per decision, in-process)", ""]
+             "## Decision time (ms per decision, in-process: wall and CPU, median and 95th "
+             "percentile; earlier runs measured the wall median only)", ""]
     if times:
+        def ms(t: dict, key: str) -> str:
+            return "–" if t.get(key) in (None, "") else str(t[key])
+
         lines.append(markdown_table(["world", "task", "model", "structure", "planner", "decisions",
-                                     "median ms"],
+                                     "median ms", "p95 ms", "CPU median ms", "CPU p95 ms"],
                                     [[t["world"], t["task"], t["model"], t["structure"], t["planner"],
-                                      t["decisions"], "–" if t["median_ms"] is None else t["median_ms"]]
-                                     for t in times]))
+                                      t["decisions"], ms(t, "median_ms"), ms(t, "p95_ms"),
+                                      ms(t, "cpu_median_ms"), ms(t, "cpu_p95_ms")] for t in times]))
     else:
         lines.append("Not measured (--timing-worlds 0).")
+    sets = read_seed_sets(out)
+    if sets:
+        cells_r = replication_cells(tagged, sets, vary="belief", baseline="factorised", other="joint",
+                                    by=columns + ("planner",))
+        cells_r.sort(key=lambda c: tuple(rank[k].get(c[k], 99) for k in columns)
+                     + (order.get(c["planner"], 99),))
+        for c in cells_r:
+            c["planner"] = GAIN_LABEL.get(c["planner"], c["planner"])
+        write_csv_atomic(out / f"{args.table}_replication.csv", replication_rows(cells_r, sets, columns))
+        lines += ["", "## Replication: joint − factorised search travel (m)", "",
+                  "The table above pools both seed sets; here each is judged on its own.", "",
+                  replication_markdown(cells_r, sets, columns + ("planner",))]
     lines += ["", "## Means per cell, model and planner", "",
               summary_markdown(summary, columns + ("model", "planner"),
                                METRICS + ("clairvoyant_search_travel",)), ""]
     return atomic_write_text(out / f"{args.table}.md", "\n".join(lines))
 
 
+def replication_rows(cells: list[dict], sets: list[SeedSet], columns: tuple[str, ...]) -> list[dict]:
+    """The replication table as CSV rows: per cell and seed set, every statistic."""
+    out = []
+    for c in cells:
+        row = {k: c[k] for k in columns + ("planner",)}
+        for s in sets:
+            e = c[s.name]
+            row.update({f"{s.name}_first_seed": s.first, f"{s.name}_worlds": s.count,
+                        f"{s.name}_pairs": e["pairs"], f"{s.name}_diff": e["difference"].mean,
+                        f"{s.name}_low": e["difference"].low, f"{s.name}_high": e["difference"].high,
+                        f"{s.name}_adjusted_low": e["adjusted"].low,
+                        f"{s.name}_adjusted_high": e["adjusted"].high, f"{s.name}_p": e["p"],
+                        f"{s.name}_p_holm": e["p_holm"], f"{s.name}_share_differ": e["share_differ"],
+                        f"{s.name}_diff_if_differ": e["if_differ"].mean})
+        row.update(pairs_needed=c["pairs_needed"], resolve_m=c["resolve"], verdict=c["verdict"])
+        out.append(row)
+    return out
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
     out = Path(args.out) / args.table
+    sets = seed_sets(args)
+    if sets:  # declared before any episode runs; a folder keeps its declaration
+        declare_seed_sets(out, sets)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [replace(j, gtsam_check=args.gtsam_check) for j in plan(args, out)[0]]
+    jobs = [replace(j, gtsam_check=args.gtsam_check) for s in (sets or [None])
+            for j in plan(args if s is None else argparse.Namespace(
+                **{**vars(args), "first_seed": s.first, "worlds": s.count}), out)[0]]
     csv_path = out / "episodes.csv"
     before = 0
     if args.resume and csv_path.exists():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -130,3 +131,38 @@ def test_generated_medium_quick_compare_in_the_pybullet_house(tmp_path):
     rows = read_rows(tmp_path / "episodes.csv")
     assert len(rows) == 10 * 2 * 3 and "optimal" not in {r["planner"] for r in rows}
     _check_spl(rows)
+
+
+def test_a_replicated_run_declares_its_seed_sets_first_and_judges_every_cell(tmp_path):
+    """--confirmation-first-seed: seed_sets.json before any episode, a replication section and CSV
+    with both sets, the lookahead among the planners, decision times with p95 and CPU; a later run
+    with other sets in the same folder is refused in one line (docs/design.md §11.1)."""
+    common = ("experiments/compare_at_scale.py", "--table", "houses", "--worlds", "2", "--sizes",
+              "small", "--tasks", "make_tea", "--planners", "factorised_efe", "lookahead", "--env",
+              "fake", "--executor", "serial", "--timing-worlds", "1", "--out", str(tmp_path))
+    _run(*common, "--confirmation-first-seed", "10000")
+    table = tmp_path / "houses"
+    sets = json.loads((table / "seed_sets.json").read_text())["sets"]
+    assert [(s["name"], s["first"], s["count"]) for s in sets] == [("discovery", 0, 2),
+                                                                   ("confirmation", 10000, 2)]
+    rows = read_rows(table / "episodes.csv")
+    assert {r["world_seed"] for r in rows} == {0, 1, 10000, 10001} and len(rows) == 4 * 2 * 2
+    text = (table / "houses.md").read_text()
+    assert "## Replication: joint − factorised search travel (m)" in text and "| lookahead |" in text
+    with (table / "houses_replication.csv").open(newline="") as fh:
+        cells = list(csv.DictReader(fh))
+    assert {c["planner"] for c in cells} == {"eqs. 10-11", "lookahead"}
+    assert all(c["verdict"] in ("established", "not resolved", "no difference") for c in cells)
+    assert all(c["discovery_pairs"] == "2" and c["confirmation_pairs"] == "2" for c in cells)
+    with (table / "decision_times.csv").open(newline="") as fh:
+        times = list(csv.DictReader(fh))
+    assert times and all(float(t["cpu_p95_ms"]) >= float(t["cpu_median_ms"]) for t in times)
+    proc = subprocess.run([sys.executable, *common, "--confirmation-first-seed", "20000"],
+                          capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert "seed_sets.json" in proc.stderr and "another --out" in proc.stderr
+    proc = subprocess.run([sys.executable, *common[:-2], "--out", str(tmp_path / "b"),
+                           "--confirmation-first-seed", "1"], capture_output=True, text=True,
+                          stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert proc.returncode == 2 and "overlap" in proc.stderr
+    assert not (tmp_path / "b" / "houses" / "episodes.csv").exists()
