@@ -99,6 +99,26 @@ def test_thousand_misses_then_a_detection_collapse_as_eq_4(factorised, backend):
 
 
 @pytest.mark.parametrize("backend", ["numpy", "gtsam"])
+@pytest.mark.parametrize("which", ["factorised", "joint"])
+def test_misses_elsewhere_then_a_detection_keep_eq_4s_floor(factorised, joint, which, backend):
+    """About 250 misses at the *other* sites push their q below the smallest float; a detection
+    must still give eq. 4's floor there (it gave [1, 0, 0]), and a later detection at one of those
+    sites must collapse there, not raise ContradictionError."""
+    model = factorised if which == "factorised" else joint
+    belief = engine(model, backend)
+    floor = model.prior_floor
+    for _ in range(300):
+        belief.observe_site("b", {"mug": False})
+        belief.observe_site("c", {"mug": False})
+    belief.observe_site("a", {"mug": True})
+    target = np.array([1.0, floor, floor]) / (1 + 2 * floor)
+    np.testing.assert_allclose(belief.location("mug"), target, rtol=1e-9, atol=0)
+    belief.observe_site("b", {"mug": True})
+    np.testing.assert_allclose(belief.location("mug"), [floor / (1 + 2 * floor), 1 / (1 + 2 * floor),
+                                                        floor / (1 + 2 * floor)], rtol=1e-9, atol=0)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "gtsam"])
 def test_joint_model_thousand_misses_then_a_detection(joint, backend):
     belief = engine(joint, backend, objects=("kettle", "teabag"),
                     weights=((2.0, 0.0, 1.0), (1.0, 1.0, 1.0)))

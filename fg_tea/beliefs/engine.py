@@ -682,7 +682,10 @@ class BeliefEngine:
         (miss likelihood `miss`, default the model's mu)."""
         if self.model.positive_update == "collapse":
             current = self.location(obj)
-            exact = None if current[j] >= np.finfo(float).tiny else self._log_location(obj)
+            # Any entry below the smallest normal float (q at j after many misses there, or q
+            # elsewhere after many misses elsewhere) is taken from the exact log belief, so the
+            # ratio t / q keeps eq. 4's floor at every site.
+            exact = None if current.min() >= np.finfo(float).tiny else self._log_location(obj)
             return collapse_factor(obj, j, current, self.model.prior_floor, log_current=exact)
         return detection_factor(obj, j, len(self.sites),
                                 self.model.miss_likelihood if miss is None else miss,
