@@ -189,3 +189,26 @@ def test_a_planner_that_returns_no_decision_is_named(tmp_path, monkeypatch):
         runner.run()
     assert isinstance(fault.value.__cause__, TypeError)
     assert runner.done and runner.events[-2]["reason"].startswith("planner_error: failed: TypeError")
+
+
+@pytest.mark.parametrize("body, status, message", [
+    ("raise KeyboardInterrupt\n", 130, "fg-tea: interrupted"),
+    ("import sys\nsys.exit(0)\n", 2, "importing 'exits_{n}' called exit(0); a planner module must not exit"),
+])
+def test_a_plugin_that_interrupts_or_exits_at_import_is_one_line(tmp_path, monkeypatch, capsys, body,
+                                                                  status, message):
+    """Both used to end in a traceback (the interrupt) or exit 0 with no log (the exit)."""
+    n = status
+    (tmp_path / f"exits_{n}.py").write_text(body)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    from fg_tea.cli.main import main
+
+    try:
+        done = main(["run", "--planner", f"exits_{n}:P", "--no-video", "--out", str(tmp_path / "out")])
+    except SystemExit as exc:  # argparse reports a bad option value itself
+        done = exc.code
+    assert done == status
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message.format(n=n) in err[0]
+    assert not (tmp_path / "out").exists()

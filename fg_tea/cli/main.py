@@ -60,7 +60,11 @@ def main(argv: Sequence[str] | None = None,
     namespace names the command in ``command`` (as experiments/compare_beliefs.py does)."""
     single_threaded_blas_defaults()
     parser = (parser_factory or build_parser)()
-    args = parser.parse_args(argv)
+    try:  # option types import plug-in planners: an interrupt there is one line too
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        _error("interrupted", prefix="fg-tea: ")
+        return 130
     check_aliases(parser, args, sys.argv[1:] if argv is None else list(argv))
     notes = list(getattr(args, DeprecatedAlias.NOTES, []))  # written after the command, or
     if hasattr(args, DeprecatedAlias.NOTES):                 # folded into its one error line

@@ -93,6 +93,9 @@ def _import_module(spec: str, module: str):
             raise PlannerSpecError(spec, f"{spec!r}: no module named {exc.name!r} on sys.path or "
                                    f"in the current directory ({cwd})") from None
         raise PlannerSpecError(spec, f"{spec!r}: importing {module!r} failed: {exc}") from None
+    except SystemExit as exc:  # the user's module called exit(): it is not a planner module
+        raise PlannerSpecError(spec, f"{spec!r}: importing {module!r} called exit"
+                               f"({exc.code!r}); a planner module must not exit") from None
     except Exception as exc:  # the user's module raised while importing: say so in one line
         first = (str(exc).splitlines() or [""])[0]
         raise PlannerSpecError(spec, f"{spec!r}: importing {module!r} raised "
