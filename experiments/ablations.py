@@ -36,7 +36,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from fg_tea.common.files import atomic_write_text
+from fg_tea.common.files import out_folder, atomic_write_text
 from fg_tea.study.analysis import (METRICS, markdown_table, paired_differences, plot_bars,
     summary_markdown, summary_table)
 from fg_tea.common.errors import InputError
@@ -63,7 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="ablation models (default: every file in models/ablations)")
     p.add_argument("--planner", default="efe", help=PLANNER_HELP)
     add_execution_arguments(p, "ablations.csv")
-    p.add_argument("--out", default=str(DEFAULT_OUT),
+    p.add_argument("--out", type=out_folder, default=str(DEFAULT_OUT),
                    help="output folder (default: %(default)s; committed: experiments/results/ablations)")
     return p
 

@@ -49,6 +49,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
+from fg_tea.common.files import out_file  # noqa: E402
 from fg_tea.beliefs.engine import BeliefEngine  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.beliefs.factors import detection_factor, miss_factor  # noqa: E402
@@ -435,7 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--quick", action="store_true", help="tiny smoke run (3×6 and 3×8 only)")
     parser.add_argument("--budget", type=float, default=None,
                         help="time budget per call, seconds (default 5, quick 1)")
-    parser.add_argument("--out", type=Path, default=None,
+    parser.add_argument("--out", type=out_file, default=None,
                         help=f"markdown output (default: {DEFAULT_OUT} for the full run, none for "
                              "--quick; committed: experiments/results/bench_inference.md)")
     return parser

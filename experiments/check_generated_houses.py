@@ -33,7 +33,7 @@ DEFAULT_OUT = Path("runs") / "experiments" / "check_generated_houses"
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.files import atomic_path, atomic_write_text  # noqa: E402
+from fg_tea.common.files import out_folder, atomic_path, atomic_write_text  # noqa: E402
 from fg_tea.common.options import MODEL_HELP, WORKERS_HELP, experiment_parser  # noqa: E402
 
 COLUMNS = ("rooms", "seed", "ok", "stage", "error", "sites", "room_vantages", "success", "reason",
@@ -93,7 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", default="factorised", help=MODEL_HELP)
     p.add_argument("--max-steps", type=int, default=2000, help="runner steps per episode")
     p.add_argument("--workers", type=int, default=1, help=WORKERS_HELP)
-    p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder (default: %(default)s)")
+    p.add_argument("--out", type=out_folder, default=str(DEFAULT_OUT), help="output folder (default: %(default)s)")
     return p
 
 

@@ -64,7 +64,7 @@ sys.path.insert(0, str(ROOT))
 from fg_tea.study.analysis import (markdown_table, paired_differences, save_figure,
     summary_markdown, summary_table)
 from fg_tea.common.errors import run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text  # noqa: E402
+from fg_tea.common.files import out_folder, atomic_write_text  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.env.camera import load_camera  # noqa: E402
 from fg_tea.study.replication import (SeedSet, check_seed_sets, declare_seed_sets,  # noqa: E402
@@ -127,7 +127,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "(docs/design.md §4.7); off by default here: it changes no row and is most of an "
                    "episode's cost with five objects")
     add_execution_arguments(p, "episodes.csv")
-    p.add_argument("--out", default=DEFAULT_OUT,
+    p.add_argument("--out", type=out_folder, default=DEFAULT_OUT,
                    help="output folder; each table writes into OUT/TABLE (default: %(default)s)")
     return p
 

@@ -23,6 +23,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from fg_tea.common.files import out_folder  # noqa: E402
 from fg_tea.common.options import ENV_HELP, MODELS_HELP, WORKERS_HELP, WORLD_HELP, experiment_parser  # noqa: E402
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
@@ -71,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="probability in [0, 1] that each executable action fails")
     p.add_argument("--env", choices=("pybullet", "fake"), default="pybullet", help=ENV_HELP)
     p.add_argument("--workers", type=int, default=2, help=WORKERS_HELP)
-    p.add_argument("--out", default=str(DEFAULT_OUT), help="output folder (default: %(default)s)")
+    p.add_argument("--out", type=out_folder, default=str(DEFAULT_OUT), help="output folder (default: %(default)s)")
     return p
 
 

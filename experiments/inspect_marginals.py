@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fg_tea.common.files import out_file
 from fg_tea.common.files import atomic_path
 from fg_tea.common.options import MODEL_HELP, SCENARIO_HELP, experiment_parser
 from fg_tea.env.house import PyBulletHouse
@@ -105,7 +106,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--model", default="joint", help=MODEL_HELP)
     parser.add_argument("--scenario", default="default_apartment", help=SCENARIO_HELP)
     parser.add_argument("--seed", type=int, default=0, help="episode seed")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="PNG to write (default: %(default)s)")
+    parser.add_argument("--out", type=out_file, default=DEFAULT_OUT, help="PNG to write (default: %(default)s)")
     return parser
 
 

@@ -31,6 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from fg_tea.common.files import out_folder  # noqa: E402
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
 from fg_tea.common.options import (ENV_HELP, MODELS_HELP, OUT_HELP, PLANNER_HELP,  # noqa: E402
                                    WORKERS_HELP, experiment_parser)
@@ -53,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--env", choices=("fake", "pybullet"), default="fake", help=ENV_HELP)
     p.add_argument("--planner", default="efe", help=PLANNER_HELP)
     p.add_argument("--workers", type=int, default=1, help=WORKERS_HELP)
-    p.add_argument("--out", default="runs/experiments/lifelong", help=OUT_HELP)
+    p.add_argument("--out", type=out_folder, default="runs/experiments/lifelong", help=OUT_HELP)
     p.add_argument("--forgetting", type=float, nargs="+", default=None,
                    help="forgetting factor(s) gamma of the learned arms (default 1: never forget); "
                    "several values run the learned arms once per value")

@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text  # noqa: E402
+from fg_tea.common.files import out_folder, atomic_write_text  # noqa: E402
 from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio  # noqa: E402
 from fg_tea.study.frontier import run_frontier, summarise  # noqa: E402
 
@@ -107,7 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ladder", nargs="+", type=int, default=list(LADDER),
                    help="node budgets (tree nodes per decision); the largest is the reference")
     p.add_argument("--models", nargs="+", default=["factorised_close", "joint_close"], help=MODELS_HELP)
-    p.add_argument("--out", default="runs/experiments/lookahead_budget",
+    p.add_argument("--out", type=out_folder, default="runs/experiments/lookahead_budget",
                    help="output folder: OUT/budget.md and OUT/<world>/ (default: %(default)s)")
     p.add_argument("--summary-only", action="store_true",
                    help="run nothing; summarise the episodes already under OUT/<world>/episodes")

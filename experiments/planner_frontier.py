@@ -40,6 +40,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from fg_tea.common.files import out_folder  # noqa: E402
 from fg_tea.common.errors import run_script  # noqa: E402
 from fg_tea.study.frontier import (  # noqa: E402
     DEFAULT_PLANNERS,
@@ -68,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--env", choices=("fake", "pybullet"), default="fake", help=ENV_HELP)
     p.add_argument("--miss-rate", type=float, default=None,
                    help="injected detector miss rate (default: the model's mu)")
-    p.add_argument("--out", default="runs/experiments/planner_frontier",
+    p.add_argument("--out", type=out_folder, default="runs/experiments/planner_frontier",
                    help="output folder (default: %(default)s)")
     p.add_argument("--summary-only", action="store_true",
                    help="run nothing: summarise the episodes already in OUT/episodes (missing "

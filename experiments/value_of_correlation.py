@@ -37,7 +37,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from fg_tea.common.files import atomic_write_text
+from fg_tea.common.files import out_folder, atomic_write_text
 from fg_tea.study.analysis import (Interval, markdown_table, paired_differences, plot_sweep,
     step_limited)
 from fg_tea.common.errors import InputError
@@ -94,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="which sweeps to run (each varies one world or model parameter)")
     p.add_argument("--quick", action="store_true", help="two values per sweep (smoke test)")
     add_execution_arguments(p, "value_of_correlation.csv")
-    p.add_argument("--out", default=str(DEFAULT_OUT),
+    p.add_argument("--out", type=out_folder, default=str(DEFAULT_OUT),
                    help="output folder (default: %(default)s; "
                         "committed: experiments/results/value_of_correlation)")
     return p

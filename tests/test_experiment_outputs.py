@@ -123,3 +123,25 @@ def test_inspect_marginals_without_out_writes_only_under_runs(tmp_path):
     png = tmp_path / "runs" / "experiments" / "inspect_marginals" / "inspect_marginals.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert [p.name for p in tmp_path.iterdir()] == ["runs"]
+
+
+#: Scripts whose --out is one file (the others take a folder).
+FILE_OUTPUT = {"bench_inference.py", "inspect_marginals.py"}
+
+
+@pytest.mark.parametrize("name", sorted(set(SCRIPTS) - PRINT_ONLY))
+def test_an_unwritable_out_is_refused_before_any_work(name, tmp_path, capsys):
+    """--out is checked while the options are read: one line, exit 2, nothing run. (It used to be
+    found out only when the results were written, after every episode.)"""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder\n")
+    out = tmp_path if name in FILE_OUTPUT else blocker / "sub"
+    module = _module(name)
+    try:
+        status = module.main(["--out", str(out)])
+    except SystemExit as exc:  # argparse: "NAME: error: argument --out: ..."
+        status = exc.code
+    assert status == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--out" in err[0], err  # compare_beliefs.py is fg-tea compare's parser
+    assert ("is a folder; name a file" if name in FILE_OUTPUT else "cannot create folder") in err[0]

@@ -12,7 +12,9 @@ from pathlib import Path
 from typing import Callable, NoReturn, Sequence
 
 from fg_tea.common.errors import InputError
-from fg_tea.common.files import (
+from fg_tea.common.files import (  # noqa: F401 - the commands import them from here
+    check_out_dir,
+    check_out_file,
     check_output_file,
 )
 from fg_tea.common.options import DeprecatedAlias
@@ -164,35 +166,6 @@ def safe_name(name: str) -> str:
 
     cleaned = re.sub(r"[^A-Za-z0-9._#+=-]+", "_", name).lstrip(".")[:120]
     return cleaned or "unnamed"
-
-
-def check_out_dir(path: Path, flag: str = "--out") -> Path:
-    """Create the output folder `path` (and parents), or fail with one line saying why not."""
-    if path.exists() and not path.is_dir():
-        raise InputError("<command line>", flag, f"{path} exists and is not a folder")
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError("<command line>", flag, f"cannot create folder {path}: "
-                         f"{exc.strerror or exc}") from None
-    import tempfile
-
-    try:  # the only sure test of writability (root, read-only mounts, /proc)
-        with tempfile.NamedTemporaryFile(dir=path, prefix=".fg-tea-probe-"):
-            pass
-    except OSError as exc:
-        raise InputError("<command line>", flag, f"cannot write into folder {path}: "
-                         f"{exc.strerror or exc}") from None
-    return path
-
-
-def check_out_file(path: Path, flag: str = "--out") -> Path:
-    """Check that the output file `path` can be written (atomically, beside itself)."""
-    if path.is_dir():
-        raise InputError("<command line>", flag, f"{path} is a folder; name a file")
-    check_output_file(path, flag)
-    check_out_dir(path.parent if str(path.parent) else Path("."), flag)
-    return path
 
 
 def remove_outputs(out: Path, names: Sequence[str]) -> None:

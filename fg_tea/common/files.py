@@ -50,6 +50,57 @@ def check_outputs_in(folder: str | Path, names: Sequence[str], option: str = "--
         check_output_file(Path(folder) / name, option)
 
 
+def check_out_dir(path: Path, flag: str = "--out") -> Path:
+    """Create the output folder `path` (and parents), or fail with one line saying why not."""
+    if path.exists() and not path.is_dir():
+        raise InputError("<command line>", flag, f"{path} exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError("<command line>", flag, f"cannot create folder {path}: "
+                         f"{exc.strerror or exc}") from None
+    import tempfile
+
+    try:  # the only sure test of writability (root, read-only mounts, /proc)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=".fg-tea-probe-"):
+            pass
+    except OSError as exc:
+        raise InputError("<command line>", flag, f"cannot write into folder {path}: "
+                         f"{exc.strerror or exc}") from None
+    return path
+
+
+def check_out_file(path: Path, flag: str = "--out") -> Path:
+    """Check that the output file `path` can be written (atomically, beside itself)."""
+    if path.is_dir():
+        raise InputError("<command line>", flag, f"{path} is a folder; name a file")
+    check_output_file(path, flag)
+    check_out_dir(path.parent if str(path.parent) else Path("."), flag)
+    return path
+
+
+def out_folder(text: str) -> str:
+    """An argparse ``type`` for an output folder: created and probed at parse time, so a folder
+    that cannot be written is one line and exit 2 before any work (experiment scripts)."""
+    import argparse
+
+    try:
+        check_out_dir(Path(text))
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(exc.fault) from None
+    return text
+
+
+def out_file(text: str) -> Path:
+    """An argparse ``type`` for an output file, checked as :func:`check_out_file` does."""
+    import argparse
+
+    try:
+        return check_out_file(Path(text))
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(exc.fault) from None
+
+
 @contextmanager
 def atomic_path(path: str | Path, suffix: str = "") -> Iterator[Path]:
     """Yield a temporary path beside `path`; rename it to `path` if the block succeeds.

@@ -99,13 +99,25 @@ WORKERS_HELP = "worker processes"
 OUT_HELP = "output folder"
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse that reports a usage fault in one line, ``PROG: error: ...``, with exit status 2
+    (argparse prints the whole usage first)."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        import sys
+
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        raise SystemExit(2)
+
+
 def experiment_parser(doc: str | None, file: str, section: str, **kwargs: Any) -> argparse.ArgumentParser:
     """The argparse parser of an experiment script (``experiments/NAME.py``).
 
     `doc` is the script's module docstring: its first paragraph is the description. `file` is
     the script's ``__file__``, whose name is the program name. `section` names the part of
     docs/design.md the script implements (e.g. ``"§11"``), cited in the epilog. Every option's
-    default is shown after its help (:class:`DefaultsHelpFormatter`).
+    default is shown after its help (:class:`DefaultsHelpFormatter`). A usage fault is one line
+    and exit 2 (:class:`OneLineParser`).
     """
     from pathlib import Path
 
@@ -115,9 +127,9 @@ def experiment_parser(doc: str | None, file: str, section: str, **kwargs: Any) -
     kwargs.setdefault("epilog", f"Implements docs/design.md {section}; the module docstring of "
                       f"experiments/{Path(file).name} has examples and what it writes.")
     kwargs.setdefault("formatter_class", DefaultsHelpFormatter)
-    return argparse.ArgumentParser(**kwargs)
+    return OneLineParser(**kwargs)
 
 
-__all__ = ["DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP", "MODEL_HELP", "MODELS_HELP",
+__all__ = ["OneLineParser", "DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP", "MODEL_HELP", "MODELS_HELP",
            "OUT_HELP", "PLANNER_HELP", "SCENARIO_HELP", "SEED_HELP", "WORKERS_HELP", "WORLD_HELP",
            "experiment_parser"]
