@@ -349,8 +349,13 @@ def paired(rows: list[dict], columns: tuple[str, ...]) -> list[dict]:
                               by=columns + ("planner",))
 
 
-def heatmap(diffs: list[dict], row: str, col: str, panel: str | None, path: Path, title: str) -> Path:
-    """Mean paired joint − factorised search travel (m) per cell; '*' marks a CI excluding 0."""
+def heatmap(diffs: list[dict], row: str, col: str, panel: str | None, path: Path, title: str,
+            verdicts: dict[tuple, str] | None = None) -> Path:
+    """Mean paired joint − factorised search travel (m) per cell; '*' marks a CI excluding 0.
+
+    With `verdicts` (cell key -> replication verdict, docs/design.md §11.1) a cell is marked
+    "established" or "not resolved" under its value instead.
+    """
     from matplotlib.figure import Figure
 
     planners = list(dict.fromkeys(d["planner"] for d in diffs))
@@ -374,7 +379,10 @@ def heatmap(diffs: list[dict], row: str, col: str, panel: str | None, path: Path
                 iv = d["search_distance"]
                 grid[i][j] = iv.mean
                 sig = not math.isnan(iv.low) and (iv.low > 0 or iv.high < 0)
-                marks[i][j] = f"{iv.mean:+.2f}{'*' if sig else ''}"
+                marks[i][j] = f"{iv.mean:+.2f}{'*' if sig and verdicts is None else ''}"
+                if verdicts is not None:
+                    key = (d[row], d[col]) + ((d[panel],) if panel else ()) + (planner,)
+                    marks[i][j] += "\n" + verdicts.get(key, "")
             image = ax.imshow(grid, cmap="RdBu_r", vmin=-span, vmax=span, aspect="auto")
             for i in range(len(rows_v)):
                 for j in range(len(cols_v)):
@@ -418,13 +426,32 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
                           f"{m}_factorised": d[m + "_baseline"].mean, f"{m}_joint": d[m + "_other"].mean})
         flat.append(entry)
     write_csv_atomic(out / f"{args.table}_paired.csv", flat)
+    sets = read_seed_sets(out)
+    replication: list[str] = []
+    verdicts = None
+    if sets:
+        cells_r = replication_cells(tagged, sets, vary="belief", baseline="factorised", other="joint",
+                                    by=columns + ("planner",))
+        cells_r.sort(key=lambda c: tuple(rank[k].get(c[k], 99) for k in columns)
+                     + (order.get(c["planner"], 99),))
+        key_of = {"houses": ("size", "task"), "detectability": ("half_pixels", "strength", "size")}
+        verdicts = {tuple(c[k] for k in key_of[args.table]) + (c["planner"],): c["verdict"]
+                    for c in cells_r}
+        for c in cells_r:
+            c["planner"] = GAIN_LABEL.get(c["planner"], c["planner"])
+        write_csv_atomic(out / f"{args.table}_replication.csv", replication_rows(cells_r, sets, columns))
+        replication = ["", "## Replication: joint − factorised search travel (m)", "",
+                       "The table above pools both seed sets; here each is judged on its own.", "",
+                       replication_markdown(cells_r, sets, columns + ("planner",))]
     if args.table == "houses":
         png = heatmap(diffs, "size", "task", None, out / f"{args.table}_heatmap.png",
-                      "Joint − factorised search travel (m) per house size and task; * 95 % CI excludes 0")
+                      "Joint − factorised search travel (m) per house size and task; "
+                      + ("replication verdicts (docs/design.md §11.1)" if verdicts
+                         else "* 95 % CI excludes 0"), verdicts)
     else:
         png = heatmap(diffs, "half_pixels", "strength", "size", out / f"{args.table}_heatmap.png",
                       "Joint − factorised search travel (m): n_50 of the small objects × correlation; "
-                      "* 95 % CI excludes 0")
+                      + ("replication verdicts" if verdicts else "* 95 % CI excludes 0"), verdicts)
     summary = summary_table(sorted(tagged, key=lambda r: r["key"]), columns + ("model", "planner"),
                             METRICS + ("clairvoyant_search_travel",))
     n_worlds = len({(r["world"], r["world_seed"]) for r in tagged})
@@ -455,18 +482,7 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
                                       ms(t, "cpu_median_ms"), ms(t, "cpu_p95_ms")] for t in times]))
     else:
         lines.append("Not measured (--timing-worlds 0).")
-    sets = read_seed_sets(out)
-    if sets:
-        cells_r = replication_cells(tagged, sets, vary="belief", baseline="factorised", other="joint",
-                                    by=columns + ("planner",))
-        cells_r.sort(key=lambda c: tuple(rank[k].get(c[k], 99) for k in columns)
-                     + (order.get(c["planner"], 99),))
-        for c in cells_r:
-            c["planner"] = GAIN_LABEL.get(c["planner"], c["planner"])
-        write_csv_atomic(out / f"{args.table}_replication.csv", replication_rows(cells_r, sets, columns))
-        lines += ["", "## Replication: joint − factorised search travel (m)", "",
-                  "The table above pools both seed sets; here each is judged on its own.", "",
-                  replication_markdown(cells_r, sets, columns + ("planner",))]
+    lines += replication
     lines += ["", "## Means per cell, model and planner", "",
               summary_markdown(summary, columns + ("model", "planner"),
                                METRICS + ("clairvoyant_search_travel",)), ""]
