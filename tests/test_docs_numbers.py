@@ -1,0 +1,44 @@
+"""Numbers that cannot drift: every measured number the README and the docs quote between
+``<!-- n ... -->`` / ``<!-- table ... -->`` markers equals its committed result file
+(docs/tools/numbers.py), and a changed result file without its quoted number fails here."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _numbers():
+    spec = importlib.util.spec_from_file_location("_docs_numbers", ROOT / "docs" / "tools" / "numbers.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_quoted_number_matches_its_result_file():
+    numbers = _numbers()
+    assert numbers.stale() == [], "run: python docs/tools/numbers.py"
+
+
+def test_a_changed_result_is_caught_and_a_bad_marker_is_an_error(tmp_path, monkeypatch):
+    numbers = _numbers()
+    (tmp_path / "r.csv").write_text("model,planner,x\njoint,efe,1.234\nfactorised,efe,2.5\n")
+    (tmp_path / "r.md").write_text("# R\n\n## T\n\n| a | b |\n|---|---|\n| 1 | 2 |\n\nafter\n")
+    monkeypatch.setattr(numbers, "ROOT", tmp_path)
+    numbers._rows.cache_clear()
+    doc = ("x is <!-- n r.csv model=joint,planner=efe x .2f -->1.23<!-- /n --> m.\n"
+           "<!-- table r.md \"## T\" -->\n| a | b |\n|---|---|\n| 1 | 2 |\n<!-- /table -->\n")
+    assert numbers.render(doc) == doc
+    assert "-->9.99<" not in numbers.render(doc.replace("-->1.23<", "-->9.99<"))
+    assert numbers.render(doc.replace("-->1.23<", "-->9.99<")) == doc
+    assert numbers.render(doc.replace("| 1 | 2 |\n<!--", "| 1 | 3 |\n<!--")) == doc
+    for bad in ("r.csv model=nobody x .2f", "r.csv model=joint y .2f", "nofile.csv - x .2f",
+                "r.csv planner=efe x .2f"):
+        with pytest.raises(numbers.MarkerError):
+            numbers.render(f"<!-- n {bad} -->1<!-- /n -->")
