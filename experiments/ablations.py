@@ -24,7 +24,7 @@ like every sweep) and ``ablations.md`` (plus ``ablations.png``) to ``--out`` (de
 ``runs/experiments/ablations``). The committed results in ``experiments/results/ablations`` change
 only when ``--out`` names that folder:
 
-    python experiments/ablations.py --out experiments/results/ablations   # README table, 100 worlds
+    python experiments/ablations.py --out experiments/results/ablations   # docs/results.md table, 100 worlds
     python experiments/ablations.py --worlds 3 --ablations no_epistemic weak_negative   # under runs/
 """
 

@@ -10,7 +10,7 @@ object) and the hidden states (one line each) to a PNG, by default
     python experiments/inspect_marginals.py [--model joint] [--scenario default_apartment]
                                             [--seed 0] [--out FILE.png]
 
-The README's figure changes only when ``--out`` names it:
+The documentation's figure changes only when ``--out`` names it:
 
     python experiments/inspect_marginals.py --scenario prior_violation \
         --out docs/inspect_marginals_prior_violation.png

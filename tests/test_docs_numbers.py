@@ -5,6 +5,8 @@
 from __future__ import annotations
 
 import importlib.util
+import re
+import shlex
 import sys
 from pathlib import Path
 
@@ -42,3 +44,29 @@ def test_a_changed_result_is_caught_and_a_bad_marker_is_an_error(tmp_path, monke
                 "r.csv planner=efe x .2f"):
         with pytest.raises(numbers.MarkerError):
             numbers.render(f"<!-- n {bad} -->1<!-- /n -->")
+
+
+def test_the_readme_is_short_and_quotes_results_through_markers():
+    numbers = _numbers()
+    readme = (ROOT / "README.md").read_text()
+    assert len(readme.splitlines()) <= 300
+    assert len(numbers.INLINE.findall(readme)) >= 5
+
+
+OUTPUT = re.compile(r"<!-- output (?P<command>[^>]*?) -->\n```text\n(?P<text>.*?)```\n<!-- /output -->", re.S)
+
+
+@pytest.mark.parametrize("doc", ["README.md"])
+def test_quoted_command_output_is_what_the_command_prints(doc, tmp_path, capsys):
+    """Each ``<!-- output COMMAND -->`` block quotes lines COMMAND prints (run here, --out aside)."""
+    from fg_tea.cli.main import main
+
+    blocks = list(OUTPUT.finditer((ROOT / doc).read_text()))
+    assert blocks, f"{doc} quotes no command output"
+    for i, block in enumerate(blocks):
+        argv = shlex.split(block.group("command"))
+        assert argv[0] == "fg-tea"
+        main([*argv[1:], "--out", str(tmp_path / f"out{i}")])
+        printed = capsys.readouterr().out.splitlines()
+        for line in block.group("text").splitlines():
+            assert line in printed, (block.group("command"), line, printed)
