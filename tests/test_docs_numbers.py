@@ -40,6 +40,13 @@ def test_a_changed_result_is_caught_and_a_bad_marker_is_an_error(tmp_path, monke
     assert "-->9.99<" not in numbers.render(doc.replace("-->1.23<", "-->9.99<"))
     assert numbers.render(doc.replace("-->1.23<", "-->9.99<")) == doc
     assert numbers.render(doc.replace("| 1 | 2 |\n<!--", "| 1 | 3 |\n<!--")) == doc
+    (tmp_path / "fig.png").write_bytes(b"png one")
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "README.md").write_text("<!-- figure fig.png docs/f.png -->\n")
+    monkeypatch.setattr(numbers, "documents", lambda: [tmp_path / "README.md"])
+    assert numbers.stale() and numbers.main([]) == 0 and numbers.stale() == []
+    (tmp_path / "fig.png").write_bytes(b"png two")  # the experiment drew it anew
+    assert "docs/f.png is not fig.png" in numbers.stale()[0]
     for bad in ("r.csv model=nobody x .2f", "r.csv model=joint y .2f", "nofile.csv - x .2f",
                 "r.csv planner=efe x .2f"):
         with pytest.raises(numbers.MarkerError):

@@ -13,7 +13,13 @@ share written as a percentage). A whole table is quoted with a block::
     | ... the first markdown table under that heading ... |
     <!-- /table -->
 
-``python docs/tools/numbers.py`` rewrites every marked number and table from the files;
+A figure made by an experiment is copied into ``docs/`` under a marker naming both files::
+
+    <!-- figure experiments/results/joint_vs_factorised/houses/houses_heatmap.png figures/jvf_houses.png -->
+    ![...](figures/jvf_houses.png)
+
+``python docs/tools/numbers.py`` rewrites every marked number and table from the files and copies
+every marked figure;
 ``python docs/tools/numbers.py --check`` changes nothing and exits 1, listing each stale place,
 when a quoted number differs from its result file (``tests/test_docs_numbers.py`` runs it). A
 marker naming a missing file, row or column is an error too.
@@ -31,9 +37,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
-from fg_tea.common.files import atomic_write_text  # noqa: E402
+from fg_tea.common.files import atomic_path, atomic_write_text  # noqa: E402
 INLINE = re.compile(r"<!-- n (?P<spec>[^>]*?) -->(?P<value>.*?)<!-- /n -->", re.S)
 BLOCK = re.compile(r"<!-- table (?P<spec>[^>]*?) -->\n(?P<value>.*?)<!-- /table -->", re.S)
+FIGURE = re.compile(r"<!-- figure (?P<source>\S+) (?P<copy>\S+) -->")
 
 
 class MarkerError(ValueError):
@@ -103,6 +110,17 @@ def render(text: str) -> str:
     return INLINE.sub(lambda m: f"<!-- n {m.group('spec')} -->{number(m.group('spec'))}<!-- /n -->", text)
 
 
+def figures(doc: Path, text: str) -> list[tuple[Path, Path]]:
+    """(result file, its copy under docs/) for every figure marker of `doc`."""
+    out = []
+    for m in FIGURE.finditer(text):
+        source = ROOT / m.group("source")
+        if not source.is_file():
+            raise MarkerError(f"{m.group('source')}: no such result file")
+        out.append((source, doc.parent / m.group("copy")))
+    return out
+
+
 def documents() -> list[Path]:
     """The README and every page of the docs."""
     return [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
@@ -122,6 +140,10 @@ def stale() -> list[str]:
                          for a, b in zip(BLOCK.finditer(text), BLOCK.finditer(new)))
             out.append(f"{doc.relative_to(ROOT)}: " + "; ".join(changed[:5] + ([f"{tables} table(s)"]
                                                                                if tables else [])))
+        for source, copy in figures(doc, text):
+            if not copy.is_file() or copy.read_bytes() != source.read_bytes():
+                out.append(f"{doc.relative_to(ROOT)}: figure {copy.relative_to(ROOT)} is not "
+                           f"{source.relative_to(ROOT)}")
     return out
 
 
@@ -141,6 +163,12 @@ def main(argv: list[str] | None = None) -> int:
             if new != text:
                 atomic_write_text(doc, new)
                 print(f"rendered: {doc.relative_to(ROOT)}")
+            for source, copy in figures(doc, new):
+                if not copy.is_file() or copy.read_bytes() != source.read_bytes():
+                    copy.parent.mkdir(parents=True, exist_ok=True)
+                    with atomic_path(copy) as tmp:
+                        tmp.write_bytes(source.read_bytes())
+                    print(f"copied: {copy.relative_to(ROOT)}")
     except MarkerError as exc:
         print(f"numbers.py: error: {exc}", file=sys.stderr)
         return 2
