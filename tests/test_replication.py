@@ -73,3 +73,25 @@ def test_a_single_comparison_says_how_many_pairs_would_resolve_it():
     rng = np.random.default_rng(2)
     lines = pairs_to_resolve_lines(_rows(lambda s: -0.5, range(20), rng), "model", "factorised")
     assert len(lines) == 1 and "over 20 pairs" in lines[0] and "pairs would resolve 3% of search_distance" in lines[0]
+
+
+def test_fg_tea_compare_runs_a_declared_confirmation_set(tmp_path, capsys):
+    from fg_tea.cli.main import main
+
+    out = tmp_path / "c"
+    argv = ["compare", "--env", "fake", "--worlds", "3", "--planners", "efe", "nearest",
+            "--confirmation-first-seed", "10000", "--out", str(out)]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    lines = [line for line in printed.splitlines() if line.startswith("replication: ")]
+    assert len(lines) == 2 and "(planner=nearest): no difference" in lines[1]
+    assert json.loads((out / "seed_sets.json").read_text())["sets"][1]["first"] == 10000
+    text = (out / "replication.md").read_text()
+    assert "--confirmation-first-seed 10000 --confirmation-worlds 3" in text and "| efe |" in text
+    assert main([*argv[:-4], "--confirmation-first-seed", "20000", "--out", str(out)]) == 2
+    assert "another --out" in capsys.readouterr().err
+    for bad, fault in ((["--confirmation-worlds", "3"], "applies only with --confirmation-first-seed"),
+                       (["--models", "joint", "--confirmation-first-seed", "10"], "needs two models"),
+                       (["--confirmation-first-seed", "1"], "overlap")):
+        assert main(["compare", "--env", "fake", "--worlds", "3", *bad, "--out", str(tmp_path / "x")]) == 2
+        assert fault in capsys.readouterr().err

@@ -79,9 +79,17 @@ def cmd_compare(args: argparse.Namespace) -> int:
             planners = [p for p in planners if p != "optimal"]
             sys.stderr.write(f"compare: planner optimal left out of the default planners: "
                              f"{fault.split(': ', 1)[-1].split('; ')[0]} in {base.name}\n")
+    sets = _seed_sets(args, n_worlds)
     check_out_dir(out)
     jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
                       env=args.env, camera=args.camera or "")
+    if sets:  # the confirmation set, declared in OUT before any episode (docs/design.md §11.1)
+        from fg_tea.study.replication import declare_seed_sets
+
+        check_outputs_in(out, ["seed_sets.json", "replication.md"])
+        declare_seed_sets(out, sets)
+        jobs += plan_sweep([args.world], sets[1].count, args.models, planners,
+                           first_seed=sets[1].first, env=args.env, camera=args.camera or "")
     if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
         check_jobs(jobs)
         for ref in args.models:
@@ -102,7 +110,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     command = shlex.join(["fg-tea", "compare", "--world", args.world, "--worlds", str(n_worlds),
                           "--models", *args.models, "--planners", *planners, "--first-seed",
                           str(args.first_seed), "--env", args.env,
-                          *(["--camera", args.camera] if args.camera else []), "--out", shown])
+                          *(["--camera", args.camera] if args.camera else []),
+                          *(["--confirmation-first-seed", str(sets[1].first), "--confirmation-worlds",
+                             str(sets[1].count)] if sets else []), "--out", shown])
     files = comparison_report(rows, out, title=f"Factorised vs joint beliefs on `{args.world}` worlds",
                               command=command)
     print(f"episodes: {csv_path} ({len(rows)} rows)")
@@ -112,7 +122,46 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
         for line in pairs_to_resolve_lines(rows, "model", load_model(model_path(args.models[0])).name):
             print(f"resolution: {line}")
+    if sets:
+        _replication(rows, sets, out, [load_model(model_path(m)).name for m in args.models[:2]],
+                     command)
     return 0
+
+
+def _seed_sets(args: argparse.Namespace, n_worlds: int):
+    """The discovery and confirmation sets of ``--confirmation-first-seed`` (None without it)."""
+    if args.confirmation_first_seed is None:
+        if args.confirmation_worlds is not None:
+            raise InputError("<command line>", "--confirmation-worlds",
+                             "applies only with --confirmation-first-seed")
+        return None
+    from fg_tea.study.replication import SeedSet, check_seed_sets
+
+    if len(args.models) < 2:
+        raise InputError("<command line>", "--confirmation-first-seed", "a replicated comparison "
+                         "needs two models (--models A B: B is judged against A)")
+    sets = [SeedSet("discovery", args.first_seed, n_worlds),
+            SeedSet("confirmation", args.confirmation_first_seed,
+                    args.confirmation_worlds or n_worlds)]
+    check_seed_sets(sets)
+    return sets
+
+
+def _replication(rows, sets, out: Path, models: list[str], command: str) -> None:
+    """replication.md: the second model against the first per planner, each seed set judged
+    on its own (docs/design.md §11.1); one ``replication:`` line per planner."""
+    from fg_tea.common.files import atomic_write_text
+    from fg_tea.study.replication import replication_cells, replication_markdown
+
+    cells = replication_cells(rows, sets, vary="model", baseline=models[0], other=models[1],
+                              by=("planner",))
+    atomic_write_text(out / "replication.md", "\n".join([
+        f"# Replication: {models[1]} − {models[0]} search travel (m)", "", "Reproduce with:", "",
+        f"    {command}", "", replication_markdown(cells, sets, ("planner",))]))
+    for c in cells:
+        conf = c[sets[1].name]["difference"]
+        print(f"replication: {models[1]} - {models[0]} (planner={c['planner']}): {c['verdict']} "
+              f"(discovery {c[sets[0].name]['difference'].fmt()}, confirmation {conf.fmt()})")
 
 
 def _compare_lifelong(args: argparse.Namespace) -> int:
@@ -210,6 +259,13 @@ def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) ->
     p.add_argument("--world", default="correlated",
                    help="world distribution, bundled name or JSON file (default: %(default)s)")
     p.add_argument("--first-seed", type=integer(0, MAX_SEED), default=0, help="first world seed (default: %(default)s)")
+    p.add_argument("--confirmation-first-seed", type=integer(0, MAX_SEED), default=None,
+                   help="also run a confirmation set of worlds from this seed, disjoint from the "
+                   "discovery set (--first-seed, --worlds), declared in OUT/seed_sets.json before "
+                   "any episode; replication.md judges the second model against the first on it "
+                   "(docs/design.md §11.1)")
+    p.add_argument("--confirmation-worlds", type=integer(1, MAX_WORLDS), default=None,
+                   help="worlds of the confirmation set (default: --worlds)")
     p.add_argument("--models", nargs="+", default=["factorised", "joint"],
                    help="models: bundled names, bundled ablations or files (default: factorised joint)")
     p.add_argument("--camera", default=None, help=CAMERA_HELP.replace("the model assumes",
