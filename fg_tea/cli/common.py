@@ -37,7 +37,9 @@ class Parser(argparse.ArgumentParser):
     defer_notes = True  # DeprecatedAlias leaves its notes on the namespace for main()
 
     def error(self, message: str) -> NoReturn:  # noqa: D401 - argparse API
-        sys.stderr.write(f"fg-tea: error: {message}\n")
+        from fg_tea.common.options import with_suggestions
+
+        sys.stderr.write(f"fg-tea: error: {with_suggestions(self, message)}\n")
         raise SystemExit(2)
 
 

@@ -99,14 +99,43 @@ WORKERS_HELP = "worker processes"
 OUT_HELP = "output folder"
 
 
+def _option_strings(parser: argparse.ArgumentParser) -> list[str]:
+    """Every option string of `parser` and of its subcommands' parsers."""
+    out = []
+    for action in parser._actions:  # noqa: SLF001 - argparse keeps no public list
+        out += [o for o in action.option_strings if o.startswith("--")]
+        if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001
+            for sub in action.choices.values():
+                out += _option_strings(sub)
+    return sorted(set(out))
+
+
+def with_suggestions(parser: argparse.ArgumentParser, message: str) -> str:
+    """`message` with "did you mean" for each unrecognised ``--option`` close to a known one."""
+    import difflib
+
+    prefix = "unrecognized arguments: "
+    if not message.startswith(prefix):
+        return message
+    known = _option_strings(parser)
+    hints = []
+    for word in message[len(prefix):].split():
+        flag = word.split("=", 1)[0]
+        if flag.startswith("--"):
+            close = difflib.get_close_matches(flag, known, n=1, cutoff=0.7)
+            if close:
+                hints.append(f"{flag}: did you mean {close[0]}?")
+    return message + (" (" + "; ".join(hints) + ")" if hints else "")
+
+
 class OneLineParser(argparse.ArgumentParser):
     """argparse that reports a usage fault in one line, ``PROG: error: ...``, with exit status 2
-    (argparse prints the whole usage first)."""
+    (argparse prints the whole usage first), and "did you mean" for a mistyped option."""
 
     def error(self, message: str):  # noqa: D401 - argparse API
         import sys
 
-        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        sys.stderr.write(f"{self.prog}: error: {with_suggestions(self, message)}\n")
         raise SystemExit(2)
 
 
@@ -130,6 +159,6 @@ def experiment_parser(doc: str | None, file: str, section: str, **kwargs: Any) -
     return OneLineParser(**kwargs)
 
 
-__all__ = ["OneLineParser", "DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP", "MODEL_HELP", "MODELS_HELP",
+__all__ = ["with_suggestions", "OneLineParser", "DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP", "MODEL_HELP", "MODELS_HELP",
            "OUT_HELP", "PLANNER_HELP", "SCENARIO_HELP", "SEED_HELP", "WORKERS_HELP", "WORLD_HELP",
            "experiment_parser"]

@@ -139,7 +139,11 @@ def check_planner_name(name: str) -> None:
         return
     if name in _REGISTRY:
         return
-    raise ValueError(f"unknown planner {name!r} (known: {', '.join(_REGISTRY)}; families "
+    import difflib
+
+    close = difflib.get_close_matches(name, list(_REGISTRY), n=1, cutoff=0.6)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise ValueError(f"unknown planner {name!r}{hint} (known: {', '.join(_REGISTRY)}; families "
                      f"{', '.join(f + ':...' for f in _FAMILIES)})")
 
 

@@ -36,6 +36,7 @@ exits with status 2).
 
 from __future__ import annotations
 
+import difflib
 import importlib
 import inspect
 import os
@@ -142,7 +143,9 @@ def resolve(name: str, builtin: Sequence[str] = ()) -> Any:
                                    f"{ENTRY_POINT_GROUP!r} cannot be loaded: "
                                    f"{type(exc).__name__}: {first}") from None
     known = list(builtin) + [n for n in points if n not in builtin]
-    raise PlannerSpecError(name, f"unknown planner {name!r} (known: {', '.join(known)}; or "
+    close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise PlannerSpecError(name, f"unknown planner {name!r}{hint} (known: {', '.join(known)}; or "
                            "module:attribute for a planner of your own)")
 
 
