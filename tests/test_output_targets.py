@@ -109,3 +109,20 @@ def test_the_table_covers_every_output_option_of_every_command():
                if any(a.dest in ("out", "log_out", "video", "json") for a in p._actions)}
     covered = {argv[0] for argv, _ in COMMANDS.values()}
     assert writers <= covered, f"add {sorted(writers - covered)} to COMMANDS"
+
+
+@pytest.mark.parametrize("argv", [["run", "--no-video", "--out"], ["preview", "--out"],
+                                  ["compare", "--quick", "--env", "fake", "--out"],
+                                  ["house", "--rooms", "3", "--out"]])
+def test_an_out_path_beyond_path_max_is_one_short_line(argv, tmp_path, capsys):
+    """The whole path used to be echoed (5,000 characters and more)."""
+    from fg_tea.cli.main import main
+
+    long = str(tmp_path / ("a" * 300) / ("b" * 5000))
+    try:
+        status = main([*argv, long + (".png" if argv[0] in ("preview",) else "")])
+    except SystemExit as exc:
+        status = exc.code
+    assert status == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and len(err[0]) < 400 and "characters)" in err[0], err

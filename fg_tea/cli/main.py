@@ -93,7 +93,9 @@ def main(argv: Sequence[str] | None = None,
 
 def _error(message: str, prefix: str = "fg-tea: error: ") -> None:
     """Write one line to stderr; any character the terminal cannot show is escaped."""
-    text = (prefix + message).replace("\n", " ").replace("\r", " ")
+    from fg_tea.common.errors import shorten_long_words
+
+    text = shorten_long_words((prefix + message).replace("\n", " ").replace("\r", " "))
     try:
         sys.stderr.write(text.encode("utf-8", "backslashreplace").decode("utf-8") + "\n")
         sys.stderr.flush()

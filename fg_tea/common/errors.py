@@ -25,6 +25,22 @@ class InputError(ValueError):
         return (type(self), (self.file, self.path, self.fault))
 
 
+#: Longest word an error line shows whole; a longer one (a path beyond PATH_MAX, a pasted blob)
+#: keeps its two ends and says how long it was, so the line stays one readable line.
+LONGEST_WORD = 200
+
+
+def shorten_long_words(text: str) -> str:
+    """`text` with every run of non-space characters over :data:`LONGEST_WORD` shortened."""
+    import re
+
+    def short(m: "re.Match[str]") -> str:
+        word = m.group(0)
+        return f"{word[:80]}…{word[-80:]} ({len(word):,} characters)"
+
+    return re.sub(r"\S{%d,}" % (LONGEST_WORD + 1), short, text)
+
+
 def run_script(main: Callable[[], int], prog: str) -> None:
     """Run an experiment script's `main` and exit with its status; an :class:`InputError` (bad
     flag, file or name) becomes one line ``prog: error: file: path: fault`` and status 2."""
@@ -33,7 +49,7 @@ def run_script(main: Callable[[], int], prog: str) -> None:
     try:
         status = main()
     except InputError as exc:
-        sys.stderr.write(f"{prog}: error: {exc}\n")
+        sys.stderr.write(f"{prog}: error: {shorten_long_words(str(exc))}\n")
         raise SystemExit(2) from None
     raise SystemExit(status)
 

@@ -135,7 +135,9 @@ class OneLineParser(argparse.ArgumentParser):
     def error(self, message: str):  # noqa: D401 - argparse API
         import sys
 
-        sys.stderr.write(f"{self.prog}: error: {with_suggestions(self, message)}\n")
+        from fg_tea.common.errors import shorten_long_words
+
+        sys.stderr.write(f"{self.prog}: error: {shorten_long_words(with_suggestions(self, message))}\n")
         raise SystemExit(2)
 
 
