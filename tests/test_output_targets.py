@@ -126,3 +126,23 @@ def test_an_out_path_beyond_path_max_is_one_short_line(argv, tmp_path, capsys):
     assert status == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and len(err[0]) < 400 and "characters)" in err[0], err
+
+
+def test_preview_on_a_full_disk_is_one_line_naming_the_file(tmp_path, capsys, monkeypatch):
+    """OpenCV's imwrite printed libpng's message and a misleading "No such file or directory"; the
+    PNG is now encoded in memory and written from Python, so ENOSPC is one line."""
+    import errno
+    import pathlib
+
+    from fg_tea.cli.main import main
+
+    def full(self, data):
+        raise OSError(errno.ENOSPC, "No space left on device", str(self))
+
+    monkeypatch.setattr(pathlib.Path, "write_bytes", full)
+    out = tmp_path / "p.png"
+    assert main(["preview", "--out", str(out)]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and "No space left on device" in err[0] and "p.png" in err[0], err
+    assert not out.exists() and not list(tmp_path.glob("*.tmp*"))

@@ -29,8 +29,8 @@ from fg_tea.cli.common import (
 )
 from fg_tea.common.errors import InputError, PlannerFault
 from fg_tea.common.files import (
-    atomic_path,
     atomic_write_text,
+    write_png,
 )
 from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 
@@ -138,8 +138,6 @@ def cmd_render(args: argparse.Namespace) -> int:
 def cmd_preview(args: argparse.Namespace) -> int:
     """Write a PNG of the chase camera with the first-person inset at the start pose, and a
     top-down floor plan of the house beside it (``<out stem>_plan.png``)."""
-    import cv2
-
     from fg_tea.env.house import PyBulletHouse
     from fg_tea.episode.runner import env_config_for
     from fg_tea.model.spec import load_model
@@ -164,8 +162,7 @@ def cmd_preview(args: argparse.Namespace) -> int:
                          MiniMap(scenario, config.ego_hfov_deg), {s.name: s.position for s in scenario.sites})
     finally:
         house.close()
-    with atomic_path(out, ".png") as tmp:
-        cv2.imwrite(str(tmp), frame[:, :, ::-1])
+    write_png(out, frame)
     write_floor_plan(scenario, plan_out)
     print(f"preview: {out}")
     print(f"floor plan: {plan_out}")

@@ -124,6 +124,24 @@ def atomic_path(path: str | Path, suffix: str = "") -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
+def write_png(path: str | Path, rgb, params: Sequence[int] = ()) -> Path:
+    """Encode an RGB image as PNG in memory and write it atomically.
+
+    OpenCV's ``imwrite`` reports a failed write (a full disk) by printing libpng's own message to
+    stderr and returning False; encoding first and writing from Python makes the same failure an
+    :class:`OSError` naming the file, which the commands turn into one line. `params` are
+    OpenCV's (e.g. ``[cv2.IMWRITE_PNG_COMPRESSION, 9]``); the bytes are those ``imwrite`` writes.
+    """
+    import cv2
+
+    ok, data = cv2.imencode(".png", rgb[:, :, ::-1], list(params))
+    if not ok:
+        raise OSError(f"cannot encode a PNG image for {path}")
+    with atomic_path(path, ".png") as tmp:
+        tmp.write_bytes(data.tobytes())
+    return Path(path)
+
+
 def atomic_write_text(path: str | Path, text: str) -> Path:
     """Write `text` (UTF-8) to `path` atomically."""
     with atomic_path(path) as tmp:

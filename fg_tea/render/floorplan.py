@@ -377,11 +377,10 @@ def _legend(img: np.ndarray, y: int, r: int, scale: float, show_truth: bool) -> 
 
 def write_floor_plan(scenario: Scenario, path: str | Path, **kwargs) -> FloorPlan:
     """Draw the floor plan (see :func:`draw_floor_plan`) and write it as a PNG, atomically."""
-    from fg_tea.common.files import atomic_path
+    from fg_tea.common.files import write_png
 
     plan = draw_floor_plan(scenario, **kwargs)
-    with atomic_path(Path(path), ".png") as tmp:
-        cv2.imwrite(str(tmp), plan.image[:, :, ::-1], [cv2.IMWRITE_PNG_COMPRESSION, 9])
+    write_png(Path(path), plan.image, [cv2.IMWRITE_PNG_COMPRESSION, 9])
     return plan
 
 
