@@ -55,6 +55,7 @@ def integer(lo: int, hi: int | None = None):
                 f"expected an integer {'from ' + str(lo) + ' to ' + str(hi) if hi is not None else 'of at least ' + str(lo)}, "
                 f"got {value}")
         return value
+    parse.bounds = (lo, hi)  # type: ignore[attr-defined]  # read by the flag-range tests
     return parse
 
 
@@ -72,6 +73,7 @@ def number(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False):
                 f"expected a number in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}, "
                 f"got {text[:40]}")
         return value
+    parse.bounds = (lo, hi, lo_open, hi_open)  # type: ignore[attr-defined]  # the flag-range tests
     return parse
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fg_tea.cli.common import check_out_file, command
+from fg_tea.cli.common import check_out_file, command, integer
 from fg_tea.common.errors import InputError
 
 
@@ -41,8 +41,11 @@ def add_parser(sub) -> None:
                        "whose tops are semantic sites, room vantages, affordance priors by room and "
                        "furniture type, and objects placed from those priors. Same arguments, same "
                        "bytes.")
-    p.add_argument("--rooms", type=int, required=True, help="number of rooms, 3 to 10")
-    p.add_argument("--seed", type=int, default=0, help="non-negative seed (default: %(default)s)")
+    from fg_tea.world.housegen import MAX_ROOMS, MIN_ROOMS
+
+    p.add_argument("--rooms", type=integer(MIN_ROOMS, MAX_ROOMS), required=True,
+                   help=f"number of rooms, {MIN_ROOMS} to {MAX_ROOMS}")
+    p.add_argument("--seed", type=integer(0), default=0, help="non-negative seed (default: %(default)s)")
     p.add_argument("--out", required=True, help="output scenario JSON")
     p.add_argument("--objects", default="mug,kettle,teabag",
                    help="comma-separated objects among mug, kettle, teabag, milk, sugar "
