@@ -5,8 +5,8 @@ minutes on two idle cores. This script runs ``python -m pytest -q -m "not slow"`
 ``python -m pytest -q`` one after the other in this checkout, and appends one row per run to
 ``test_times.csv`` in ``--out`` (default ``runs/experiments/time_tests``): the date, the command, wall
 seconds, the outcome line, the core count and the 1-minute load average before the run (a busy
-machine is visible in the row). The committed ``experiments/results/test_times.csv`` changes only
-when ``--out`` names its folder:
+machine is visible in the row). The committed copy, test_times.csv in experiments/results,
+changes only when ``--out`` names that folder:
 
     python experiments/time_tests.py --out experiments/results
     python experiments/time_tests.py --which quick         # the quick loop only, under runs/
