@@ -27,7 +27,6 @@ import pytest
 from fg_tea.common.errors import InputError
 from fg_tea.study import executors, sweep
 from fg_tea.study.analysis import (
-    comparison_report,
     paired_differences,
     ratio_to_reference,
     summary_table,
@@ -35,6 +34,7 @@ from fg_tea.study.analysis import (
     wilson_interval,
 )
 from fg_tea.study.executors import SweepError
+from fg_tea.study.report import comparison_report
 from fg_tea.study.rows import CsvSink, read_rows
 from fg_tea.study.sweep import Job, plan_sweep, run_sweep
 

@@ -24,9 +24,9 @@ from fg_tea.common.files import (
     check_outputs_in,
 )
 
-#: Files `compare` writes besides episodes.csv (fg_tea.study.analysis.comparison_report).
-COMPARE_REPORT_OUTPUTS = ("summary.md", "summary.csv", "paired.csv", "ratio_to_optimal.png",
-                          "travel_inspections.png", "entropy.png")
+#: Files `compare` writes besides episodes.csv (fg_tea.study.report.comparison_report).
+COMPARE_REPORT_OUTPUTS = ("summary.md", "summary.csv", "paired.csv", "paired.png",
+                          "ratio_to_optimal.png", "travel_inspections.png", "entropy.png")
 
 
 # ------------------------------------------------------------ compare (docs/design.md §11)
@@ -46,7 +46,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     import os
     import shlex
 
-    from fg_tea.study.analysis import comparison_report
+    from fg_tea.study.report import comparison_report
     from fg_tea.study.executors import SweepError
     from fg_tea.study.sweep import plan_sweep, run_sweep
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Sequence
 
-from fg_tea.study.analysis import comparison_report
+from fg_tea.study.report import comparison_report
 from fg_tea.study.sweep import check_jobs, plan_sweep, run_sweep
 
 
