@@ -95,3 +95,15 @@ def test_fg_tea_compare_runs_a_declared_confirmation_set(tmp_path, capsys):
                        (["--confirmation-first-seed", "1"], "overlap")):
         assert main(["compare", "--env", "fake", "--worlds", "3", *bad, "--out", str(tmp_path / "x")]) == 2
         assert fault in capsys.readouterr().err
+
+
+def test_a_cell_a_planner_refused_has_no_pairs_not_a_verdict():
+    from fg_tea.study.replication import NO_PAIRS
+
+    rng = np.random.default_rng(3)
+    rows = _rows(lambda s: -1.0, list(range(60)) + list(range(5000, 5060)), rng, planner="la")
+    for r in rows:
+        if r["model"] == "joint":
+            r.update(reason="refused: belief: lookahead planner: too many joint truths", success=False)
+    (cell,) = replication_cells(rows, SETS)
+    assert cell["verdict"] == NO_PAIRS and cell["discovery"]["pairs"] == 0

@@ -14,7 +14,8 @@ the paired difference of a metric, world by world, with
 
 A cell's claim is **established** only when the confirmation set's Holm-adjusted p is below 0.05
 and its mean difference has the sign of the discovery set's; **no difference** when neither set
-has a single world in which the choices differed; otherwise **not resolved**, with both
+has a single world in which the choices differed; **no pairs** when a set has none (a planner
+refused one of the beliefs: its rows say ``refused:``); otherwise **not resolved**, with both
 intervals given. The seed sets are written to ``seed_sets.json`` before the first episode
 (:func:`declare_seed_sets`), and a later run with other sets in the same folder is refused.
 """
@@ -41,6 +42,8 @@ POWER = 0.8
 #: Columns whose equality means "the same searches" (two runs that chose the same looks).
 SAME_CHOICES = ("search_distance", "inspections")
 ESTABLISHED, NOT_RESOLVED, NO_DIFFERENCE = "established", "not resolved", "no difference"
+#: A cell with no pair in a set: a planner refused the belief (a ``refused:`` row) or it did not run.
+NO_PAIRS = "no pairs"
 
 
 @dataclass(frozen=True)
@@ -178,7 +181,9 @@ def _sd(values: Sequence[float]) -> float:
 
 
 def verdict(discovery: Mapping[str, Any], confirmation: Mapping[str, Any], alpha: float = 0.05) -> str:
-    """``established``, ``no difference`` or ``not resolved`` (module docstring)."""
+    """``established``, ``no difference``, ``not resolved`` or ``no pairs`` (module docstring)."""
+    if not discovery["pairs"] or not confirmation["pairs"]:
+        return NO_PAIRS
     if discovery["share_differ"] == 0 and confirmation["share_differ"] == 0:
         return NO_DIFFERENCE
     d, c = discovery["difference"].mean, confirmation["difference"].mean
@@ -223,7 +228,9 @@ def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[Seed
         "paired worlds in which the two beliefs' searches differed at all; the next column is "
         f"the effect in those worlds. \"Pairs to resolve\": paired worlds a 95 % test needs to "
         f"detect {RESOLVE_SHARE:.0%} of the baseline's search travel with {POWER:.0%} power, "
-        "from the discovery set's spread.", "", markdown_table(header, body), ""])
+        "from the discovery set's spread. \"No pairs\": a set without a single pair (a planner "
+        "refused one of the beliefs, e.g. the lookahead beyond its joint-size limit).", "",
+        markdown_table(header, body), ""])
 
 
 def pairs_to_resolve_lines(rows: Sequence[Mapping[str, Any]], vary: str, baseline: Any,
@@ -255,5 +262,6 @@ def pairs_to_resolve_lines(rows: Sequence[Mapping[str, Any]], vary: str, baselin
 
 
 __all__ = ["SEED_SETS_FILE", "RESOLVE_SHARE", "POWER", "ESTABLISHED", "NOT_RESOLVED", "NO_DIFFERENCE",
+           "NO_PAIRS",
            "SeedSet", "check_seed_sets", "declare_seed_sets", "read_seed_sets", "replication_cells",
            "verdict", "replication_markdown", "pairs_to_resolve_lines"]
