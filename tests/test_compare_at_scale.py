@@ -92,6 +92,7 @@ def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
     assert "| small | 25.0 | 0.0 |" in (table / "detectability.md").read_text()
 
 
+@pytest.mark.slow  # an integration run of a whole sweep: the full suite (CI) runs it
 def test_generated_medium_quick_compare_fake_has_spl_and_no_optimal(tmp_path):
     proc = _run("-m", "fg_tea.cli", "compare", "--world", "generated_medium", "--quick", "--worlds", "2",
                 "--env", "fake", "--executor", "serial", "--out", str(tmp_path))

@@ -159,6 +159,7 @@ class HttpTrap:
         self.server.close()
 
 
+@pytest.mark.slow  # an integration run of a whole sweep: the full suite (CI) runs it
 def test_local_ray_binds_and_talks_on_loopback_only_and_writes_the_process_pool_csv(process_csv, tmp_path,
                                                                                      monkeypatch):
     import time
@@ -479,6 +480,7 @@ def test_ablations_smoke(tmp_path):
     assert (tmp_path / "ablations.png").exists()
 
 
+@pytest.mark.slow  # an integration run of a whole sweep: the full suite (CI) runs it
 def test_value_of_correlation_smoke(tmp_path):
     _script("value_of_correlation.py", "--worlds", "2", "--quick", "--workers", "2", "--out", str(tmp_path))
     rows = read_rows(tmp_path / "value_of_correlation.csv")
@@ -497,6 +499,7 @@ def test_value_of_correlation_smoke(tmp_path):
         assert (tmp_path / png).exists()
 
 
+@pytest.mark.slow  # an integration run of a whole sweep: the full suite (CI) runs it
 def test_quick_compare_is_the_ten_world_ci_run(tmp_path):
     """`fg-tea compare --quick`: 10 paired worlds x 2 models x 4 planners, report and plots."""
     out = tmp_path / "quick"
