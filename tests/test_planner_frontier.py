@@ -88,3 +88,29 @@ def test_frontier_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
     _refuses_each("planner_frontier.py", (
         (["--world", "nowhere"], "--world"), (["--planners", "nope"], "nope"),
         (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model")), tmp_path)
+
+
+def test_the_frontier_figure_names_planners_in_a_legend_and_its_log_ticks_do_not_collide(tmp_path, monkeypatch):
+    """At --worlds 2 the point labels sat on top of each other and the log-axis labels ran
+    together: the planners are now a legend, the ticks few and plain, and the figure says n < 5."""
+    from fg_tea.study import analysis, frontier
+
+    figures = []
+    monkeypatch.setattr(analysis, "save_figure", lambda fig, path, dpi=120: figures.append(fig) or path)
+    rows = [{"world": "correlated", "env": "fake", "miss_rate": 0.05, "model": m, "planner": p,
+             "seed": s, "search_distance": d * (1 + 0.1 * s), "inspections": 3, "success": True,
+             "spl": 0.5, "decision_seconds": [t], "decision_cpu_seconds": [t]}
+            for m in ("factorised", "joint") for s in (0, 1)
+            for p, d, t in (("optimal", 10.0, 0.5), ("efe", 11.0, 0.0011), ("lookahead", 10.5, 0.0012),
+                            ("nearest", 12.0, 0.00105))]
+    frontier.summarise(rows, tmp_path)
+    fig = figures[0]
+    fig.canvas.draw()
+    (ax,) = fig.axes
+    assert not ax.texts  # no label on a point
+    assert len(ax.get_legend().get_texts()) == 8
+    renderer = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in ax.get_xticklabels() if t.get_text()]
+    assert 2 <= len(boxes) <= 6
+    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    assert "n = 2 worlds" in ax.get_title()

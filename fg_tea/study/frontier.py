@@ -69,17 +69,37 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: 
             "reason": runner.reason, "decision_seconds": times, "decision_cpu_seconds": cpu}
 
 
+#: Marker per planner (cycled) and colour per model: a legend names them, so no label sits on a point.
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
+
+
+def _log_ticks(ax) -> None:
+    """A log axis with few, plainly written ticks (1, 10, 100 ms; no crowded minor labels)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    ax.set_xscale("log")
+    ax.xaxis.set_major_locator(LogLocator(base=10, numticks=6))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
 def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from fg_tea.common.files import atomic_write_text
+    from fg_tea.study.analysis import save_figure
 
     lines = ["# Planner frontier", "",
              "Search travel relative to the Bayes-optimal planner (`optimal`, the perfect-detection "
              "limit) on paired worlds; 95 % paired bootstrap intervals; decision times are wall "
              "clock, serial, on a shared machine (CPU: the process's CPU time for the same "
              "decisions, less sensitive to what else the machine runs).", ""]
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig = Figure(figsize=(7.5, 4.8), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    planners_seen: list[str] = []
+    models_seen = sorted({r["model"] for r in rows})
     with_spl = any(r.get("spl") is not None for r in rows)
     with_ref = any(r["planner"] == reference for r in rows)
     plotted = False
@@ -133,18 +153,24 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
             if not (np.isfinite(ratio) and med > 0):  # no reference (and no SPL): nothing to plot
                 continue
             plotted = True
-            ax.scatter(med, ratio)
-            ax.annotate(f"{planner} ({model})", (med, ratio), fontsize=7)
+            if planner not in planners_seen:
+                planners_seen.append(planner)
+            ax.scatter(med, ratio, marker=MARKERS[planners_seen.index(planner) % len(MARKERS)],
+                       color=f"C{models_seen.index(model)}", s=36,
+                       label=f"{planner} ({model})")
     if plotted:
-        ax.set_xscale("log")
+        _log_ticks(ax)
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
     ax.axhline(1.0, color="grey", lw=0.8)
     ax.set_xlabel("median ms per decision (log)")
     ax.set_ylabel("search travel / Bayes-optimal" if with_ref else "SPL (clairvoyant route)")
-    ax.set_title("Planner quality-cost frontier")
-    fig.tight_layout()
-    fig.savefig(out / "frontier.png", dpi=120)
+    worlds = len({r["seed"] for r in rows})
+    ax.set_title("Planner quality-cost frontier" + (f"\nn = {worlds} world{'s' if worlds != 1 else ''}: "
+                                                     "intervals are wide or not shown"
+                                                     if worlds < 5 else ""))
+    save_figure(fig, out / "frontier.png")
     text = "\n".join(lines) + "\n"
-    (out / "frontier.md").write_text(text)
+    atomic_write_text(out / "frontier.md", text)
     return text
 
 
