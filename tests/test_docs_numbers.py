@@ -1,6 +1,6 @@
 """Numbers that cannot drift: every measured number the README and the docs quote between
 ``<!-- n ... -->`` / ``<!-- table ... -->`` markers equals its committed result file
-(docs/tools/numbers.py), and a changed result file without its quoted number fails here."""
+(docs/tools/render_numbers.py), and a changed result file without its quoted number fails here."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _numbers():
-    spec = importlib.util.spec_from_file_location("_docs_numbers", ROOT / "docs" / "tools" / "numbers.py")
+    spec = importlib.util.spec_from_file_location("_docs_numbers", ROOT / "docs" / "tools" / "render_numbers.py")
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
@@ -25,7 +25,7 @@ def _numbers():
 
 def test_every_quoted_number_matches_its_result_file():
     numbers = _numbers()
-    assert numbers.stale() == [], "run: python docs/tools/numbers.py"
+    assert numbers.stale() == [], "run: python docs/tools/render_numbers.py"
 
 
 def test_a_changed_result_is_caught_and_a_bad_marker_is_an_error(tmp_path, monkeypatch):

@@ -287,3 +287,17 @@ def test_the_chase_camera_pitch_endpoints_render(pitch, tmp_path):
     out = tmp_path / "p.png"
     assert main(["preview", "--third-person-pitch", str(pitch), "--out", str(out)]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_render_still_writes_one_frame_of_the_video_as_a_png(logged, tmp_path, capsys):
+    import cv2
+
+    out = tmp_path / "still.png"
+    assert main(["render", str(logged), "--still", "0", "--width", "320", "--height", "180",
+                 "--out", str(out)]) == 0
+    assert "still: " in capsys.readouterr().out
+    image = cv2.imread(str(out))
+    assert image.shape == (180, 320, 3)
+    assert main(["render", str(logged), "--still", "9999999", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--still: frame 9999999 is not in the video" in err[0]

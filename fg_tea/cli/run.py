@@ -120,15 +120,26 @@ def cmd_render(args: argparse.Namespace) -> int:
     events = read_log(path)
     if not any(e.get("event") == "episode_start" for e in events):
         raise InputError(path, "$", "not an fg_tea episode log (no episode_start event)")
-    out = check_out_file(Path(args.out) if args.out else path.with_suffix(".mp4"))
+    suffix = ".png" if args.still is not None else ".mp4"
+    out = check_out_file(Path(args.out) if args.out else path.with_suffix(suffix))
     options = video_options(args)
     try:
         from fg_tea.render.video import plan_frames
 
-        plan_frames(events, options)
+        plan = plan_frames(events, options)
     except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
         raise InputError(path, "$", f"not a complete fg_tea episode log ({type(exc).__name__}: "
                          f"{str(exc)[:80]})") from None
+    if args.still is not None:
+        from fg_tea.render.video import render_still
+
+        if args.still >= plan.output_frames:
+            raise InputError("<command line>", "--still", f"frame {args.still} is not in the video "
+                             f"(frames 0 to {plan.output_frames - 1})")
+        result = render_still(events, out, args.still, options)
+        print(f"still: {result['path']} (frame {result['frame']} of {result['frames']}: "
+              f"{result['caption']})")
+        return 0
     result = render_video(events, out, options, frames_progress())
     print(f"video: {result['path']} ({result['frames']} frames)")
     return 0
@@ -197,7 +208,10 @@ def add_parser(sub) -> None:
 
     p = sub.add_parser("render", help="re-render the video of a logged episode")
     p.add_argument("log", help="an episode.jsonl written by fg-tea run")
-    p.add_argument("--out", help="output MP4 (default: the log's name with .mp4)")
+    p.add_argument("--out", help="output MP4, or PNG with --still (default: the log's name with .mp4 "
+                   "or .png)")
+    p.add_argument("--still", type=integer(0, 10_000_000), default=None, metavar="FRAME",
+                   help="write only this frame of the video (0-based) as a PNG, for pictures")
     add_video_options(p)
 
     p = sub.add_parser("preview", help="write a PNG of the cameras at the start pose and a PNG of the "

@@ -406,6 +406,45 @@ def _render_segment(args: tuple) -> tuple[int, str, int]:
     return index, path, count
 
 
+def render_still(events: list[dict], out: str | Path, frame: int,
+                 options: VideoOptions = VideoOptions()) -> dict:
+    """Write output frame `frame` (0-based, as in the video) of a log's video as a PNG.
+
+    The same frame the video shows at that index, rendered alone: for the documentation's
+    pictures (``fg-tea render LOG --still N``), without rendering the whole video.
+
+    Raises:
+        ValueError: `frame` is not a frame of the video.
+    """
+    from fg_tea.common.files import write_png
+    from fg_tea.env.house import PyBulletHouse
+    from fg_tea.render.floorplan import MiniMap
+
+    plan = plan_frames(events, options)
+    if not 0 <= frame < plan.output_frames:
+        raise ValueError(f"frame {frame} is not in the video (frames 0 to {plan.output_frames - 1})")
+    seen, index = 0, 0
+    for index, spec in enumerate(plan.frames):
+        if seen + spec.repeat > frame:
+            break
+        seen += spec.repeat
+    spec = plan.frames[index]
+    scenario = _load_scenario(plan)
+    env_fields = {k: v for k, v in plan.env.items() if k in EnvConfig.__dataclass_fields__}
+    config = replace(EnvConfig(), **env_fields)
+    house = PyBulletHouse(scenario, config)
+    try:
+        house.reset(plan.seed)
+        image = _compose(house, options, (spec.pose, plan.placements[spec.placements], spec.held),
+                         plan.overlays[spec.overlay], MiniMap(scenario, config.ego_hfov_deg),
+                         plan.site_positions or {s.name: s.position for s in scenario.sites})
+    finally:
+        house.close()
+    write_png(out, image)
+    return {"path": str(out), "frame": frame, "frames": plan.output_frames,
+            "caption": plan.overlays[spec.overlay].caption}
+
+
 def _concat(segments: Sequence[str], out: Path, fps: int) -> None:
     """Join H.264 segments into one MP4 by remuxing packets with shifted timestamps."""
     import av

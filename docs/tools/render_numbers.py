@@ -18,9 +18,9 @@ A figure made by an experiment is copied into ``docs/`` under a marker naming bo
     <!-- figure experiments/results/joint_vs_factorised/houses/houses_heatmap.png figures/jvf_houses.png -->
     ![...](figures/jvf_houses.png)
 
-``python docs/tools/numbers.py`` rewrites every marked number and table from the files and copies
+``python docs/tools/render_numbers.py`` rewrites every marked number and table from the files and copies
 every marked figure;
-``python docs/tools/numbers.py --check`` changes nothing and exits 1, listing each stale place,
+``python docs/tools/render_numbers.py --check`` changes nothing and exits 1, listing each stale place,
 when a quoted number differs from its result file (``tests/test_docs_numbers.py`` runs it). A
 marker naming a missing file, row or column is an error too.
 """
@@ -148,7 +148,7 @@ def stale() -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="numbers.py", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="render_numbers.py", description=__doc__.split("\n\n")[0])
     p.add_argument("--check", action="store_true", help="change nothing; exit 1 if a number is stale")
     args = p.parse_args(argv)
     try:
@@ -170,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
                         tmp.write_bytes(source.read_bytes())
                     print(f"copied: {copy.relative_to(ROOT)}")
     except MarkerError as exc:
-        print(f"numbers.py: error: {exc}", file=sys.stderr)
+        print(f"render_numbers.py: error: {exc}", file=sys.stderr)
         return 2
     return 0
 
