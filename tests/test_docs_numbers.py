@@ -4,23 +4,18 @@
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import shlex
-import sys
 from pathlib import Path
 
 import pytest
+from docs_tools import load_tool
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def _numbers():
-    spec = importlib.util.spec_from_file_location("_docs_numbers", ROOT / "docs" / "tools" / "render_numbers.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_tool("render_numbers")
 
 
 def test_every_quoted_number_matches_its_result_file():

@@ -2,21 +2,16 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
+from docs_tools import load_tool
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def _pictures():
-    spec = importlib.util.spec_from_file_location("_docs_pictures", ROOT / "docs" / "tools" / "pictures.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_tool("pictures")
 
 
 def test_every_picture_is_shown_with_the_frame_it_is():
