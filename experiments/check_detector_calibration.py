@@ -54,7 +54,7 @@ if str(ROOT) not in sys.path:
 
 from fg_tea.beliefs.detection import ViewModel, slot_pixels  # noqa: E402
 from fg_tea.episode.runner import env_config_for  # noqa: E402
-from fg_tea.common.files import out_folder, atomic_write_text  # noqa: E402
+from fg_tea.common.files import atomic_write_text, out_file, out_folder  # noqa: E402
 from fg_tea.common.options import MODEL_HELP, SEED_HELP, experiment_parser  # noqa: E402
 from fg_tea.model.spec import load_model  # noqa: E402
 from fg_tea.world.scenario import Scenario, load_scenario  # noqa: E402
@@ -354,6 +354,11 @@ def default_scenarios() -> list[str]:
     return names
 
 
+def _out(text: str) -> str:
+    """--out: a folder, or a markdown file (checked as such) when it ends in .md."""
+    return str(out_file(text)) if text.endswith(".md") else out_folder(text)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = experiment_parser(__doc__, __file__, "§3.4")
     parser.add_argument("--looks", type=int, default=3000, help="looks per scenario")
@@ -362,7 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--scenario", action="append", default=None,
                         help="scenario name or path (repeatable; default: default_apartment and "
                              "every scenarios/generated_*.json)")
-    parser.add_argument("--out", type=out_folder, default=str(DEFAULT_OUT),
+    parser.add_argument("--out", type=_out, default=str(DEFAULT_OUT),
                         help="directory for calibration.csv and calibration.md, or a path ending "
                              "in .md (the CSV is written beside it with the suffix .csv); default: "
                              "%(default)s; committed: experiments/results/detector_calibration.md")

@@ -145,3 +145,10 @@ def test_an_unwritable_out_is_refused_before_any_work(name, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--out" in err[0], err  # compare_beliefs.py is fg-tea compare's parser
     assert ("is a folder; name a file" if name in FILE_OUTPUT else "cannot create folder") in err[0]
+
+
+def test_the_calibration_script_takes_a_markdown_file_as_out(tmp_path, monkeypatch):
+    """Its committed output is one .md file (the CSV beside it): --out x.md is a file, not a folder."""
+    module = _module("check_detector_calibration.py")
+    args = _parse(module, ["--out", str(tmp_path / "cal.md")], monkeypatch)
+    assert args.out == str(tmp_path / "cal.md") and not (tmp_path / "cal.md").exists()
