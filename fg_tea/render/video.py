@@ -432,12 +432,13 @@ def render_still(events: list[dict], out: str | Path, frame: int,
     scenario = _load_scenario(plan)
     env_fields = {k: v for k, v in plan.env.items() if k in EnvConfig.__dataclass_fields__}
     config = replace(EnvConfig(), **env_fields)
+    sites: dict[str, Sequence[float]] = dict(plan.site_positions or
+                                             {s.name: s.position for s in scenario.sites})
     house = PyBulletHouse(scenario, config)
     try:
         house.reset(plan.seed)
         image = _compose(house, options, (spec.pose, plan.placements[spec.placements], spec.held),
-                         plan.overlays[spec.overlay], MiniMap(scenario, config.ego_hfov_deg),
-                         plan.site_positions or {s.name: s.position for s in scenario.sites})
+                         plan.overlays[spec.overlay], MiniMap(scenario, config.ego_hfov_deg), sites)
     finally:
         house.close()
     write_png(out, image)
