@@ -83,3 +83,23 @@ def test_preview_renders_at_both_endpoints_of_every_rendering_option(option, tmp
         assert status == 0 and out.stat().st_size > 0, (option, value, err)
         rendered += 1
     assert rendered >= 1, option
+
+
+def test_building_the_parser_imports_no_numerical_library():
+    """`fg-tea --help` and every usage error stay quick: no numpy while the parser is built."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom fg_tea.cli.main import build_parser\nbuild_parser()\n"
+            "print(sorted(m for m in ('numpy', 'scipy', 'gtsam', 'pybullet') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "[]", out.stdout + out.stderr
+
+
+def test_the_house_rooms_flag_takes_its_range_from_the_generator():
+    from fg_tea.world.housegen import MAX_ROOMS, MIN_ROOMS
+
+    assert dict(BOUNDED)[("house", "--rooms")].bounds == (MIN_ROOMS, MAX_ROOMS)
+    house = next(a for a in build_parser()._subparsers._group_actions[0].choices["house"]._actions  # noqa: SLF001
+                 if "--rooms" in a.option_strings)
+    assert f"{MIN_ROOMS} to {MAX_ROOMS}" in house.help

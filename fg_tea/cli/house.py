@@ -34,6 +34,22 @@ def cmd_house(args: argparse.Namespace) -> int:
     return 0
 
 
+class _Rooms:
+    """The ``--rooms`` type: an integer in the generator's range, read from
+    :mod:`fg_tea.world.housegen` only when a value is parsed (building the parser imports no numpy)."""
+
+    __name__ = "rooms"
+
+    @property
+    def bounds(self) -> tuple[int, int]:
+        from fg_tea.world.housegen import MAX_ROOMS, MIN_ROOMS
+
+        return MIN_ROOMS, MAX_ROOMS
+
+    def __call__(self, text: str) -> int:
+        return integer(*self.bounds)(text)
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser("house", help="generate a house scenario JSON from a seed",
                        description="Write a schema-2 scenario of a generated house: N rectangular "
@@ -41,10 +57,7 @@ def add_parser(sub) -> None:
                        "whose tops are semantic sites, room vantages, affordance priors by room and "
                        "furniture type, and objects placed from those priors. Same arguments, same "
                        "bytes.")
-    from fg_tea.world.housegen import MAX_ROOMS, MIN_ROOMS
-
-    p.add_argument("--rooms", type=integer(MIN_ROOMS, MAX_ROOMS), required=True,
-                   help=f"number of rooms, {MIN_ROOMS} to {MAX_ROOMS}")
+    p.add_argument("--rooms", type=_Rooms(), required=True, help="number of rooms, 3 to 10")
     p.add_argument("--seed", type=integer(0), default=0, help="non-negative seed (default: %(default)s)")
     p.add_argument("--out", required=True, help="output scenario JSON")
     p.add_argument("--objects", default="mug,kettle,teabag",
