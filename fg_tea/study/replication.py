@@ -28,9 +28,11 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+import numpy as np
+
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_write_text
-from fg_tea.common.stats import (Interval, bonferroni_interval, holm, pairs_needed, t_interval,
+from fg_tea.common.stats import (bonferroni_interval, holm, pairs_needed, t_interval,
                                  t_test_p)
 from fg_tea.study.analysis import PAIR_ON, excluded, markdown_table
 
@@ -173,11 +175,8 @@ def replication_cells(rows: Sequence[Mapping[str, Any]], sets: Sequence[SeedSet]
 
 def _sd(values: Sequence[float]) -> float:
     """The sample standard deviation (ddof 1) of the finite values; NaN below two."""
-    x = [v for v in values if math.isfinite(v)]
-    if len(x) < 2:
-        return math.nan
-    m = sum(x) / len(x)
-    return math.sqrt(sum((v - m) ** 2 for v in x) / (len(x) - 1))
+    x = np.asarray([v for v in values if math.isfinite(v)], dtype=float)
+    return float(x.std(ddof=1)) if len(x) >= 2 else math.nan
 
 
 def verdict(discovery: Mapping[str, Any], confirmation: Mapping[str, Any], alpha: float = 0.05) -> str:
@@ -191,10 +190,6 @@ def verdict(discovery: Mapping[str, Any], confirmation: Mapping[str, Any], alpha
             and math.copysign(1, d) == math.copysign(1, c)):
         return ESTABLISHED
     return NOT_RESOLVED
-
-
-def _iv(i: Interval, digits: int = 2) -> str:
-    return i.fmt(digits)
 
 
 def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[SeedSet],
@@ -213,8 +208,8 @@ def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[Seed
         line = [str(c[b]) for b in by]
         for s in sets:
             e = c[s.name]
-            line += [str(e["pairs"]), _iv(e["difference"]), _iv(e["adjusted"]),
-                     f"{e['p_holm']:.3g}", f"{e['share_differ']:.0%}", _iv(e["if_differ"])]
+            line += [str(e["pairs"]), e["difference"].fmt(), e["adjusted"].fmt(),
+                     f"{e['p_holm']:.3g}", f"{e['share_differ']:.0%}", e["if_differ"].fmt()]
         need = c["pairs_needed"]
         line += [f"{need:,} ({c['resolve']:.2f} m)" if need else "—", f"**{c['verdict']}**"
                  if c["verdict"] == ESTABLISHED else c["verdict"]]
