@@ -6,12 +6,23 @@ Every measured number quoted in ``README.md`` and ``docs/**/*.md`` sits between 
     <!-- n experiments/results/compare/summary.csv model=joint,planner=efe search_distance_mean .2f -->17.09<!-- /n -->
 
 is the value of column ``search_distance_mean`` in the one row of that CSV whose ``model`` is
-``joint`` and ``planner`` is ``efe``, formatted with ``.2f`` (any Python format spec; ``%`` for a
+``joint`` and ``planner`` is ``efe`` (filters separated by ``;`` instead when a value has a comma), formatted with ``.2f`` (any Python format spec; ``%`` for a
 share written as a percentage). A whole table is quoted with a block::
 
     <!-- table experiments/results/ablations/ablations.md "## Paired differences" -->
     | ... the first markdown table under that heading ... |
     <!-- /table -->
+
+A block may keep only some rows and columns: after the heading, ``COLUMN=VALUE`` keeps the rows
+whose cell in that column is VALUE (``A|B`` for either; several columns must all match), and
+``columns=A|B`` keeps those columns in that order. A heading nested under another is named as
+``"## outer" "### inner"`` (each found after the one before).
+
+An inline marker may also read a cell of a markdown table: FILE is then ``PATH#HEADING[#HEADING]``
+(the table under the first heading, or bold line, that starts so, nested headings as above, ``#``
+signs not compared),
+and ``COLUMN@K`` takes the K-th number written in the cell (``0.883 [0.783, 0.986]``: ``@0`` is
+0.883, ``@2`` is 0.986); a number written with a thousands comma or a sign is read as one.
 
 A figure made by an experiment is copied into ``docs/`` under a marker naming both files::
 
@@ -22,7 +33,9 @@ A figure made by an experiment is copied into ``docs/`` under a marker naming bo
 every marked figure;
 ``python docs/tools/render_numbers.py --check`` changes nothing and exits 1, listing each stale place,
 when a quoted number differs from its result file (``tests/test_docs_numbers.py`` runs it). A
-marker naming a missing file, row or column is an error too.
+marker naming a missing file, row or column is an error too. ``--check`` also lists every decimal,
+percentage or time written by hand outside a marker (and outside code, comments and headings)
+that ``docs/tools/given_numbers.txt`` does not declare a setting, a target or a derived value.
 """
 
 from __future__ import annotations
@@ -47,13 +60,62 @@ class MarkerError(ValueError):
     """A marker that names a missing file, row, column or heading."""
 
 
+def _table_lines(path: str, headings: list[str]) -> list[str]:
+    """The lines of the first markdown table under the (nested) headings of a result file."""
+    file = ROOT / path
+    if not file.is_file():
+        raise MarkerError(f"{path}: no such result file")
+    lines = file.read_text(encoding="utf-8").splitlines()
+    start = -1
+    for heading in headings:
+        bare = heading.lstrip("#").strip()
+        try:
+            start = next(i for i in range(start + 1, len(lines))
+                         if lines[i].strip() == heading or (lines[i].startswith(("#", "**")) and lines[i]
+                                                             .lstrip("#* ").startswith(bare)))
+        except StopIteration:
+            raise MarkerError(f"{path}: no heading {heading!r}") from None
+    body: list[str] = []
+    for line in lines[start + 1:]:
+        if line.startswith("|"):
+            body.append(line)
+        elif body or line.startswith("#"):
+            break
+    if len(body) < 2:
+        raise MarkerError(f"{path}: no table under {headings[-1]!r}")
+    return body
+
+
+def _cells(line: str) -> list[str]:
+    return [c.strip() for c in line.strip().strip("|").split("|")]
+
+
 @lru_cache(maxsize=None)
 def _rows(path: str) -> tuple[dict[str, str], ...]:
+    """The rows of a CSV file, or of a markdown table named ``FILE#HEADING[#HEADING]``."""
+    if "#" in path:
+        file, *headings = path.split("#")
+        body = _table_lines(file, headings)
+        names = _cells(body[0])
+        names = [n if n not in names[:i] else f"{n} ({names[:i].count(n) + 1})"
+                 for i, n in enumerate(names)]  # a repeated header: "CPU", "CPU (2)"
+        return tuple(dict(zip(names, _cells(line))) for line in body[2:])
     file = ROOT / path
     if not file.is_file():
         raise MarkerError(f"{path}: no such result file")
     with file.open(newline="", encoding="utf-8") as fh:
         return tuple(csv.DictReader(fh))
+
+
+NUMBER = re.compile(r"[-+−]?\d[\d,]*(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def _split_filter(word: str, names: set[str]) -> tuple[str, str]:
+    """``COLUMN=VALUE`` split at the first '=' whose left side names a column (names may hold '=')."""
+    for i, ch in enumerate(word):
+        if ch == "=" and word[:i] in names:
+            return word[:i], word[i + 1:]
+    return word.split("=", 1)[0], word.split("=", 1)[1]
 
 
 def number(spec: str) -> str:
@@ -62,13 +124,23 @@ def number(spec: str) -> str:
         path, where, column, fmt = shlex.split(spec)
     except ValueError:
         raise MarkerError(f"{spec!r}: expected FILE FILTER COLUMN FORMAT") from None
-    wanted = dict(kv.split("=", 1) for kv in where.split(",") if "=" in kv) if where != "-" else {}
-    found = [r for r in _rows(path) if all(r.get(k) == v for k, v in wanted.items())]
+    sep = ";" if ";" in where else ","  # ';' separates the filters when a value has a comma
+    rows = _rows(path)
+    names = set(rows[0]) if rows else set()
+    wanted = dict(_split_filter(kv, names) for kv in where.split(sep) if "=" in kv) if where != "-" else {}
+    found = [r for r in rows if all(r.get(k) == v for k, v in wanted.items())]
     if len(found) != 1:
         raise MarkerError(f"{path}: {len(found)} rows match {where!r} (expected exactly one)")
+    column, _, index = column.partition("@")
     if column not in found[0]:
         raise MarkerError(f"{path}: no column {column!r}")
     raw = found[0][column]
+    if index:
+        written = NUMBER.findall(raw)
+        if not index.isdigit() or int(index) >= len(written):
+            raise MarkerError(f"{path}: column {column!r} of the row {where!r} is {raw!r}, "
+                              f"with no number {index}")
+        raw = written[int(index)].replace(",", "").replace("−", "-")
     if fmt == "s":
         return raw
     try:
@@ -79,28 +151,32 @@ def number(spec: str) -> str:
 
 
 def table(spec: str) -> str:
-    """The text of a table block: the first markdown table under a heading of a result file."""
+    """The text of a table block: the first markdown table under a heading of a result file,
+    with the rows and columns its ``COLUMN=VALUE`` and ``columns=`` words keep."""
     try:
-        path, heading = shlex.split(spec)
+        path, *words = shlex.split(spec)
     except ValueError:
-        raise MarkerError(f"{spec!r}: expected FILE \"HEADING\"") from None
-    file = ROOT / path
-    if not file.is_file():
-        raise MarkerError(f"{path}: no such result file")
-    lines = file.read_text(encoding="utf-8").splitlines()
-    try:
-        start = next(i for i, line in enumerate(lines) if line.strip() == heading)
-    except StopIteration:
-        raise MarkerError(f"{path}: no heading {heading!r}") from None
-    body: list[str] = []
-    for line in lines[start + 1:]:
-        if line.startswith("|"):
-            body.append(line)
-        elif body or line.startswith("#"):
-            break
-    if not body:
-        raise MarkerError(f"{path}: no table under {heading!r}")
-    return "\n".join(body) + "\n"
+        raise MarkerError(f"{spec!r}: expected FILE \"HEADING\" [COLUMN=VALUE ...]") from None
+    headings = [w for w in words if w.startswith("#")]
+    keep = dict(w.split("=", 1) for w in words if not w.startswith("#") and "=" in w)
+    if not headings or len(headings) + len(keep) != len(words):
+        raise MarkerError(f"{spec!r}: expected FILE \"HEADING\" [COLUMN=VALUE ...]")
+    body = _table_lines(path, headings)
+    if not keep:
+        return "\n".join(body) + "\n"
+    names = _cells(body[0])
+    columns = keep.pop("columns", "|".join(names)).split("|")
+    for name in [*keep, *columns]:
+        if name not in names:
+            raise MarkerError(f"{path}: no column {name!r} under {headings[-1]!r}")
+    rows = [_cells(line) for line in body[2:]]
+    rows = [r for r in rows if all(r[names.index(k)] in v.split("|") for k, v in keep.items())]
+    if not rows:
+        raise MarkerError(f"{path}: no row under {headings[-1]!r} matches {keep!r}")
+    pick = [names.index(c) for c in columns]
+    out = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    out += ["| " + " | ".join(r[i] for i in pick) + " |" for r in rows]
+    return "\n".join(out) + "\n"
 
 
 def render(text: str) -> str:
@@ -108,6 +184,45 @@ def render(text: str) -> str:
     text = BLOCK.sub(lambda m: f"<!-- table {m.group('spec')} -->\n{table(m.group('spec'))}"
                                "<!-- /table -->", text)
     return INLINE.sub(lambda m: f"<!-- n {m.group('spec')} -->{number(m.group('spec'))}<!-- /n -->", text)
+
+
+CODE = re.compile(r"```.*?```|`[^`\n]*`|<!--.*?-->|\]\([^)]*\)", re.S)
+TYPED = re.compile(r"(?<![\w§.#/:=-])[−-]?\d+(?:,\d{3})*\.\d+(?![\w.])"
+                   r"|(?<![\w.])\d+(?:\.\d+)? ?(?:%|ms|µs|s)(?!\w)")
+GIVEN = ROOT / "docs" / "tools" / "given_numbers.txt"
+
+
+def typed(text: str) -> list[str]:
+    """The numbers of `text` written by hand: decimals, percentages and times outside markers,
+    code, comments, link targets and headings."""
+    text = INLINE.sub(" ", BLOCK.sub(" ", text))
+    text = CODE.sub(" ", text)
+    lines = [line for line in text.splitlines() if not line.lstrip().startswith("#")]
+    return [m.group(0).replace("−", "-") for m in TYPED.finditer("\n".join(lines))]
+
+
+def given() -> dict[str, set[str]]:
+    """The hand-written numbers each document may hold (docs/tools/given_numbers.txt)."""
+    out: dict[str, set[str]] = {}
+    for line in GIVEN.read_text(encoding="utf-8").splitlines():
+        line = line.split("#", 1)[0].strip()
+        if line:
+            doc, _, numbers = line.partition(":")
+            out.setdefault(doc.strip(), set()).update(numbers.split())
+    return out
+
+
+def unexplained() -> list[str]:
+    """One line per hand-written number that is neither marked nor declared a setting."""
+    allowed = given()
+    out = []
+    for doc in documents():
+        name = str(doc.relative_to(ROOT))
+        extra = sorted(set(n.replace(" ", "") for n in typed(doc.read_text(encoding="utf-8")))
+                       - allowed.get(name, set()))
+        if extra:
+            out.append(f"{name}: {' '.join(extra)}")
+    return out
 
 
 def figures(doc: Path, text: str) -> list[tuple[Path, Path]]:
@@ -156,6 +271,11 @@ def main(argv: list[str] | None = None) -> int:
             problems = stale()
             for line in problems:
                 print(f"stale: {line}")
+            typed_by_hand = unexplained()
+            for line in typed_by_hand:
+                print(f"typed by hand: {line} (render it with a marker, or declare it in "
+                      f"docs/tools/given_numbers.txt if it is not measured)")
+            problems += typed_by_hand
             return 1 if problems else 0
         for doc in documents():
             text = doc.read_text(encoding="utf-8")
