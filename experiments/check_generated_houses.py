@@ -144,7 +144,11 @@ def main(argv: list[str] | None = None) -> int:
         f"Command: `python experiments/check_generated_houses.py --seeds {args.seeds} --rooms "
         f"{' '.join(map(str, args.rooms))} --model {args.model} --workers {args.workers}`", "",
         f"{len(rows)} houses, {len(failures)} failures, {wall:.0f} s wall clock "
-        f"({args.workers} worker(s); times depend on machine load).", "", *lines, "", "## Failures", "",
+        f"({args.workers} worker(s); times depend on machine load).", "", "## Totals", "",
+        "| houses | validated | built | complete | failures |", "|---|---|---|---|---|",
+        f"| {len(rows)} | {sum(r['stage'] in ('build', 'episode', 'done') for r in rows)} | "
+        f"{sum(r['stage'] in ('episode', 'done') for r in rows)} | {sum(r['ok'] for r in rows)} | {len(failures)} |",
+        "", "## By room count", "", *lines, "", "## Failures", "",
         *fail_lines, ""])
     atomic_write_text(out / "summary.md", text)
     print(text)

@@ -23,7 +23,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from fg_tea.common.files import out_folder  # noqa: E402
+from fg_tea.common.files import atomic_path, atomic_write_text, out_folder  # noqa: E402
 from fg_tea.common.options import ENV_HELP, MODELS_HELP, WORKERS_HELP, WORLD_HELP, experiment_parser  # noqa: E402
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
@@ -84,30 +84,32 @@ def main(argv: list[str] | None = None) -> int:
         rows = list(pool.map(run_one, jobs))
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    with (out / f"episodes-{a.world}-{a.env}-{a.rate}.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+    with atomic_path(out / f"episodes-{a.world}-{a.env}-{a.rate}.csv") as tmp, \
+            tmp.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]), lineterminator="\n")
         w.writeheader()
         w.writerows(rows)
     lines = [f"# Failure injection: rate {a.rate} on every verb, {a.worlds} `{a.world}` worlds, "
              f"EFE, {a.env}", "",
-             "| model | n | success | success true in the world | recovered by reopening |",
-             "|---|---|---|---|---|"]
+             "| model | n | success | success true in the world | recovered by reopening | failed actions, mean | failed actions, max |",
+             "|---|---|---|---|---|---|---|"]
     reasons: Counter = Counter()
     for model in a.models:
         mine = [r for r in rows if r["model"] == model]
         ok = sum(r["success"] for r in mine)
         true = sum(bool(r["success"] and r["goals_true"]) for r in mine)
         lines.append(f"| {model} | {len(mine)} | {ok / len(mine):.3f} | {true / len(mine):.3f} | "
-                     f"{sum(r['reopenings'] > 0 for r in mine)} |")
+                     f"{sum(r['reopenings'] > 0 for r in mine)} | "
+                     f"{sum(r['failures'] for r in mine) / len(mine):.2f} | {max(r['failures'] for r in mine)} |")
         for r in mine:
             reasons[(reason_group(r["reason"]), model)] += 1
-    lines += ["", "End reasons (episodes):", "",
+    lines += ["", "## End reasons (episodes)", "",
               "| end reason | " + " | ".join(a.models) + " |",
               "|---|" + "---|" * len(a.models)]
     for group in sorted({g for g, _ in reasons}, key=lambda g: (g != "complete", g)):
         lines.append(f"| {group} | " + " | ".join(str(reasons[(group, m)]) for m in a.models) + " |")
     text = "\n".join(lines) + "\n"
-    (out / f"summary-{a.world}-{a.env}-{a.rate}.md").write_text(text)
+    atomic_write_text(out / f"summary-{a.world}-{a.env}-{a.rate}.md", text)
     print(text)
     return 0
 

@@ -29,3 +29,31 @@ def test_every_picture_still_shows_what_its_caption_says(tmp_path):
     for picture, (_, _, promised) in pictures.PICTURES.items():
         png, caption = pictures.make(picture, tmp_path)
         assert png.stat().st_size > 0 and promised in caption, (picture, caption)
+
+
+def test_every_plot_is_made_by_its_command_and_counts_what_its_alt_text_says():
+    """A plot's alt text names what the command draws: the counts in it match its scenario."""
+    pictures = _pictures()
+    words = {"sites": "numbered sites", "room vantages": "room vantages"}
+    numerals = {9: "nine", 27: "27"}
+    for picture, (command, _, claims) in pictures.PLOTS.items():
+        assert (ROOT / picture).is_file(), picture
+        name = Path(picture).name
+        shown = [p.read_text() for p in (ROOT / "README.md", *(ROOT / "docs").rglob("*.md"))
+                 if name in p.read_text()]
+        assert shown, f"{picture} is shown nowhere"
+        if claims is None:
+            continue
+        have = pictures.counts(claims[0])
+        assert have == claims[1], (picture, have)
+        for text in shown:
+            alt = text.split(name)[0].rsplit("![", 1)[-1]
+            for what, n in have.items():
+                assert f"{numerals.get(n, n)} {words[what]}" in alt, (picture, what, alt)
+
+
+@pytest.mark.slow
+def test_every_plot_command_still_writes_its_picture(tmp_path):
+    pictures = _pictures()
+    for picture in pictures.PLOTS:
+        assert pictures.plot(picture, tmp_path / Path(picture).stem).stat().st_size > 1000

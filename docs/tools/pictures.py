@@ -1,10 +1,16 @@
-"""Regenerate the documentation's pictures of the default episode from named commands.
+"""Regenerate the documentation's pictures from named commands.
 
-Each picture is one frame of a video, written by ``fg-tea render LOG --still FRAME`` from the log of
-a named ``fg-tea run``; the frame's caption (the overlay's first line) is what the picture's alt
-text in the README and docs says it shows. ``python docs/tools/pictures.py`` rewrites the pictures;
-``python docs/tools/pictures.py --check`` runs the same commands into a temporary folder and exits
-1 if a caption is no longer the one the docs promise (``tests/test_docs_pictures.py``).
+Two kinds. A *video still* is one frame of a video, written by ``fg-tea render LOG --still FRAME``
+from the log of a named ``fg-tea run``; the frame's caption (the overlay's first line) is what the
+picture's alt text in the README and docs says it shows. A *plot* is the PNG a named command writes
+(``fg-tea preview``'s floor plan, an experiment's figure); what its alt text counts (rooms, sites,
+room vantages) is checked against the scenario it draws. A figure that an experiment writes into
+``experiments/results/`` is not here: a ``<!-- figure -->`` marker copies it
+(docs/tools/render_numbers.py).
+
+``python docs/tools/pictures.py`` rewrites the pictures; ``python docs/tools/pictures.py --check``
+runs the same commands into a temporary folder and exits 1 if a caption is no longer the one the
+docs promise or a command no longer writes its picture (``tests/test_docs_pictures.py``).
 """
 
 from __future__ import annotations
@@ -23,6 +29,48 @@ PICTURES = {
     "docs/video_still.png": (["run", "--no-video"], 360,
                              "room glance: kitchen (2 sites): found kettle on kitchen_counter"),
 }
+
+
+#: picture -> (the command, ``{out}`` standing for a folder; the file it writes there; the scenario
+#: the picture draws and what its alt text counts in it, or None).
+PLOTS = {
+    "docs/floorplan_default_apartment.png": (
+        ["fg-tea", "preview", "default_apartment", "--out", "{out}/preview.png"], "preview_plan.png", None),
+    "docs/floorplan_generated_medium.png": (
+        ["fg-tea", "preview", "scenarios/generated_medium.json", "--out", "{out}/preview.png"],
+        "preview_plan.png", ("scenarios/generated_medium.json", {"sites": 27, "room vantages": 9})),
+    "docs/inspect_marginals_prior_violation.png": (
+        ["python", "experiments/inspect_marginals.py", "--scenario", "prior_violation", "--out",
+         "{out}/marginals.png"], "marginals.png", None),
+}
+
+
+def counts(scenario: str) -> dict[str, int]:
+    """What a floor plan's alt text may count: the scenario's sites and room vantages."""
+    import json
+
+    data = json.loads((ROOT / scenario).read_text(encoding="utf-8"))
+    vantages = data.get("room_vantages", [])
+    return {"sites": len(data["sites"]),
+            "room vantages": sum(len(v) for v in vantages.values()) if isinstance(vantages, dict)
+            else len(vantages)}
+
+
+def plot(picture: str, folder: Path) -> Path:
+    """Run the plot's command in `folder`; return the PNG it wrote."""
+    import subprocess
+
+    command, written, _ = PLOTS[picture]
+    folder.mkdir(parents=True, exist_ok=True)
+    argv = [a.replace("{out}", str(folder)) for a in command]
+    argv = ([sys.executable, "-m", "fg_tea.cli", *argv[1:]] if argv[0] == "fg-tea"
+            else [sys.executable, *argv[1:]])
+    done = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    png = folder / written
+    if done.returncode != 0 or not png.is_file() or png.stat().st_size == 0:
+        raise RuntimeError(f"{picture}: {' '.join(command)} wrote no {written}: "
+                           f"{done.stderr.strip()[-300:]}")
+    return png
 
 
 def make(picture: str, folder: Path) -> tuple[Path, str]:
@@ -61,6 +109,19 @@ def main(argv: list[str] | None = None) -> int:
             elif not args.check:
                 shutil.copyfile(png, ROOT / picture)
                 print(f"wrote: {picture} ({caption})")
+        for picture, (_, _, claims) in PLOTS.items():
+            try:
+                png = plot(picture, Path(tmp))
+            except RuntimeError as exc:
+                print(exc)
+                failed += 1
+                continue
+            if claims is not None and counts(claims[0]) != claims[1]:
+                print(f"{picture}: {claims[0]} has {counts(claims[0])}, the docs say {claims[1]}")
+                failed += 1
+            elif not args.check:
+                shutil.copyfile(png, ROOT / picture)
+                print(f"wrote: {picture}")
     return 1 if failed else 0
 
 

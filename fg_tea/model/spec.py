@@ -83,7 +83,7 @@ class Relation:
 class PlanningWeights:
     """Weights of the EFE-style score G(o, j), eqs. 12-16 (lower is better), and when to give up.
 
-    Giving up on a search (``docs/design.md``, search give-up): the search for object o stops,
+    Giving up on a search (``docs/design.md`` §7.8): the search for object o stops,
     and the episode ends with ``not_found: o``, when either
 
     - the *remaining probability* R_o = sum over reachable sites j of q0(L_o = j) x
