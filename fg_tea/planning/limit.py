@@ -1,0 +1,333 @@
+"""The search limit under imperfect detection: the least expected cost of finding every object.
+
+A yardstick, not a planner (docs/design.md §6.9). Given the search problem one decision solves
+(:class:`fg_tea.planning.lookahead.SearchProblem`: viewpoints, the chance ``p_{u,k}(v)`` that a look
+from v shows object u standing at site k, travel between viewpoints and a cost per image), it
+brackets the optimal expected cost
+
+    V* = min over adaptive policies of E[travel + look cost until every object is found]
+
+from both sides, when the objects are independent under the belief (a factorised belief) and
+looks detect independently given where the objects stand, as the agent's model says.
+
+**State.** Under these assumptions the belief after any history is fixed by three things: the
+viewpoint the agent stands at, the number of looks n_v made from each viewpoint v (every look so
+far missed every object still unfound) and the set F of objects found. An unfound u stands at k
+with probability proportional to ``q0_u(k) prod_v (1 - p_{u,k}(v))^{n_v}``; write M_u(n) for the
+sum of that over k. A look from v then misses u with probability M_u(n + e_v) / M_u(n), for each
+unfound u independently, so the outcome (which objects it finds) has a product distribution and
+
+    V(v, n, F) = min_w [ travel(v, w) + look(w) + sum_S P(S) V(w, n + e_w, F + S) ]
+
+with V = 0 once F holds every object. Counts only grow, so the recursion runs backwards over
+count vectors, layer by layer, vectorised over all count vectors of a layer.
+
+**Bounds.** Counts are unbounded, so the state space is cut at ``cap`` looks per viewpoint, two
+ways:
+
+- *lower*: the look that takes n_v past ``cap`` is made perfect (it shows every object standing
+  at a site in view with probability 1). A more informative look at the same cost can only help,
+  so the value is at most V*;
+- *upper*: no viewpoint is looked from more than ``cap`` times until every viewpoint has been;
+  from there on the agent sweeps every viewpoint in a fixed cyclic order, whose expected cost is
+  summed exactly, with a geometric bound on the tail. This is the value of a real policy, so it
+  is at least V*.
+
+Both tighten as ``cap`` grows: :func:`search_limit` raises it until the interval is narrower than
+``tolerance`` or the next cap would not fit in ``max_entries`` table entries. With a perfect
+detector (p = 1 at every site in view) both equal the perfect-detection dynamic program of
+:mod:`fg_tea.planning.optimal` (tested), and on small problems they equal a brute-force
+expectimax over the truth table with the same cuts (tested).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fg_tea.planning.lookahead import SearchProblem
+
+#: Table entries (count vectors x viewpoints x found sets) the solver may hold, about 8 bytes each.
+MAX_ENTRIES = 40_000_000
+TAIL = 1e-12  # the cyclic sweep is summed until this much probability is left, then bounded
+
+
+@dataclass(frozen=True)
+class Limit:
+    """The bracketed optimal expected cost of a search problem (metres-equivalent).
+
+    Attributes:
+        lower: a lower bound of V* (perfect looks past the cap).
+        upper: an upper bound of V* (the capped policy, then a cyclic sweep).
+        cap: looks per viewpoint the state space was cut at.
+        entries: table entries of the larger of the two solves.
+        viewpoints: viewpoints that can find something (the others are never worth a look).
+        objects: objects searched.
+    """
+
+    lower: float
+    upper: float
+    cap: int
+    entries: int
+    viewpoints: int
+    objects: int
+
+    @property
+    def width(self) -> float:
+        """upper - lower: how precisely V* is known."""
+        return self.upper - self.lower
+
+
+def _entries(n_views: int, n_objects: int, levels: int) -> int:
+    return levels ** n_views * n_views * 2 ** n_objects
+
+
+def limit_fault(problem: SearchProblem, max_entries: int = MAX_ENTRIES) -> str | None:
+    """Why :func:`search_limit` cannot answer `problem`, or None: a correlated belief (the state
+    above is exact only for independent objects) or a table too large even at one look per
+    viewpoint."""
+    if not problem.independent:
+        return ("search limit: the belief is correlated; the limit is exact for independent "
+                "objects only (a factorised model)")
+    a, m = _useful(problem)[0].size, len(problem.objects)
+    if _entries(a, m, 3) > max_entries:
+        return (f"search limit: {a} viewpoints and {m} objects need {_entries(a, m, 3):,} table "
+                f"entries at one look per viewpoint, more than {max_entries:,}")
+    return None
+
+
+def _useful(problem: SearchProblem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(viewpoints that can show some object where it may stand, open sites with mass, q0)."""
+    q0 = np.asarray(problem.factors, dtype=float)
+    q0 = q0 / q0.sum(axis=1, keepdims=True)
+    prob = problem.prob  # (A, U, K')
+    sites = np.flatnonzero(q0.sum(axis=0) > 0)
+    views = np.flatnonzero((prob[:, :, sites] * q0[None, :, sites]).sum(axis=(1, 2)) > 0)
+    return views, sites, q0
+
+
+class _Grid:
+    """Count vectors over the useful viewpoints, ``levels`` values each, in C order."""
+
+    def __init__(self, n_views: int, levels: int):
+        self.levels, self.n_views = levels, n_views
+        self.size = levels ** n_views
+        self.stride = np.array([levels ** (n_views - 1 - v) for v in range(n_views)], dtype=np.int64)
+        digits = (np.arange(self.size, dtype=np.int64)[:, None] // self.stride[None, :]) % levels
+        self.digits = digits.astype(np.int16)
+        total = digits.sum(axis=1)
+        self.layers = [np.flatnonzero(total == t) for t in range(int(total.max()), -1, -1)]
+
+    def masses(self, q0: np.ndarray, factor: np.ndarray) -> np.ndarray:
+        """M[u, n] = sum_k q0[u, k] prod_v factor[u, k, v, n_v], shape (U, size)."""
+        out = np.empty((q0.shape[0], self.size))
+        for u in range(q0.shape[0]):
+            t = q0[u][:, None]  # (K, 1)
+            for v in range(self.n_views):
+                t = (t[:, :, None] * factor[u, :, v, None, :]).reshape(t.shape[0], -1)
+            out[u] = t.sum(axis=0)
+        return out
+
+
+def _cycle_cost(q: np.ndarray, p: np.ndarray, tour: np.ndarray, enter: float,
+                between: np.ndarray, look: np.ndarray) -> float:
+    """Expected cost of sweeping ``tour`` cyclically (entering it at cost ``enter`` for its first
+    travel) until every object is found; q (W, K) are the unfound objects' posteriors, p (A, W, K)
+    the detection probabilities. Summed until :data:`TAIL` mass is left, the rest bounded."""
+    if q.shape[0] == 0:
+        return 0.0
+    steps = [enter] + [float(between[tour[i], tour[(i + 1) % len(tour)]]) for i in range(len(tour) - 1)]
+    closing = float(between[tour[-1], tour[0]])
+    unseen = q.copy()  # q_u(k) * P(u missed at k by the looks so far)
+    cycle_miss = np.prod(1.0 - p[tour], axis=0)  # (W, K)
+    total, s = 0.0, 0
+    cost_max = max(steps[1:] + [closing, enter]) + float(look.max())
+    while True:
+        i = s % len(tour)
+        travel = steps[i] if s < len(tour) else (closing if i == 0 else steps[i])
+        total += (travel + float(look[tour[i]])) * (1.0 - float(np.prod(1.0 - unseen.sum(axis=1))))
+        unseen = unseen * (1.0 - p[tour[i]])
+        s += 1
+        left = float(unseen.sum())
+        if left < TAIL and i == len(tour) - 1:
+            break
+        if s > 10_000 * len(tour):
+            return math.inf  # some mass is never found by the sweep
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tail = np.where(unseen > 0, unseen / (1.0 - cycle_miss), 0.0)
+    return total + cost_max * len(tour) * float(tail.sum())
+
+
+def _solve(problem: SearchProblem, views: np.ndarray, sites: np.ndarray, q0: np.ndarray,
+           cap: int, upper: bool) -> float:
+    """The root value of the cut problem (see the module docstring); ``upper`` picks the cut."""
+    return solve_tables(problem, views, sites, q0, cap, upper).root
+
+
+@dataclass
+class Tables:
+    """A solved cut problem: V(v, n, F) for every state, and Q-values on demand.
+
+    Attributes:
+        root: the value at the start (min over first looks of travel + look + expectation).
+        views: the useful viewpoints (indices into the problem's), the order of every axis below.
+        cap, upper: the cut (see the module docstring).
+    """
+
+    root: float
+    views: np.ndarray
+    cap: int
+    upper: bool
+    values: dict
+    mass: np.ndarray
+    stride: np.ndarray
+    levels: int
+    between: np.ndarray
+    start: np.ndarray
+    look: np.ndarray
+
+    def q_values(self, here: int | None, counts: np.ndarray, found: int,
+                 travel: np.ndarray | None = None) -> np.ndarray:
+        """Q(state, w) for every useful viewpoint w: travel + look + expected value after it;
+        inf where the cut forbids the look. `here` indexes :attr:`views` (None: the start),
+        `counts` the looks per useful viewpoint, `found` a bit mask over the problem's objects;
+        `travel`, if given, the metres to each viewpoint from wherever the agent stands."""
+        counts = np.minimum(np.asarray(counts, dtype=np.int64), self.levels - 1)
+        idx = int(np.sum(counts * self.stride))
+        m = self.mass.shape[0]
+        unfound = [u for u in range(m) if not found >> u & 1]
+        limit = self.cap if self.upper else self.cap + 1
+        if travel is None:
+            travel = self.start if here is None else self.between[here]
+        out = np.full(len(self.views), np.inf)
+        for w in range(len(self.views)):
+            if counts[w] >= limit:
+                continue
+            nx = idx + int(self.stride[w])
+            keep = [self.mass[u, nx] / self.mass[u, idx] if self.mass[u, idx] > 0 else 1.0
+                    for u in unfound]
+            expect = 0.0
+            for s in range(1 << m):
+                if s & found:
+                    continue
+                ps = 1.0
+                for j, u in enumerate(unfound):
+                    ps *= (1.0 - keep[j]) if s >> u & 1 else keep[j]
+                if ps > 0:
+                    expect += ps * float(self.values[found | s][w, nx])
+            out[w] = travel[w] + self.look[w] + expect
+        return out
+
+
+def solve_tables(problem: SearchProblem, views: np.ndarray, sites: np.ndarray, q0: np.ndarray,
+                 cap: int, upper: bool) -> Tables:
+    """Solve the cut problem and keep its tables (see :class:`Tables`)."""
+    prob = problem.prob[np.ix_(views, np.arange(len(problem.objects)), sites)]  # (A, U, K)
+    q = q0[:, sites]
+    a, m = len(views), len(problem.objects)
+    between = problem.between[np.ix_(views, views)]
+    start = problem.start[views]
+    look = problem.look[views]
+    levels = cap + 1 if upper else cap + 2
+    grid = _Grid(a, levels)
+    # factor[u, k, v, level]: the chance that `level` looks from v all missed u standing at k
+    lv = np.arange(levels)
+    miss = 1.0 - np.transpose(prob, (1, 2, 0))  # (U, K, A)
+    factor = miss[..., None] ** lv[None, None, None, :]
+    if not upper:  # the look past the cap is perfect: it rules out every site it shows
+        factor[..., cap + 1] = np.where(miss < 1.0, 0.0, 1.0)
+    mass = grid.masses(q, factor)  # (U, N)
+    limit = cap if upper else cap + 1
+    succ = np.where(grid.digits < limit, np.arange(grid.size)[:, None] + grid.stride[None, :], -1)
+    full = (1 << m) - 1
+    values: dict[int, np.ndarray] = {full: np.zeros((a, grid.size))}
+    tour = _tour(between)
+    capped = int(np.sum(grid.stride * cap)) if upper else -1
+    root_q = None
+    for found in sorted(range(full), key=lambda f: -bin(f).count("1")):
+        unfound = [u for u in range(m) if not found >> u & 1]
+        mass_w = mass[unfound]
+        value = np.full((a, grid.size), np.inf)
+        subsets = [s for s in range(full + 1) if s & found == 0]
+        for layer in grid.layers:
+            alive = np.all(mass_w[:, layer] > 0, axis=0)
+            q_best = np.full((a, layer.size), np.inf)
+            for w in range(a):
+                nxt = succ[layer, w]
+                ok = (nxt >= 0) & alive
+                if not ok.any():
+                    continue
+                idx, nx = layer[ok], nxt[ok]
+                keep = mass_w[:, nx] / mass_w[:, idx]  # P(u still unseen after the look from w)
+                expect = np.zeros(idx.size)
+                for s in subsets:
+                    ps = np.ones(idx.size)
+                    for j, u in enumerate(unfound):
+                        ps = ps * ((1.0 - keep[j]) if s >> u & 1 else keep[j])
+                    nxt_value = values[found | s][w, nx] if s else value[w, nx]
+                    expect += np.where(ps > 0, ps * nxt_value, 0.0)  # an impossible branch adds 0
+                q_best[w, ok] = look[w] + expect
+            best = np.min(between[:, :, None] + q_best[None, :, :], axis=1)  # (A, layer)
+            best[:, ~alive] = 0.0  # a state of probability 0: its value is never weighed
+            if upper and capped in layer and alive[int(np.flatnonzero(layer == capped)[0])]:
+                at = int(np.flatnonzero(layer == capped)[0])
+                post = factor[:, :, np.arange(a), cap].prod(axis=2) * q  # (U, K)
+                post = post[unfound] / post[unfound].sum(axis=1, keepdims=True)
+                for v in range(a):
+                    first = int(np.argmin(between[v, tour]))
+                    best[v, at] = _cycle_cost(post, prob[:, unfound, :], np.roll(tour, -first),
+                                              float(between[v, tour[first]]), between, look)
+            value[:, layer] = best
+            if found == 0 and (layer == 0).any():
+                root_q = q_best[:, int(np.flatnonzero(layer == 0)[0])]
+        values[found] = value
+    assert root_q is not None
+    return Tables(float(np.min(start + root_q)), views, cap, upper, values, mass, grid.stride,
+                  levels, between, start, look)
+
+
+def _tour(between: np.ndarray) -> np.ndarray:
+    """A nearest-neighbour tour of the viewpoints, from viewpoint 0."""
+    a = between.shape[0]
+    tour, left = [0], set(range(1, a))
+    while left:
+        here = tour[-1]
+        nxt = min(left, key=lambda w: (between[here, w], w))
+        tour.append(nxt)
+        left.remove(nxt)
+    return np.array(tour)
+
+
+def search_limit(problem: SearchProblem, tolerance: float = 1e-3, max_entries: int = MAX_ENTRIES,
+                 max_cap: int = 12) -> Limit:
+    """Bracket the optimal expected search cost of `problem` (see the module docstring).
+
+    Args:
+        problem: a search problem with a factorised belief (``problem.factors``).
+        tolerance: stop raising the cap once ``upper - lower`` is at most this (metres).
+        max_entries: the largest table the solver may hold.
+        max_cap: the largest cap tried.
+
+    Raises:
+        ValueError: :func:`limit_fault` says why the problem cannot be answered.
+    """
+    fault = limit_fault(problem, max_entries)
+    if fault:
+        raise ValueError(fault)
+    views, sites, q0 = _useful(problem)
+    a, m = views.size, len(problem.objects)
+    best: Limit | None = None
+    for cap in range(1, max_cap + 1):
+        if _entries(a, m, cap + 2) > max_entries and best is not None:
+            break
+        lo = _solve(problem, views, sites, q0, cap, upper=False)
+        hi = _solve(problem, views, sites, q0, cap, upper=True)
+        lo_best = lo if best is None else max(lo, best.lower)
+        hi_best = hi if best is None else min(hi, best.upper)
+        best = Limit(lo_best, hi_best, cap, _entries(a, m, cap + 2), a, m)
+        if best.width <= tolerance:
+            break
+    assert best is not None
+    return best
