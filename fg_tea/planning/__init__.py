@@ -45,6 +45,7 @@ from fg_tea.planning.baselines import (
     RandomPlanner,
 )
 from fg_tea.planning.efe import EFEPlanner, FactorisedEFEPlanner
+from fg_tea.planning.exact import ExactPlanner, ExactSettings
 from fg_tea.planning.lookahead import LookaheadPlanner, LookaheadSettings
 from fg_tea.planning.optimal import OptimalPlanner
 from fg_tea.planning.plugins import PlannerSpecError
@@ -77,6 +78,7 @@ _REGISTRY: dict[str, Callable[[Model, np.random.Generator | None], Planner]] = {
     "random": _random,
     "optimal": lambda model, rng: OptimalPlanner(),
     "lookahead": lambda model, rng: LookaheadPlanner(model.planning),
+    "exact": lambda model, rng: ExactPlanner(),
 }
 if importlib.util.find_spec("pomdp_py") is not None:  # the optional [peers] extra
     _REGISTRY.update({
@@ -95,6 +97,7 @@ def _peer(kind: str, spec: str, model: Model, rng: np.random.Generator | None) -
 _FAMILIES: dict[str, Callable[[str, Model, np.random.Generator | None], Planner]] = {
     "lookahead": lambda spec, model, rng: LookaheadPlanner(model.planning,
                                                            LookaheadSettings.parse(spec)),
+    "exact": lambda spec, model, rng: ExactPlanner(ExactSettings.parse(spec)),
     "pouct": lambda spec, model, rng: _peer("pouct", spec, model, rng),
     "pomcp": lambda spec, model, rng: _peer("pomcp", spec, model, rng),
 }
@@ -113,6 +116,9 @@ def peers_installed() -> bool:
 def _check_family_spec(family: str, spec: str) -> None:
     if family == "lookahead":
         LookaheadSettings.parse(spec)
+        return
+    if family == "exact":
+        ExactSettings.parse(spec)
         return
     if not (spec.isdigit() and 1 <= int(spec) <= MAX_SIMULATIONS):
         raise ValueError(f"planner {family}:{spec}: the setting is the number of simulations "
@@ -243,6 +249,6 @@ def distances_for(model: Model, scenario: Scenario, agent_xy: Sequence[float],
 __all__ = ["Candidate", "Decision", "DistanceModel", "DistanceTable", "Planner", "EFEPlanner",
            "FactorisedEFEPlanner", "MutualInformationEFEPlanner",
            "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
-           "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "euclidean_distances",
+           "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "ExactPlanner", "ExactSettings", "euclidean_distances",
            "distances_for", "make_planner", "planner_names", "check_planner_name", "is_family_spec",
            "check_planner", "register_planner"]

@@ -282,6 +282,28 @@ class PlannerBase:
         return None
 
 
+def parse_settings(family: str, spec: str, kinds: Mapping[str, type]) -> dict:
+    """``"key=value,..."`` of a planner family spec (``lookahead:depth=3``) as typed values.
+
+    Raises:
+        ValueError: an unknown key, a key given twice, a malformed pair or a value of the wrong
+            type, each naming the family.
+    """
+    values: dict = {}
+    for part in filter(None, (p.strip() for p in spec.split(","))):
+        key, sep, raw = part.partition("=")
+        key = key.strip()
+        if not sep or key not in kinds:
+            raise ValueError(f"{family}: bad setting {part!r} (known keys: {', '.join(kinds)})")
+        if key in values:
+            raise ValueError(f"{family}: {key} is given twice in {spec!r}; give it once")
+        try:
+            values[key] = kinds[key](raw.strip())
+        except ValueError:
+            raise ValueError(f"{family}: {key} must be {kinds[key].__name__}, got {raw!r}") from None
+    return values
+
+
 # ---------------------------------------------------------------------------------- shared checks
 def check_inputs(belief, objects: Sequence[str], relevance: Mapping[str, float],
                  excluded_sites: frozenset[str], views=None) -> tuple[list[int], list[int]]:

@@ -74,6 +74,7 @@ from fg_tea.planning.base import (
     DistanceModel,
     PlannerBase,
     check_inputs,
+    parse_settings,
 )
 from fg_tea.planning.efe import EFEPlanner, entropies
 
@@ -96,6 +97,8 @@ class LookaheadSettings:
         rollout: ``"mppm"`` (most probable per metre) or ``"none"`` (leaves valued 0).
         nodes: belief nodes per decision (>= 1); beyond it nodes are valued by their rollout.
         look: metres-equivalent cost of one image (>= 0).
+        relook: 1 to weigh, at every node, a look from the nearest viewpoint (a re-look of the
+            place the agent stands at) beside the best-scored ones; 0 not to (docs/design.md §6.6).
     """
 
     depth: int = 2
@@ -103,12 +106,15 @@ class LookaheadSettings:
     rollout: str = "mppm"
     nodes: int = 20  # the budget rule of docs/design.md §6.6
     look: float = LOOK_COST
+    relook: int = 0
 
     def __post_init__(self) -> None:
         if self.depth < 1 or self.width < 1 or self.nodes < 1:
             raise ValueError("lookahead: depth, width and nodes must be at least 1")
         if self.rollout not in ROLLOUTS:
             raise ValueError(f"lookahead: unknown rollout {self.rollout!r} (use {', '.join(ROLLOUTS)})")
+        if self.relook not in (0, 1):
+            raise ValueError(f"lookahead: relook must be 0 or 1, got {self.relook}")
         if not (math.isfinite(self.look) and self.look >= 0):
             raise ValueError(f"lookahead: look cost must be finite and >= 0, got {self.look}")
 
@@ -120,24 +126,12 @@ class LookaheadSettings:
             ValueError: an unknown key, a key given twice, a malformed pair or an out-of-range
                 value.
         """
-        kinds = {"depth": int, "width": int, "nodes": int, "rollout": str, "look": float}
-        values: dict = {}
-        for part in filter(None, (p.strip() for p in spec.split(","))):
-            key, sep, raw = part.partition("=")
-            key = key.strip()
-            if not sep or key not in kinds:
-                raise ValueError(f"lookahead: bad setting {part!r} (known keys: {', '.join(kinds)})")
-            if key in values:
-                raise ValueError(f"lookahead: {key} is given twice in {spec!r}; give it once")
-            try:
-                values[key] = kinds[key](raw.strip())
-            except ValueError:
-                raise ValueError(f"lookahead: {key} must be {kinds[key].__name__}, got {raw!r}") from None
-        return cls(**values)
+        return cls(**parse_settings("lookahead", spec, {"depth": int, "width": int, "nodes": int,
+                                                        "rollout": str, "look": float, "relook": int}))
 
     def spec(self) -> str:
         return (f"depth={self.depth},width={self.width},rollout={self.rollout},"
-                f"nodes={self.nodes},look={self.look:g}")
+                f"nodes={self.nodes},look={self.look:g}" + (",relook=1" if self.relook else ""))
 
 
 # ---------------------------------------------------------------------------- the search problem
@@ -698,6 +692,8 @@ class LookaheadPlanner(PlannerBase):
             if base >= 0 and base not in actions:
                 actions.append(base)
             node.base = base
+            if self.settings.relook and node.pos >= 0 and node.pos not in actions:
+                actions.append(node.pos)
         else:
             actions = list(root_actions)
         actions = self._useful(problem, node, actions) if root_actions is None else actions
@@ -808,6 +804,10 @@ class LookaheadPlanner(PlannerBase):
             kept = order[:st.width] + [best_by_view[problem.names[base]]]
         else:
             kept = order[:st.width]
+        here = int(np.argmin(problem.start))
+        if st.relook and here not in root_actions:  # the nearest look: a re-look where the agent stands
+            root_actions.append(here)
+            kept = kept + [best_by_view[problem.names[here]]]
         useful = set(self._useful(problem, root, root_actions))
         kept = [c for a, c in zip(root_actions, kept) if a in useful]
         root_actions = [a for a in root_actions if a in useful]
