@@ -1,0 +1,339 @@
+"""Each planner's cost against the search limit under imperfect detection (docs/design.md §6.9).
+
+A search-only task (``find_mug``, ``find_three``) in worlds drawn from the model's own prior (the
+``independent`` world distribution), the fake house with a detector that misses as often as the
+model says: what is left between a planner and the limit is then planning alone. Every episode's
+cost is priced as the limit prices it (:mod:`fg_tea.planning.limit`): the planner's own travel
+distances between the viewpoints it looked from, plus the look cost per image; the limit is the
+bracketed optimal expected cost of the same problem from the start, which every world of the
+distribution shares (the worlds change where the objects are, not the house or the prior).
+
+Used by ``experiments/search_limit.py``; one JSON file per episode under ``<out>/episodes/``, so
+an interrupted run resumes. Times are CPU seconds per decision, measured serially.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fg_tea.common.files import atomic_write_text
+from fg_tea.common.stats import bootstrap_interval
+from fg_tea.planning.limit import Limit, search_limit
+from fg_tea.planning.lookahead import LOOK_COST, build_problem
+
+
+class _StartDistances:
+    """The planner's distances seen from the start pose: the environment's geodesic lookups."""
+
+    def __init__(self, env) -> None:
+        self.env = env
+
+    def from_agent(self, site: str) -> float:
+        return float(self.env.distance_to_site(site))
+
+    def between(self, a: str, b: str) -> float:
+        return 0.0 if a == b else float(self.env.distance_between_sites(a, b))
+
+
+def _setup(world: str, seed: int, model_name: str, task: str, miss_rate: float | None):
+    from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+    from fg_tea.model.spec import load_model
+    from fg_tea.study.sweep import _make_env, model_path, world_path
+    from fg_tea.world.distributions import load_world
+
+    model = load_model(model_path(model_name))
+    scenario = load_world(world_path(world)).sample(seed)
+    rate = model.miss_likelihood if miss_rate is None else miss_rate
+    if model.detector != "threshold":  # the camera's curve draws the misses (docs/design.md §3.4)
+        rate = 0.0
+    env = _make_env("fake", scenario, env_config_for(model, detection_miss_rate=rate))
+    return model, scenario, env, EpisodeRunner, RunConfig, rate
+
+
+def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3) -> tuple[Limit, list[str]]:
+    """The limit of the search the task starts with, from the start pose (world seed 0's house)."""
+    model, scenario, env, EpisodeRunner, RunConfig, _ = _setup(world, 0, model_name, task, None)
+    try:
+        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=0, task=task))
+        runner.start()  # resets the house and hands the agent its view geometry; no look yet
+        agent = runner.agent
+        objects = agent.executor.pending_search_objects()
+        views = None if model.close_looks_only else agent.views
+        problem = build_problem(agent.belief, objects, _StartDistances(env), frozenset(), views, LOOK_COST)
+    finally:
+        env.close()
+    return search_limit(problem, tolerance=tolerance), objects
+
+
+def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
+                miss_rate: float | None = None) -> dict:
+    """One search-only episode: its cost as the limit prices it, success, looks and CPU times."""
+    model, scenario, env, EpisodeRunner, RunConfig, rate = _setup(world, seed, model_name, task, miss_rate)
+    distances = _StartDistances(env)
+    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner, task=task))
+    cpu: list[float] = []
+    choose = runner.planner.choose
+
+    def timed(*args, **kwargs):
+        start = time.process_time()
+        decision = choose(*args, **kwargs)
+        cpu.append(time.process_time() - start)
+        return decision
+
+    runner.planner.choose = timed
+    steps = 0
+    cost, here, start = 0.0, None, {}
+    try:
+        runner.start()
+        start = {v: distances.from_agent(v) for v in runner.agent.views.names}
+        steps = 0
+        while not runner.done and steps < 2000:
+            runner.step()
+            steps += 1
+        for e in runner.events:
+            if e["event"] == "observation":
+                v = e["viewpoint"]
+                cost += start[v] if here is None else distances.between(here, v)
+                cost += LOOK_COST * max(1, len(e.get("sites_in_view") or [v]))
+                here = v
+    finally:
+        env.close()
+    m = runner.metrics()
+    return {"world": world, "seed": seed, "model": model_name, "planner": planner, "task": task,
+            "miss_rate": rate, "cost": cost, "looks": sum(e["event"] == "observation" for e in runner.events),
+            "success": bool(m["success"]) and runner.done, "reason": runner.reason,
+            "decision_cpu_seconds": cpu}
+
+
+def run(world: str, seeds: range, model: str, planners: list[str], task: str, out: Path,
+        progress=None) -> list[dict]:
+    """Every (planner, seed) episode, resumed from ``out/episodes/`` where already there."""
+    folder = out / "episodes"
+    folder.mkdir(parents=True, exist_ok=True)
+    rows = []
+    jobs = [(p, s) for p in planners for s in seeds]
+    for i, (planner, seed) in enumerate(jobs):
+        name = f"{task}-{model}-{planner}-{seed:05d}".replace(":", "_").replace(",", "_").replace("=", "-")
+        path = folder / f"{name}.json"
+        if path.is_file():
+            rows.append(json.loads(path.read_text(encoding="utf-8")))
+        else:
+            row = run_episode(world, seed, model, planner, task)
+            atomic_write_text(path, json.dumps(row) + "\n")
+            rows.append(row)
+        if progress:
+            progress(i + 1, len(jobs))
+    return rows
+
+
+def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], world: str, model: str,
+              command: str, policies: dict[tuple[str, str], "PolicyCost"] | None = None) -> str:
+    """The markdown tables: per task and planner, the exact expected cost of its policy (where it
+    is deterministic) and the mean over sampled episodes, each against the limit, and times."""
+    policies = policies or {}
+    lines = [f"# Planners against the search limit: model `{model}`, world `{world}`", "",
+             f"Regenerate: `{command}`", "",
+             "Cost: travel between the viewpoints looked from (the planner's own distances) plus "
+             f"{LOOK_COST:.3f} m-equivalent per image, until every object is found. Limit: the "
+             "optimal expected cost of the same search (docs/design.md §6.9), bracketed "
+             "[lower, upper]; ratios are to its midpoint. *Policy*: the exact expected cost of the "
+             "planner's own policy, every outcome of every look enumerated under the model "
+             "(branches below 1e-9 left out; `given up`: the chance it gives a search up, which "
+             "ends it early and so can put a ratio just below 1). *Episodes*: the mean over "
+             "sampled worlds with a 95 % bootstrap interval. CPU: median and 95th percentile per "
+             "decision in the episodes, ms, serial.", ""]
+    for task in sorted({r["task"] for r in rows}):
+        limit, objects = limits[task]
+        mid = (limit.lower + limit.upper) / 2
+        lines += [f"## task `{task}` ({', '.join(objects)})", "",
+                  f"Limit: {mid:.3f} m [{limit.lower:.4f}, {limit.upper:.4f}] (cap {limit.cap}, "
+                  f"{limit.viewpoints} viewpoints).", "",
+                  "| planner | policy cost (m) | policy / limit | given up | worlds | episodes: mean "
+                  "cost (m) | episodes / limit [95 %] | looks | success | CPU ms median | CPU ms p95 |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for planner in dict.fromkeys(r["planner"] for r in rows if r["task"] == task):
+            mine = sorted((r for r in rows if r["task"] == task and r["planner"] == planner),
+                          key=lambda r: r["seed"])
+            cost = np.array([r["cost"] for r in mine])
+            lo, hi = bootstrap_interval(cost / mid)
+            cpu = np.array([t for r in mine for t in r["decision_cpu_seconds"]]) * 1e3
+            pol = policies.get((task, planner))
+            exact = (f"{pol.cost:.3f} | {pol.cost / mid:.4f} | {pol.given_up:.4f}" if pol is not None
+                     else "– | – | –")
+            lines.append(f"| {planner} | {exact} | {len(mine)} | {cost.mean():.3f} | "
+                         f"{cost.mean() / mid:.3f} [{lo:.3f}, {hi:.3f}] | "
+                         f"{np.mean([r['looks'] for r in mine]):.2f} | "
+                         f"{np.mean([r['success'] for r in mine]):.3f} | "
+                         f"{np.median(cpu) if cpu.size else float('nan'):.2f} | "
+                         f"{np.percentile(cpu, 95) if cpu.size else float('nan'):.2f} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+class _FromViewpoint:
+    """Planner distances with the agent standing at a viewpoint (None: at the start pose)."""
+
+    def __init__(self, start: dict[str, float], between, here: str | None) -> None:
+        self.start, self.between_fn, self.here = start, between, here
+
+    def from_agent(self, site: str) -> float:
+        return self.start[site] if self.here is None else self.between_fn(self.here, site)
+
+    def between(self, a: str, b: str) -> float:
+        return self.between_fn(a, b)
+
+
+@dataclass(frozen=True)
+class PolicyCost:
+    """A planner's exact expected search cost, by enumerating every outcome of its looks.
+
+    Attributes:
+        cost: expected cost (metres-equivalent) over the branches expanded.
+        unexpanded: probability of the branches below ``floor``, not expanded (their cost is
+            missing from ``cost``).
+        given_up: probability that the agent gives a search up (the give-up rule, §7.8).
+        states: distinct decision states evaluated.
+    """
+
+    cost: float
+    unexpanded: float
+    given_up: float
+    states: int
+
+
+def evaluate_policy(world: str, model_name: str, planner: str, task: str,
+                    floor: float = 1e-9, trace: list | None = None) -> PolicyCost:
+    """The exact expected cost of `planner`'s search policy from the start, under the model.
+
+    The agent's belief is the model's, so the chance of each outcome of a look (which objects it
+    shows, and where) follows from the belief and the detection probabilities; every outcome is
+    absorbed into a copy of the agent and the policy followed from there. With a factorised
+    belief the decision state is (where the agent stands, looks per viewpoint, objects found),
+    so equal states are evaluated once. Branches less probable than `floor` are not expanded.
+    With `trace`, every decision along every branch is appended to it as (probability of
+    reaching it, viewpoint stood at or None, looks per viewpoint, objects still searched, the
+    viewpoint chosen), each path separately (no state is shared), for :func:`gap_analysis`.
+    """
+    from fg_tea.agent.agent import Agent
+
+    model, scenario, env, _, _, _ = _setup(world, 0, model_name, task, None)
+    try:
+        env.reset(0)
+        agent = Agent(scenario, model, planner, task)
+        if agent.views is None:
+            agent.set_view_geometry(env.expected_pixel_counts(
+                sorted({scenario.object(o).category for o in agent.belief.objects})))
+        assert agent.views is not None
+        start = {v: float(env.distance_to_site(v)) for v in agent.views.names}
+        cache: dict[tuple[str, str], float] = {}
+
+        def between(a: str, b: str) -> float:
+            if a == b:
+                return 0.0
+            if (a, b) not in cache:
+                cache[(a, b)] = float(env.distance_between_sites(a, b))
+            return cache[(a, b)]
+
+        shared = {id(x): x for x in (scenario, model, agent.views, agent.planner)}
+        memo: dict[tuple, tuple[float, float, float]] = {}
+        totals = {"unexpanded": 0.0}
+
+        def value(agent: Agent, here: str | None, weight: float) -> tuple[float, float]:
+            """(expected cost to go, probability of giving up) from this state."""
+            action = agent.next_action()
+            if action is None:
+                return 0.0, (0.0 if agent.done else 1.0)
+            key = (here, tuple(sorted(agent.inspected.items())),
+                   tuple(sorted(agent.executor.pending_search_objects())))
+            if key in memo and trace is None:
+                return memo[key][:2]
+            if weight < floor:
+                totals["unexpanded"] += weight
+                return 0.0, 0.0
+            decision = agent.decide(action, (0.0, 0.0), _FromViewpoint(start, between, here))
+            v = decision.viewpoint
+            assert agent.views is not None
+            if trace is not None:
+                trace.append((weight, here, dict(agent.inspected),
+                              tuple(agent.executor.pending_search_objects()), v))
+            view = agent.views.view(v)
+            step = (start[v] if here is None else between(here, v)) + LOOK_COST * max(1, len(view.sites))
+            objects = agent.executor.pending_search_objects()
+            marg = {o: agent.belief.marginal(o) for o in objects}
+            sites = list(agent.belief.sites)
+            per_object = []
+            for o in objects:
+                p = view.probability_over_sites(len(sites))[agent.belief.objects.index(o)]
+                seen = [(sites[k], float(marg[o][k] * p[k])) for k in range(len(sites))
+                        if marg[o][k] * p[k] > 0]
+                per_object.append([(None, 1.0 - sum(x for _, x in seen))] + seen)
+            cost, gave = step, 0.0
+            for combo in itertools.product(*per_object):
+                prob = float(np.prod([x for _, x in combo]))
+                if prob <= 0:
+                    continue
+                child = copy.deepcopy(agent, memo=dict(shared))
+                child.executor.events.clear()
+                child.observe_look(v, {o: site for o, (site, _) in zip(objects, combo)})
+                c, g = value(child, v, weight * prob)
+                cost += prob * c
+                gave += prob * g
+            memo[key] = (cost, gave, weight)
+            return cost, gave
+
+        cost, gave = value(agent, None, 1.0)
+    finally:
+        env.close()
+    return PolicyCost(cost, totals["unexpanded"], gave, len(memo))
+
+
+def gap_analysis(world: str, model_name: str, planner: str, task: str, cap: int = 3,
+                 floor: float = 1e-7) -> dict:
+    """Where a planner loses against the exact policy: at every decision it makes, the regret
+    Q*(state, its look) - min_w Q*(state, w) under the upper cut's exact Q-values
+    (:class:`fg_tea.planning.limit.Tables`), weighted by the chance of reaching the decision.
+    Their sum is the planner's excess cost over the cut policy's (the performance difference
+    identity), so the largest terms say which decisions make the gap."""
+    from fg_tea.planning.limit import _useful, solve_tables
+
+    model, scenario, env, EpisodeRunner, RunConfig, _ = _setup(world, 0, model_name, task, None)
+    try:
+        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=0, task=task))
+        runner.start()
+        agent = runner.agent
+        objects = agent.executor.pending_search_objects()
+        views = None if model.close_looks_only else agent.views
+        problem = build_problem(agent.belief, objects, _StartDistances(env), frozenset(), views, LOOK_COST)
+    finally:
+        env.close()
+    useful, sites, q0 = _useful(problem)
+    tables = solve_tables(problem, useful, sites, q0, cap, upper=True)
+    index = {problem.names[i]: j for j, i in enumerate(useful)}
+    trace: list = []
+    cost = evaluate_policy(world, model_name, planner, task, floor=floor, trace=trace)
+    rows = []
+    for weight, here, inspected, pending, chosen in trace:
+        counts = np.zeros(len(useful), dtype=np.int64)
+        for name, n in inspected.items():
+            if name in index:
+                counts[index[name]] = n
+        found = sum(1 << u for u, o in enumerate(objects) if o not in pending)
+        q = tables.q_values(None if here is None else index[here], counts, found)
+        best = int(np.argmin(q))
+        regret = float(q[index[chosen]] - q[best]) if chosen in index else float("inf")
+        rows.append({"weight": weight, "here": here, "looks": dict(inspected), "pending": pending,
+                     "chosen": chosen, "best": problem.names[useful[best]], "regret": regret,
+                     "weighted": weight * regret})
+    beyond = [r for r in rows if not np.isfinite(r["regret"])]
+    rows = [r for r in rows if np.isfinite(r["regret"])]
+    rows.sort(key=lambda r: -r["weighted"])
+    return {"policy": cost, "cut_policy": tables.root, "rows": rows,
+            "excess": sum(r["weighted"] for r in rows),
+            "beyond_cut": sum(r["weight"] for r in beyond)}
