@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import math
 import shlex
 import sys
@@ -67,8 +68,9 @@ from fg_tea.common.errors import run_script  # noqa: E402
 from fg_tea.common.files import out_folder, atomic_write_text  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.env.camera import load_camera  # noqa: E402
-from fg_tea.study.replication import (SeedSet, check_seed_sets, declare_seed_sets,  # noqa: E402
-                                      read_seed_sets, replication_cells, replication_markdown)
+from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa: E402
+                                      declare_seed_sets, read_seed_sets, replication_cells,
+                                      replication_markdown)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
 from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
 
@@ -446,6 +448,7 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
         replication = ["", "## Replication: joint − factorised search travel (m)", "",
                        "The table above pools both seed sets; here each is judged on its own.", "",
                        replication_markdown(cells_r, sets, columns + ("planner",))]
+        replication += planner_pairs(args, out, tagged, sets, columns, rank)
     if args.table == "houses":
         png = heatmap(diffs, "size", "task", None, out / f"{args.table}_heatmap.png",
                       "Joint − factorised search travel (m) per house size and task; "
@@ -490,6 +493,35 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
               summary_markdown(summary, columns + ("model", "planner"),
                                METRICS + ("clairvoyant_search_travel",)), ""]
     return atomic_write_text(out / f"{args.table}.md", "\n".join(lines))
+
+
+#: Planners in the order their pairs are taken (the later one minus the earlier one).
+PLANNER_ORDER = ("factorised_efe", "mi_efe", "efe", "nearest", "greedy", "lookahead")
+
+
+def planner_pairs(args, out: Path, tagged: list[dict], sets: list[SeedSet], columns: tuple[str, ...],
+                  rank: dict) -> list[str]:
+    """Every pair of planners in every cell and belief: the later planner's search travel minus
+    the earlier one's, judged on each seed set, adjusted over all the pairs and cells together;
+    written to ``<table>_planner_replication.csv`` and returned as report lines."""
+    present = sorted({r["planner"] for r in tagged},
+                     key=lambda p: (PLANNER_ORDER.index(p) if p in PLANNER_ORDER else 99, p))
+    cells: list[dict] = []
+    for a, b in itertools.combinations(present, 2):
+        for c in replication_cells(tagged, sets, vary="planner", baseline=a, other=b,
+                                   by=columns + ("structure",)):
+            c["planner"] = f"{GAIN_LABEL.get(b, b)} − {GAIN_LABEL.get(a, a)}"
+            cells.append(c)
+    if not cells:
+        return []
+    adjust(cells, sets)
+    cells.sort(key=lambda c: tuple(rank[k].get(c[k], 99) for k in columns) + (c["structure"], c["planner"]))
+    write_csv_atomic(out / f"{args.table}_planner_replication.csv",
+                     replication_rows(cells, sets, columns + ("structure",)))
+    return ["", "## Replication: one planner against another, per belief (search travel, m)", "",
+            "Each cell is the paired difference of two planners' search travel on the same worlds "
+            "and belief (negative: the first named searched less).", "",
+            replication_markdown(cells, sets, columns + ("structure", "planner"), compared="planners")]
 
 
 def replication_rows(cells: list[dict], sets: list[SeedSet], columns: tuple[str, ...]) -> list[dict]:

@@ -107,3 +107,26 @@ def test_a_cell_a_planner_refused_has_no_pairs_not_a_verdict():
             r.update(reason="refused: belief: lookahead planner: too many joint truths", success=False)
     (cell,) = replication_cells(rows, SETS)
     assert cell["verdict"] == NO_PAIRS and cell["discovery"]["pairs"] == 0
+
+
+def test_planner_pairs_are_judged_and_adjusted_over_every_comparison():
+    """Pairs of planners on the same worlds and belief (vary="planner"); adjusting the union of
+    several comparisons multiplies more p-values, so no cell's Holm p falls and the Bonferroni
+    intervals widen."""
+    from fg_tea.study.replication import adjust
+
+    rng = np.random.default_rng(2)
+    seeds = list(range(60)) + list(range(5000, 5060))
+    rows = []
+    for r in _rows(lambda s: -2.0, seeds, rng, planner="x"):
+        # relabel: the "joint" row becomes planner lookahead, the "factorised" one efe, one belief
+        rows.append({**r, "planner": "lookahead" if r["model"] == "joint" else "efe", "model": "factorised"})
+    one = replication_cells(rows, SETS, vary="planner", baseline="efe", other="lookahead", by=("task", "model"))
+    assert len(one) == 1 and one[0]["verdict"] == ESTABLISHED and one[0]["confirmation"]["pairs"] == 60
+    before = one[0]["confirmation"]["p_holm"], one[0]["confirmation"]["adjusted"]
+    noise = replication_cells(_rows(lambda s: 0.0, seeds, rng, planner="y"), SETS, by=("task", "planner"))
+    both = adjust(one + noise, SETS)
+    assert both[0]["confirmation"]["p_holm"] >= before[0]
+    assert both[0]["confirmation"]["adjusted"].low < before[1].low
+    text = replication_markdown(both, SETS, ("task",), compared="planners")
+    assert "two planners' searches" in text

@@ -163,14 +163,22 @@ def replication_cells(rows: Sequence[Mapping[str, Any]], sets: Sequence[SeedSet]
         entry["resolve"] = RESOLVE_SHARE * first["baseline"] if first["pairs"] else math.nan
         entry["pairs_needed"] = pairs_needed(sd, entry["resolve"], confidence, POWER)
         out.append(entry)
+    return adjust(out, sets, confidence)
+
+
+def adjust(cells: list[dict[str, Any]], sets: Sequence[SeedSet], confidence: float = 0.95
+           ) -> list[dict[str, Any]]:
+    """Holm's p and Bonferroni intervals over all `cells` (one family of comparisons), and each
+    cell's verdict; returns `cells`. Call it again on the union of several comparisons' cells
+    to adjust over all of them."""
     for s in sets:
-        adjusted = holm([c[s.name]["p"] for c in out])
-        for c, p in zip(out, adjusted):
+        adjusted = holm([c[s.name]["p"] for c in cells])
+        for c, p in zip(cells, adjusted):
             c[s.name]["p_holm"] = p
-            c[s.name]["adjusted"] = bonferroni_interval(c[s.name]["diffs"], len(out), confidence)
-    for c in out:
+            c[s.name]["adjusted"] = bonferroni_interval(c[s.name]["diffs"], len(cells), confidence)
+    for c in cells:
         c["verdict"] = verdict(c[sets[0].name], c[sets[-1].name], 1 - confidence)
-    return out
+    return cells
 
 
 def _sd(values: Sequence[float]) -> float:
@@ -194,7 +202,7 @@ def verdict(discovery: Mapping[str, Any], confirmation: Mapping[str, Any], alpha
 
 def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[SeedSet],
                          by: Sequence[str] = ("world", "task", "planner"),
-                         metric: str = "search_distance") -> str:
+                         metric: str = "search_distance", compared: str = "beliefs") -> str:
     """The replication table: per cell and seed set the raw and adjusted intervals, Holm's p,
     the share of worlds whose choices differed and the effect there; the pairs needed; the verdict."""
     header = [*by]
@@ -208,8 +216,10 @@ def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[Seed
         line = [str(c[b]) for b in by]
         for s in sets:
             e = c[s.name]
+            none = not e["pairs"]
             line += [str(e["pairs"]), e["difference"].fmt(), e["adjusted"].fmt(),
-                     f"{e['p_holm']:.3g}", f"{e['share_differ']:.0%}", e["if_differ"].fmt()]
+                     "–" if none else f"{e['p_holm']:.3g}",
+                     "–" if none else f"{e['share_differ']:.0%}", e["if_differ"].fmt()]
         need = c["pairs_needed"]
         line += [f"{need:,} ({c['resolve']:.2f} m)" if need else "—", f"**{c['verdict']}**"
                  if c["verdict"] == ESTABLISHED else c["verdict"]]
@@ -220,11 +230,11 @@ def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[Seed
         f"`{metric}` world by world. A claim is established only where the confirmation set's "
         "Holm-adjusted p is below 0.05 with the discovery set's sign; the adjusted intervals are "
         f"Bonferroni intervals over the {len(cells)} cells. \"Worlds that differ\": the share of "
-        "paired worlds in which the two beliefs' searches differed at all; the next column is "
+        f"paired worlds in which the two {compared}' searches differed at all; the next column is "
         f"the effect in those worlds. \"Pairs to resolve\": paired worlds a 95 % test needs to "
         f"detect {RESOLVE_SHARE:.0%} of the baseline's search travel with {POWER:.0%} power, "
         "from the discovery set's spread. \"No pairs\": a set without a single pair (a planner "
-        "refused one of the beliefs, e.g. the lookahead beyond its joint-size limit).", "",
+        "refused a belief, e.g. the lookahead beyond its joint-size limit).", "",
         markdown_table(header, body), ""])
 
 
@@ -256,7 +266,7 @@ def pairs_to_resolve_lines(rows: Sequence[Mapping[str, Any]], vary: str, baselin
     return lines
 
 
-__all__ = ["SEED_SETS_FILE", "RESOLVE_SHARE", "POWER", "ESTABLISHED", "NOT_RESOLVED", "NO_DIFFERENCE",
+__all__ = ["adjust", "SEED_SETS_FILE", "RESOLVE_SHARE", "POWER", "ESTABLISHED", "NOT_RESOLVED", "NO_DIFFERENCE",
            "NO_PAIRS",
            "SeedSet", "check_seed_sets", "declare_seed_sets", "read_seed_sets", "replication_cells",
            "verdict", "replication_markdown", "pairs_to_resolve_lines"]
