@@ -37,6 +37,7 @@ from fg_tea.beliefs.factors import (
     collapse_factor,
     collapse_target,
     detection_factor,
+    log_ratio_gap,
     effect_factor,
     location_var,
     merge_evidence,
@@ -62,26 +63,12 @@ GTSAM_MAP_LIMIT = 1 << 16   # joint states above which MAP uses the structured m
 DENSE_PREFERRED = 50_000    # joint states up to which "auto" prefers the dense joint table
 #: Several objects seen in one look (eq. 4 for each, docs/design.md §3.2): the collapses are
 #: repeated in sweeps (iterative proportional fitting) until every seen object's marginal is its
-#: eq. 4 target to this *relative* tolerance (the largest |log(marginal / target)| over the sites
-#: the target gives mass), or until a sweep no longer shrinks that gap (the rounding floor). The
-#: fixed point is the joint closest in KL to the belief with all those marginals, so it does not
-#: depend on the order of the objects. A relative rule matters because the targets' entries are
-#: as small as the prior floor: an absolute 1e-13 left residues that later misses magnified.
+#: eq. 4 target to this relative tolerance (:func:`log_ratio_gap`), or a sweep no longer shrinks
+#: the gap. The fixed point, the joint closest in KL with all those marginals, is order-free.
 JOINT_COLLAPSE_TOLERANCE = 1e-13
 #: Sweeps allowed before the fit stops; IPF converges geometrically, and the bundled houses need
 #: fewer than 20 (one sweep when the objects are independent).
 JOINT_COLLAPSE_SWEEPS = 500
-
-
-def _log_ratio_gap(now: np.ndarray, target: np.ndarray) -> float:
-    """max |log(now / target)| over the entries the target gives mass (inf if `now` puts mass
-    where the target has none, or none where it has some)."""
-    mass = target > 0
-    if np.any(now[~mass] > 0):
-        return math.inf
-    if np.any(now[mass] <= 0):
-        return math.inf
-    return float(np.max(np.abs(np.log(now[mass]) - np.log(target[mass])))) if mass.any() else 0.0
 
 
 class UnknownVariableError(KeyError):
@@ -731,7 +718,7 @@ class BeliefEngine:
             for o, j, miss in seen:
                 self._commit_location([self._detection_factor(o, j, miss)])
                 reached[o] = self.location(o)
-            gap = max(_log_ratio_gap(self.location(o), q) for o, q in reached.items())
+            gap = max(log_ratio_gap(self.location(o), q) for o, q in reached.items())
             if gap <= JOINT_COLLAPSE_TOLERANCE or (gap < 1e-10 and gap >= previous):
                 break
             previous = gap

@@ -19,6 +19,7 @@ Constructors, with the docs/design.md equations they realise:
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -266,3 +267,14 @@ def capacity_factor(objects: list[str], capacities: list[int | None], penalty: f
         excess = np.maximum(count - c, 0)
         table *= np.where(excess > 0, float(penalty) ** excess.astype(float), 1.0)
     return Factor(tuple(location_var(o) for o in objects), table, "capacity")
+
+
+def log_ratio_gap(now: np.ndarray, target: np.ndarray) -> float:
+    """max |log(now / target)| over the entries the target gives mass (inf if `now` puts mass
+    where the target has none, or none where it has some)."""
+    mass = target > 0
+    if np.any(now[~mass] > 0):
+        return math.inf
+    if np.any(now[mass] <= 0):
+        return math.inf
+    return float(np.max(np.abs(np.log(now[mass]) - np.log(target[mass])))) if mass.any() else 0.0
