@@ -26,6 +26,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.agent.give_up import sweep_length, weigh
 from fg_tea.beliefs.detection import PixelTable, ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, LookUpdate
 from fg_tea.model.spec import Model
@@ -107,6 +108,7 @@ class Agent:
         self.last_decision: Decision | None = None
         self.views: ViewModel | None = None
         self._navigator: Navigator | None = None
+        self._sweep: float | None = None  # metres of one sweep of the house (the give-up's unit)
         if expected_pixels is not None or model.close_looks_only:
             self.set_view_geometry(expected_pixels)
 
@@ -175,6 +177,39 @@ class Agent:
                              f"which this house does not have (known: {', '.join(self.views.names)})")
         self.last_decision = decision
         return decision
+
+    def weigh_search(self, position: Sequence[float], distances: DistanceModel | None = None) -> str | None:
+        """Under ``[planning] give_up = "cost"``, give up a search whose best next look costs more
+        per chance of finding its object than finishing the task is worth (docs/design.md §7.8).
+
+        Call it before :meth:`decide`. Returns the episode's end reason (``not_found: ...``) when a
+        search was given up (the executor is then stuck, with a ``give_up`` event saying why), else
+        None. Under the default probability rule it does nothing.
+        """
+        planning = self.model.planning
+        if planning.give_up != "cost":
+            return None
+        if self.views is None:
+            raise ValueError(f"model {self.model.name!r} needs the view geometry before weighing a "
+                             "search: call set_view_geometry(env.expected_pixel_counts(...))")
+        distances = distances_for(self.model, self.scenario, position,
+                                  geodesic=distances or self._grid_distances(position))
+        excluded = frozenset(self.executor.excluded_sites)
+        if self._sweep is None:  # fixed at the first weighing, from where the search starts
+            self._sweep = sweep_length([v for v in self.views.names if v not in excluded], distances)
+        value = planning.task_value(self.graph.name) * self._sweep
+        for obj in self.executor.pending_search_objects():
+            outlook = self.executor.search_outlook(obj)
+            if outlook["remaining_probability"] is None:
+                continue
+            weighed = weigh(self.belief, obj, self.views, distances, excluded,
+                            outlook["remaining_probability"], planning.absent_probability, value)
+            if weighed["give_up"]:
+                why = (f"the best look ({weighed['viewpoint']}) costs {weighed['cost_per_find']:.3g} m "
+                       f"per chance of finding it, more than the task's value of {value:.3g} m "
+                       f"(chance it can still be found {weighed['findable']:.3g})")
+                return self.executor.give_up(obj, {**outlook, "weighed": weighed}, why)
+        return None
 
     def _grid_distances(self, position: Sequence[float]) -> DistanceModel:
         if self._navigator is None:

@@ -261,7 +261,7 @@ class TruthBackedAdapter(EnvAdapter):
                 for name in considered:
                     if detections[name] and float(self._rng.random()) < miss_rate:
                         detections[name] = False
-            return detections
+            return self._hide_unfindable(detections)
         detections = {}
         for name in considered:
             if at_site[name] is None:
@@ -269,6 +269,13 @@ class TruthBackedAdapter(EnvAdapter):
                 continue
             p = curve.probability(self._specs[name].category, counts[name])
             detections[name] = bool(float(self._rng.random()) < p)
+        return self._hide_unfindable(detections)
+
+    def _hide_unfindable(self, detections: dict[str, bool]) -> dict[str, bool]:
+        """``config.unfindable`` objects are never reported (after any draws, which stay as they were)."""
+        for name in filter(None, (n.strip() for n in self.config.unfindable.split(","))):
+            if name in detections:
+                detections[name] = False
         return detections
 
     def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, list[float]]]]:

@@ -34,6 +34,9 @@ class EnvConfig:
     detection the camera would make (eq. 29 satisfied) is dropped, so the object is reported as
     looked-and-not-seen. Both are drawn from the environment's seeded RNG, and only when the rate
     is above zero, so runs with the defaults draw exactly as before and stay byte-identical.
+    ``unfindable`` names objects (comma-separated) the camera never reports, wherever they stand: a stand-in for an
+    object that is not in the house or out of reach, to measure what a search costs before it is
+    given up (docs/design.md §7.8). It draws nothing.
 
     The camera's fields (``min_visible_pixels``, ``site_association``, its radius and
     ``camera_curve``) come from a camera file (``fg_tea.env.camera``, docs/design.md §1.3).
@@ -56,6 +59,7 @@ class EnvConfig:
     distance: str = "geodesic"  # or "euclidean" (ablation)
     failure_rates: Mapping[str, float] = field(default_factory=dict)  # verb -> P(fail), injected
     detection_miss_rate: float = 0.0  # P(a would-be detection is dropped), injected
+    unfindable: str = ""  # "mug,teabag": objects the camera never reports (absent), injected
     camera_curve: VisibilityCurve | None = None  # None: threshold detector (eq. 29)
     #: The camera file these camera fields came from (``fg_tea.env.camera``), for provenance.
     camera_source: str = ""

@@ -367,6 +367,9 @@ class EpisodeRunner:
         excluded = frozenset(self.executor.excluded_sites)
         inspected = dict(agent.inspected)
         pose = self.env.agent_pose()
+        if agent.weigh_search((pose.x, pose.y), _EnvDistances(self.env)) is not None:
+            self._flush_executor()  # the give_up; the next step ends the episode not_found
+            return
         try:
             decision = agent.decide(action, (pose.x, pose.y), _EnvDistances(self.env))
         except (Exception, SystemExit) as exc:  # a planner of the user's own, often: end, saying why

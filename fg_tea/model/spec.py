@@ -99,6 +99,14 @@ class PlanningWeights:
       K x (ceil(log(give_up_probability) / log(mu)) + 1) for K sites, i.e. one round of looks
       per site more than the probability rule needs if the model were right (each site's share
       of R_o shrinks by mu per look); 32 looks for the default 8 sites and mu = 0.05.
+
+    ``give_up = "cost"`` weighs the cost instead (docs/design.md §7.8): with ``absent_probability``
+    the prior chance that an object a task needs cannot be found at all, the chance it can still
+    be found after the misses is F_o = R_o (1 - a) / (R_o (1 - a) + a), and the search stops when
+    the best next look's cost divided by its chance of finding o exceeds the value of finishing
+    the task, ``task_values[task]`` (or ``task_values["default"]``) sweeps of the house, a sweep
+    being the nearest-neighbour walk through every viewpoint from the start. The probability
+    rule is then a safety net on F_o < ``give_up_probability``.
     """
 
     distance_weight: float = 0.20
@@ -109,6 +117,24 @@ class PlanningWeights:
     distance: str = "geodesic"
     give_up_probability: float = 1e-3
     max_inspections_per_object: int = 0
+    give_up: str = "probability"
+    absent_probability: float = 1e-3
+    task_values: tuple[tuple[str, float], ...] = (("default", 3.0),)
+
+    def task_value(self, task: str) -> float:
+        """The value of finishing `task`, in sweeps of the house (``[planning.task_value]``)."""
+        values = dict(self.task_values)
+        return values.get(task, values.get("default", 3.0))
+
+
+def _task_values(planning_r: Reader, default: tuple[tuple[str, float], ...]) -> tuple[tuple[str, float], ...]:
+    """``[planning.task_value]``: task name -> value of finishing it, in sweeps of the house."""
+    table = planning_r.child("task_value", required=False)
+    values = dict(default)
+    if table is not None:
+        for name in table.names():
+            values[name] = table.positive(name, values.get(name, 1.0))
+    return tuple(sorted(values.items()))
 
 
 @dataclass(frozen=True)
@@ -351,7 +377,13 @@ def parse_model(data: dict, file: str | Path = "<model>",
         give_up_probability=planning_r.probability("give_up_probability", d.give_up_probability),
         max_inspections_per_object=planning_r.opt("max_inspections_per_object", int,
                                                   d.max_inspections_per_object),
+        give_up=planning_r.choice("give_up", ("probability", "cost"), d.give_up),
+        absent_probability=planning_r.probability("absent_probability", d.absent_probability),
+        task_values=_task_values(planning_r, d.task_values),
     )
+    if not 0.0 < planning.absent_probability < 1.0:
+        raise planning_r.fail("must lie strictly between 0 and 1 (the chance an object cannot be "
+                              "found at all)", "absent_probability")
     if planning.max_inspections_per_object < 0:
         raise planning_r.fail("must be 0 (automatic) or more, got "
                               f"{planning.max_inspections_per_object}", "max_inspections_per_object")

@@ -347,42 +347,47 @@ class TaskExecutor:
 
     # ------------------------------------------------------------------ search give-up
     def search_budget(self) -> int | None:
-        """Looks that may miss one object before its search is given up (None = no budget).
-
-        ``model.planning.max_inspections_per_object``, or when it is 0, K x (ceil(log p /
-        log mu) + 1) with p the give-up probability and mu the miss likelihood (see
-        :class:`fg_tea.model.spec.PlanningWeights`).
-        """
+        """Looks that may miss one object before its search is given up (None = no budget):
+        ``max_inspections_per_object``, or if 0, K x (ceil(log p / log mu) + 1) (docs/design.md §7.8)."""
         planning = self.model.planning
         if planning.max_inspections_per_object > 0:
             return planning.max_inspections_per_object
         p, mu = planning.give_up_probability, self.model.miss_likelihood
-        if not (0.0 < p < 1.0 and 0.0 < mu < 1.0):
-            return None
-        return len(self.scenario.sites) * (math.ceil(math.log(p) / math.log(mu)) + 1)
+        ok = 0.0 < p < 1.0 and 0.0 < mu < 1.0
+        return len(self.scenario.sites) * (math.ceil(math.log(p) / math.log(mu)) + 1) if ok else None
 
     def search_outlook(self, obj: str) -> dict:
-        """R_o (the remaining probability of finding `obj` at a reachable site) and its looks."""
+        """R_o (the remaining probability of finding `obj` at a reachable site), its looks, and the
+        R_o to give up below (under ``give_up = "cost"``, where F_o of eq. 58 falls to
+        ``give_up_probability``: the safety net, docs/design.md §7.8)."""
         remaining, looks = self.belief.unseen_probability(obj, self.excluded_sites)
+        pl = self.model.planning
+        p, a = pl.give_up_probability, pl.absent_probability
+        threshold = p * a / ((1.0 - p) * (1.0 - a)) if pl.give_up == "cost" else p
         return {"object": obj, "remaining_probability": remaining, "looks": looks,
-                "threshold": self.model.planning.give_up_probability,
-                "budget": self.search_budget()}
+                "threshold": threshold, "budget": self.search_budget()}
+
+    def give_up(self, obj: str, outlook: dict, why: str) -> str:
+        """End the search for `obj` (a ``give_up`` event, then stuck); return the end reason."""
+        self._stuck(reason := self._given_up(obj, outlook, why))
+        return reason
+
+    def _given_up(self, obj: str, outlook: dict, why: str) -> str:
+        remaining = outlook.get("remaining_probability")
+        self.events.append({"event": "give_up", **outlook, "why": why})
+        return (f"{NOT_FOUND}{obj} (remaining probability {'n/a' if remaining is None else f'{remaining:.3g}'} "
+                f"after {outlook.get('looks')} looks; {why})")
 
     def _give_up(self) -> str | None:
         """The give-up reason when some searched object is almost surely not findable, else None."""
         budget = self.search_budget()
         for obj in self.pending_search_objects():
             outlook = self.search_outlook(obj)
-            remaining, looks = outlook["remaining_probability"], outlook["looks"]
+            remaining = outlook["remaining_probability"]
             low = remaining is not None and remaining < outlook["threshold"]
-            spent = budget is not None and looks >= budget
-            if low or spent:
-                why = (f"remaining probability {remaining:.3g} < {outlook['threshold']:g}" if low
-                       else f"search budget of {budget} looks spent")
-                shown = "n/a" if remaining is None else f"{remaining:.3g}"
-                self.events.append({"event": "give_up", **outlook, "why": why})
-                return (f"{NOT_FOUND}{obj} (remaining probability {shown} after {looks} looks; "
-                        f"{why})")
+            if low or (budget is not None and outlook["looks"] >= budget):
+                return self._given_up(obj, outlook, f"remaining probability {remaining:.3g} < "
+                                      f"{outlook['threshold']:.3g}" if low else f"search budget of {budget} looks spent")
         return None
 
     def _stuck(self, reason: str) -> None:

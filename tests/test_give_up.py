@@ -1,0 +1,99 @@
+"""A give-up that weighs the cost (fg_tea/agent/give_up.py, docs/design.md §7.8)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+import fg_tea as fg
+from fg_tea.agent.give_up import findable, sweep_length
+
+
+def _cost_rule(model, value=3.0, absent=1e-3):
+    planning = dataclasses.replace(model.planning, give_up="cost", absent_probability=absent,
+                                   task_values=(("default", value),))
+    return dataclasses.replace(model, planning=planning)
+
+
+def test_the_chance_an_object_can_still_be_found():
+    assert findable(1.0, 1e-3) == pytest.approx(0.999)
+    assert findable(1e-3, 1e-3) == pytest.approx(0.5, abs=1e-3)
+    assert findable(0.0, 1e-3) == 0.0
+
+
+def test_model_files_declare_the_rule_and_its_values(tmp_path):
+    good = tmp_path / "m.toml"
+    good.write_text('extends = "factorised"\nname = "m"\n[planning]\ngive_up = "cost"\n'
+                    'absent_probability = 0.01\n[planning.task_value]\nmake_tea = 2.0\ndefault = 4.0\n')
+    planning = fg.load_model(good).planning
+    assert planning.give_up == "cost" and planning.absent_probability == 0.01
+    assert planning.task_value("make_tea") == 2.0 and planning.task_value("heat_water") == 4.0
+    assert fg.load_model("factorised").planning.give_up == "probability"
+    for body, field in (('give_up = "never"', "give_up"), ("absent_probability = 0.0", "absent_probability"),
+                        ("[planning.task_value]\nmake_tea = -1.0", "make_tea")):
+        bad = tmp_path / "bad.toml"
+        bad.write_text(f'extends = "factorised"\nname = "b"\n[planning]\n{body}\n')
+        with pytest.raises(fg.InputError, match=field):
+            fg.load_model(bad)
+
+
+def _misses_until_improbable(model):
+    """Misses at the sites in order of the prior, round after round, until R_mug < 1e-3."""
+    scenario = fg.load_scenario("default_apartment")
+    agent = fg.Agent(scenario, model, "efe", task="find_mug")
+    action = agent.next_action()
+    q = agent.belief.marginal("mug")
+    order = [agent.belief.sites[j] for j in sorted(range(len(q)), key=lambda j: -q[j])]
+    looks = 0
+    while agent.executor.search_outlook("mug")["remaining_probability"] >= 1e-3:
+        agent.observe_look(order[looks % len(order)], {"mug": None})
+        looks += 1
+    return scenario, agent, action
+
+
+def test_improbable_misses_end_the_probability_rule_but_not_the_cost_rule():
+    """Misses round the house until R falls below 1e-3: the probability rule gives up; the cost
+    rule finds one more look cheap against the task's value (the object is still findable with
+    probability about one half)."""
+    base = fg.load_model("factorised_close")
+    scenario, agent, _ = _misses_until_improbable(base)
+    assert agent.next_action() is None and agent.stuck_reason.startswith("not_found: mug")
+    scenario, agent, action = _misses_until_improbable(_cost_rule(base))
+    assert agent.next_action() is not None
+    assert agent.weigh_search(scenario.start_position) is None
+    # valued at almost nothing, the same look is not worth it
+    scenario, agent, action = _misses_until_improbable(_cost_rule(base, value=0.01))
+    reason = agent.weigh_search(scenario.start_position)
+    assert reason is not None and reason.startswith("not_found: mug")
+    event = [e for e in agent.executor.events if e["event"] == "give_up"][-1]
+    assert event["weighed"]["give_up"] and event["weighed"]["cost_per_find"] > event["weighed"]["value"]
+    assert agent.next_action() is None
+
+
+def test_an_unfindable_object_is_given_up_in_an_episode_by_the_cost_rule():
+    scenario = fg.load_scenario("default_apartment")
+    model = _cost_rule(fg.load_model("factorised_close"))
+    env = fg.make_env(scenario, model, "fake", unfindable="mug")
+    runner = fg.run_episode(scenario, model, env=env, task="find_mug")
+    env.close()
+    give_up = [e for e in runner.events if e["event"] == "give_up"]
+    assert runner.metrics()["reason"].startswith("not_found: mug") and len(give_up) == 1
+    assert "per chance of finding it" in give_up[0]["why"]
+    # the same object under the probability rule: a search of about the same length
+    env = fg.make_env(scenario, fg.load_model("factorised_close"), "fake", unfindable="mug")
+    base = fg.run_episode(scenario, fg.load_model("factorised_close"), env=env, task="find_mug")
+    env.close()
+    assert base.metrics()["reason"].startswith("not_found: mug")
+
+
+def test_a_sweep_is_the_nearest_neighbour_walk():
+    class Line:
+        def from_agent(self, v):
+            return float(v)
+
+        def between(self, a, b):
+            return abs(float(a) - float(b))
+
+    assert sweep_length(["3", "1", "2"], Line()) == 3.0
+    assert sweep_length([], Line()) == 0.0
