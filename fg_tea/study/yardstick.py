@@ -57,8 +57,9 @@ def _setup(world: str, seed: int, model_name: str, task: str, miss_rate: float |
     return model, scenario, env, EpisodeRunner, RunConfig, rate
 
 
-def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3) -> tuple[Limit, list[str]]:
-    """The limit of the search the task starts with, from the start pose (world seed 0's house)."""
+def start_problem(world: str, model_name: str, task: str):
+    """The search problem the task starts with, from the start pose (world seed 0's house), and
+    the objects it searches."""
     model, scenario, env, EpisodeRunner, RunConfig, _ = _setup(world, 0, model_name, task, None)
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=0, task=task))
@@ -69,6 +70,12 @@ def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3)
         problem = build_problem(agent.belief, objects, _StartDistances(env), frozenset(), views, LOOK_COST)
     finally:
         env.close()
+    return problem, objects
+
+
+def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3) -> tuple[Limit, list[str]]:
+    """The limit of the search the task starts with, from the start pose (world seed 0's house)."""
+    problem, objects = start_problem(world, model_name, task)
     return search_limit(problem, tolerance=tolerance), objects
 
 
@@ -303,16 +310,7 @@ def gap_analysis(world: str, model_name: str, planner: str, task: str, cap: int 
     identity), so the largest terms say which decisions make the gap."""
     from fg_tea.planning.limit import _useful, solve_tables
 
-    model, scenario, env, EpisodeRunner, RunConfig, _ = _setup(world, 0, model_name, task, None)
-    try:
-        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=0, task=task))
-        runner.start()
-        agent = runner.agent
-        objects = agent.executor.pending_search_objects()
-        views = None if model.close_looks_only else agent.views
-        problem = build_problem(agent.belief, objects, _StartDistances(env), frozenset(), views, LOOK_COST)
-    finally:
-        env.close()
+    problem, objects = start_problem(world, model_name, task)
     useful, sites, q0 = _useful(problem)
     tables = solve_tables(problem, useful, sites, q0, cap, upper=True)
     index = {problem.names[i]: j for j, i in enumerate(useful)}
