@@ -70,6 +70,7 @@ def variants(models: list[str], values: list[float], folder: Path) -> list[tuple
 
 
 def main(argv: list[str] | None = None) -> int:
+    from fg_tea.common.stats import wilson_interval
     from fg_tea.study.analysis import markdown_table
     from fg_tea.study.rows import read_rows
     from fg_tea.study.sweep import Job, run_sweep
@@ -91,7 +92,6 @@ def main(argv: list[str] | None = None) -> int:
     csv_path = out / "episodes.csv"
     run_sweep(jobs, csv_path, "process", workers=args.workers, label="give_up")
     rows = read_rows(csv_path)
-    label_of = {model: label for label, model, _ in arms}
     body = []
     for label, model, _ in arms:
         for world in args.worlds_findable:
@@ -100,14 +100,13 @@ def main(argv: list[str] | None = None) -> int:
             gave = [r for r in mine if str(r["reason"]).startswith("not_found")]
             travel = sum(float(r["search_distance"]) for r in mine) / max(len(mine), 1)
             body.append([label, world, "findable", len(mine), len(gave),
-                         f"{len(gave) / max(len(mine), 1):.3f}", f"{travel:.2f}", "–"])
+                         wilson_interval(len(gave), len(mine)).fmt(3), f"{travel:.2f}", "–"])
         mine = [r for r in rows if r["model_ref"] == model and r.get("env_overrides")]
         gave = [r for r in mine if str(r["reason"]).startswith(f"not_found: {args.unfindable}")]
         travel = sum(float(r["search_distance"]) for r in mine) / max(len(mine), 1)
         looks = sum(float(r["inspections"]) for r in mine) / max(len(mine), 1)
         body.append([label, args.unfindable_world, f"{args.unfindable} unfindable", len(mine),
-                     len(gave), f"{len(gave) / max(len(mine), 1):.3f}", f"{travel:.2f}", f"{looks:.1f}"])
-    del label_of
+                     len(gave), wilson_interval(len(gave), len(mine)).fmt(3), f"{travel:.2f}", f"{looks:.1f}"])
     command = "python experiments/give_up.py " + shlex.join(argv if argv is not None else sys.argv[1:])
     text = "\n".join([
         "# Giving up a search: the probability rule against the cost rule", "",
@@ -117,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         "search travel is what the search cost first. Values of finishing the task are in sweeps "
         "of the house (docs/design.md §7.8), declared before the run.", "",
         "## Give-ups", "",
-        markdown_table(["arm", "worlds", "objects", "episodes", "given up", "share given up",
+        markdown_table(["arm", "worlds", "objects", "episodes", "given up", "share given up [95 %]",
                         "search travel (m), mean", "looks, mean"], body), ""])
     atomic_write_text(out / "summary.md", text)
     print(text)
