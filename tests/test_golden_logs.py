@@ -5,8 +5,9 @@ as recorded before the modules moved, digest for digest.
 Each log is normalised before hashing: the first event drops what names the machine or the
 checkout (``versions``, ``git``, ``inputs``, whose sha256 of the bundled model changes with its
 text); what was renamed on purpose (CHANGELOG.md) is read under its new name: ``positive_update``
-``"blueprint"`` is ``"collapse"``, and a decision's, a candidate's and an observation's duplicate
-``"site"`` key (the same value as ``"viewpoint"``) is gone. Everything else must be the same.
+``"blueprint"`` is ``"collapse"``, a decision's, a candidate's and an observation's duplicate
+``"site"`` key (the same value as ``"viewpoint"``) is gone, and settings added since, logged at
+their defaults (the give-up rule's, ``unfindable``), are left out. Everything else must be the same.
 """
 
 from __future__ import annotations
@@ -30,6 +31,14 @@ def normalised_digest(path: Path) -> str:
     detection = first["parameters"]["detection"]
     if detection.get("positive_update") == "blue" "print":
         detection["positive_update"] = "collapse"
+    # Settings added later, logged at their defaults (CHANGELOG.md): the behaviour they leave alone.
+    planning, env = first["parameters"]["planning"], first["parameters"]["env"]
+    for key, default in (("give_up", "probability"), ("absent_probability", 0.001),
+                         ("task_values", [["default", 3.0]])):
+        if planning.get(key) == default:
+            planning.pop(key)
+    if env.get("unfindable") == "":
+        env.pop("unfindable")
     events = [first] + [json.loads(line) for line in lines[1:]]
     for e in events:
         if e.get("event") in ("decision", "observation") and "viewpoint" in e:
