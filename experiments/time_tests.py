@@ -2,8 +2,9 @@
 
 The targets (docs/guide/tests.md): the quick loop under 2 minutes and the full suite under 10
 minutes on two idle cores. This script runs ``python -m pytest -q -m "not slow"`` and
-``python -m pytest -q`` one after the other in this checkout, and appends one row per run to
-``test_times.csv`` in ``--out`` (default ``runs/experiments/time_tests``): the date, the command, wall
+``python -m pytest -q`` one after the other in this checkout, then writes one row per run to
+``test_times.csv`` in ``--out`` (default ``runs/experiments/time_tests``), replacing that run's
+older row (git keeps the history): the date, the command, wall
 seconds, the outcome line, the core count and the 1-minute load average before the run (a busy
 machine is visible in the row). The committed copy, test_times.csv in experiments/results,
 changes only when ``--out`` names that folder:
@@ -66,15 +67,19 @@ def main(argv: list[str] | None = None) -> int:
     if out.exists():
         with out.open(newline="", encoding="utf-8") as fh:
             rows = list(csv.DictReader(fh))
+    # Every run first, then one write: the suite being timed reads this file (the docs quote it),
+    # so it must not change under it. One row per run kind, the newest (git keeps the history).
+    new = []
     for which in args.which:
         row = time_run(which)
         print(f"{which}: {row['wall_s']} s, {row['outcome']} (load before {row['load_before']})")
-        rows = [r for r in rows if not (r["which"] == which and r["date"] == row["date"])] + [row]
-        with atomic_path(out) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
-            writer = csv.DictWriter(fh, FIELDS, lineterminator="\n")
-            writer.writeheader()
-            writer.writerows(rows)
-    print(f"times: {out}")
+        new.append(row)
+    rows = [r for r in rows if r["which"] not in {n["which"] for n in new}] + new
+    with atomic_path(out) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.DictWriter(fh, FIELDS, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"times: {out}; now run python docs/tools/render_numbers.py")
     return 0
 
 
