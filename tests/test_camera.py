@@ -120,3 +120,17 @@ def test_a_pixel_threshold_in_a_visibility_model_is_refused(tmp_path, capsys):
     close = tmp_path / "c.toml"
     close.write_text('extends = "factorised_close"\nname = "c"\n[perception]\nmin_visible_pixels = 40\n')
     assert fg.load_model(close).min_visible_pixels == 40
+
+
+def test_a_visibility_curve_in_a_threshold_model_is_refused(tmp_path, capsys):
+    """The curve the agent assumes is the visibility detector's; a threshold model ignored it. A
+    curve inherited from a parent (factorised_close extends factorised) is the parent's, not a
+    setting of this file."""
+    model = tmp_path / "m.toml"
+    model.write_text('extends = "factorised_close"\nname = "m"\n[perception.visibility]\nhalf_pixels = 10\n')
+    assert main(["validate", str(model)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "perception.visibility: has no effect with detector = \"threshold\"" in err and "\n" not in err
+    inherited = tmp_path / "i.toml"
+    inherited.write_text('extends = "factorised"\nname = "i"\n[perception]\ndetector = "threshold"\n')
+    assert fg.load_model(inherited).detector == "threshold"

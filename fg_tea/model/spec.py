@@ -417,6 +417,12 @@ def parse_model(data: dict, file: str | Path = "<model>",
         raise perception.fail("has no effect with detector = \"visibility\" (the agent assumes the "
                               "curve of [perception.visibility]); remove it, or assume the "
                               "threshold detector", "min_visible_pixels")
+    if detector == "threshold" and origins and any(
+            k.startswith("$.perception.visibility.") and f == str(file) for k, f in origins.items()):
+        # written in this very file (a parent's curve, inherited, is the parent's business)
+        raise perception.fail("has no effect with detector = \"threshold\" (an object is seen iff "
+                              "it covers min_visible_pixels); remove it, or assume the visibility "
+                              "detector", "visibility")
     assumed_r = perception.child("visibility", required=False)
     detection_curve = (read_curve(assumed_r) if assumed_r is not None
                        else VisibilityCurve() if detector == "visibility" else None)
