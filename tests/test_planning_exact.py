@@ -82,3 +82,23 @@ def test_tables_q_values_match_the_root_and_take_any_start():
     assert float(q.min()) == pytest.approx(tables.root, abs=1e-12)
     shifted = tables.q_values(None, np.zeros(len(views), dtype=np.int64), 0, travel=tables.start + 1.0)
     assert np.allclose(shifted, q + 1.0)
+
+
+def test_lookahead_relook_weighs_a_look_from_where_the_agent_stands():
+    """With relook=1 the look from the nearest viewpoint (where the agent stands after a miss) is
+    among the root's candidates, valued by the tree; without it only the best-scored looks are."""
+    from fg_tea.planning import LookaheadSettings
+
+    assert LookaheadSettings.parse("relook=1").relook == 1 and "relook=1" in LookaheadSettings(relook=1).spec()
+    with pytest.raises(ValueError):
+        LookaheadSettings.parse("relook=2")
+    scenario, model = fg.load_scenario("default_apartment"), fg.load_model("factorised_close")
+    seen = {}
+    for spec in ("lookahead", "lookahead:relook=1"):  # a miss of all three at the pantry shelf
+        agent = fg.Agent(scenario, model, spec, task="find_three")
+        action = agent.next_action()
+        agent.observe_look("pantry_shelf", {"mug": None, "kettle": None, "teabag": None})
+        here = scenario.site("pantry_shelf").vantage
+        seen[spec] = {c.viewpoint for c in agent.decide(action, here).candidates}
+    assert "pantry_shelf" not in seen["lookahead"] and "pantry_shelf" in seen["lookahead:relook=1"]
+    assert seen["lookahead"] <= seen["lookahead:relook=1"]
