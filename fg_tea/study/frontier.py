@@ -34,15 +34,21 @@ def _safe(name: str) -> str:
     return name.replace(":", "_").replace(",", "_").replace("=", "-")
 
 
-def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: str,
-                miss_rate: float | None) -> dict:
-    """One episode; returns its metrics and the wall and CPU time of every decision (seconds)."""
+def episode_setup(world: str, seed: int, model_name: str, env_kind: str, miss_rate: float | None):
+    """(model, the world of `seed`, its environment, the detector miss rate): a threshold camera
+    misses at `miss_rate` (default the model's mu); a visibility camera draws from its curve."""
     model = load_model(model_path(model_name))
     scenario = load_world(world_path(world)).sample(seed)
     rate = model.miss_likelihood if miss_rate is None else miss_rate
     if model.detector != "threshold":  # the camera's curve draws the misses (docs/design.md §3.4)
         rate = 0.0
-    env = _make_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate))
+    return model, scenario, _make_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate)), rate
+
+
+def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: str,
+                miss_rate: float | None) -> dict:
+    """One episode; returns its metrics and the wall and CPU time of every decision (seconds)."""
+    model, scenario, env, rate = episode_setup(world, seed, model_name, env_kind, miss_rate)
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
     times: list[float] = []
     cpu: list[float] = []

@@ -24,9 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from fg_tea.common.files import atomic_write_text
+from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.planning.limit import Limit, search_limit
 from fg_tea.planning.lookahead import LOOK_COST, build_problem
+from fg_tea.study.frontier import episode_setup
 
 
 class _StartDistances:
@@ -42,25 +44,10 @@ class _StartDistances:
         return 0.0 if a == b else float(self.env.distance_between_sites(a, b))
 
 
-def _setup(world: str, seed: int, model_name: str, task: str, miss_rate: float | None):
-    from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.model.spec import load_model
-    from fg_tea.study.sweep import _make_env, model_path, world_path
-    from fg_tea.world.distributions import load_world
-
-    model = load_model(model_path(model_name))
-    scenario = load_world(world_path(world)).sample(seed)
-    rate = model.miss_likelihood if miss_rate is None else miss_rate
-    if model.detector != "threshold":  # the camera's curve draws the misses (docs/design.md §3.4)
-        rate = 0.0
-    env = _make_env("fake", scenario, env_config_for(model, detection_miss_rate=rate))
-    return model, scenario, env, EpisodeRunner, RunConfig, rate
-
-
 def start_problem(world: str, model_name: str, task: str):
     """The search problem the task starts with, from the start pose (world seed 0's house), and
     the objects it searches."""
-    model, scenario, env, EpisodeRunner, RunConfig, _ = _setup(world, 0, model_name, task, None)
+    model, scenario, env, _ = episode_setup(world, 0, model_name, "fake", None)
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=0, task=task))
         runner.start()  # resets the house and hands the agent its view geometry; no look yet
@@ -82,7 +69,7 @@ def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3)
 def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
                 miss_rate: float | None = None) -> dict:
     """One search-only episode: its cost as the limit prices it, success, looks and CPU times."""
-    model, scenario, env, EpisodeRunner, RunConfig, rate = _setup(world, seed, model_name, task, miss_rate)
+    model, scenario, env, rate = episode_setup(world, seed, model_name, "fake", miss_rate)
     distances = _StartDistances(env)
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner, task=task))
     cpu: list[float] = []
@@ -99,6 +86,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
     cost, here, start = 0.0, None, {}
     try:
         runner.start()
+        assert runner.agent.views is not None  # set when the episode starts
         start = {v: distances.from_agent(v) for v in runner.agent.views.names}
         steps = 0
         while not runner.done and steps < 2000:
@@ -230,7 +218,7 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
     """
     from fg_tea.agent.agent import Agent
 
-    model, scenario, env, _, _, _ = _setup(world, 0, model_name, task, None)
+    model, scenario, env, _ = episode_setup(world, 0, model_name, "fake", None)
     try:
         env.reset(0)
         agent = Agent(scenario, model, planner, task)
