@@ -97,7 +97,7 @@ LAYERS = {
     "agent": {"common", "world", "model", "beliefs", "planning", "tasks"},
     "env": {"common", "world"},
     "episode": {"common", "world", "model", "beliefs", "planning", "tasks", "agent", "env"},
-    "render": {"common", "world", "env", "episode"},
+    "render": {"common", "world", "model", "tasks", "env", "episode"},
     "study": {"common", "world", "model", "beliefs", "planning", "tasks", "agent", "env", "episode",
               "render"},
     "cli": {"common", "world", "model", "beliefs", "planning", "tasks", "agent", "env", "episode",

@@ -30,8 +30,8 @@ def _cli(*args: str, cwd) -> subprocess.CompletedProcess:
     (START + '\n{"event":"observation","x":NaN}\n', "a bare NaN"),
     (START + "\n" + '{"event":"x","y":' + "[" * 100_000 + "]" * 100_000 + "}\n", "nested too deeply"),
 ])
-@pytest.mark.parametrize("command", ["render", "learn"])
-def test_a_bad_log_is_one_line_for_render_and_learn(command, body, fault, tmp_path):
+@pytest.mark.parametrize("command", ["render", "learn", "explore"])
+def test_a_bad_log_is_one_line_for_render_learn_and_explore(command, body, fault, tmp_path):
     log = tmp_path / "bad.jsonl"
     log.write_text(body)
     argv = [command, str(log), "--out", str(tmp_path / ("v.mp4" if command == "render" else "m.toml"))]

@@ -63,6 +63,7 @@ COMMANDS = {
                                          "--out", "OUT"], "summary.md"),
     "house --out": (["house", "--rooms", "3", "--out", "NODE"], "file:h.json"),
     "learn --out": (["learn", "LOG", "--out", "NODE"], "file:learned.toml"),
+    "explore --out": (["explore", "LOG", "--out", "NODE"], "file:e.html"),
 }
 
 

@@ -117,6 +117,11 @@ def cmd_compare(args: argparse.Namespace) -> int:
                               command=command)
     print(f"episodes: {csv_path} ({len(rows)} rows)")
     print("wrote: " + ", ".join(str(files[name]) for name in sorted(files)))
+    from fg_tea.study.pages import write_compare_pages
+
+    pages = write_compare_pages(jobs, rows, out, getattr(args, "pages", 20), f"Worlds of {args.world}",
+                                progress=True)
+    print(f"explorer: {pages['index']} ({pages['pages']} side-by-side pages)")
     if len(args.models) > 1:  # how far these worlds go, and how many would settle each cell
         from fg_tea.study.replication import pairs_to_resolve_lines
 
@@ -280,6 +285,10 @@ def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) ->
         p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
     else:
         p.add_argument("--out", default=out, help="output folder (default: %(default)s)")
+    p.add_argument("--pages", type=integer(0, MAX_WORLDS), default=20, metavar="N",
+                   help="side-by-side explorer pages (fg-tea explore) of the N worlds whose pair "
+                   "(the first two models, or planners) differs most in search travel, linked from "
+                   "OUT/index.html; each world's pair is re-run with its logs (default: %(default)s)")
     p.add_argument("--quick", action="store_true",
                    help=f"10 worlds and planners {' '.join(COMPARE_QUICK_PLANNERS)} (CI size)")
     p.add_argument("--lifelong", type=integer(1, 1000), default=None, metavar="K",

@@ -13,6 +13,7 @@ from typing import Callable, Sequence
 
 import fg_tea.cli.beliefs as beliefs
 import fg_tea.cli.compare as compare
+import fg_tea.cli.explore as explore
 import fg_tea.cli.house as house
 import fg_tea.cli.learn as learn
 import fg_tea.cli.list as listing
@@ -31,7 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND",
                                 help="what to do (fg-tea COMMAND --help for its options)")
 
-    for command in (beliefs, validate, listing, run, compare, house, learn):  # one module each
+    for command in (beliefs, validate, listing, run, compare, explore, house, learn):  # one module each
         command.add_parser(sub)
     return parser
 

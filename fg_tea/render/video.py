@@ -110,6 +110,9 @@ class FramePlan:
     viewpoints: dict[str, dict] = field(default_factory=dict)
     #: ``episode_start.inputs.scenario`` (bundle path and sha256) in logs that record it.
     scenario_input: dict | None = None
+    #: Event ``seq`` -> the output frame at which that event's frames begin (the explorer seeks
+    #: the video there).
+    event_frames: dict[int, int] = field(default_factory=dict)
 
     @property
     def output_frames(self) -> int:
@@ -173,20 +176,25 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
         plan.overlays.append(copy.deepcopy(ov))
         return len(plan.overlays) - 1
 
+    output = 0  # output frames planned so far
+
     def emit(motion: Sequence[Sequence[float]], repeat_last: int = 0) -> None:
-        nonlocal pose
+        nonlocal pose, output
         index = push_overlay()
         for i, p in enumerate(motion):
             if i % options.frame_stride and i != len(motion) - 1:
                 continue
             pose = tuple(p)
             plan.frames.append(FrameSpec(pose, len(plan.placements) - 1, held, index))
+            output += 1
         if repeat_last:
             plan.frames.append(FrameSpec(pose, len(plan.placements) - 1, held, push_overlay(), repeat_last))
+            output += repeat_last
 
     emit([], repeat_last=hold)
-    for e in events:
+    for n, e in enumerate(events):
         kind = e.get("event")
+        plan.event_frames[int(e.get("seq", n))] = output if n else 0  # the start shows first
         if kind == "decision":
             ov.phase, ov.focus_object, ov.selected_site = "SEARCH", e["object"], logged_viewpoint(e)
             set_look(e, None)

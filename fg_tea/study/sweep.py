@@ -404,8 +404,11 @@ def _make_env(kind: str, scenario, config):
     return PyBulletHouse(scenario, config)
 
 
-def run_job(job: Job) -> dict[str, Any]:
+def run_job(job: Job, log_path: str | Path | None = None) -> dict[str, Any]:
     """Run one headless episode; return its CSV row (configuration, world, truth, metrics).
+
+    With `log_path`, the episode's log is also written there, event by event (the explorer's
+    pages of a comparison; a sweep keeps its logs in memory only).
 
     Raises:
         InputError: the job names an unknown world or model.
@@ -422,12 +425,15 @@ def run_job(job: Job) -> dict[str, Any]:
     seed = job.world_seed if job.seed is None else job.seed  # Job fills it in; for the type checker
     runner = None
     stopped = None
+    from fg_tea.episode.log import EventLog
+
+    log = EventLog(log_path) if log_path is not None else None
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=job.planner,
                                                                 max_frames=job.max_frames,
                                                                 task=job.task,
                                                                 gtsam_check=job.gtsam_check),
-                               world=job.world)
+                               log, world=job.world)
         runner.start()  # the prior; max_steps counts the steps that carry out actions
         for _ in range(job.max_steps):
             runner.step()
@@ -440,6 +446,8 @@ def run_job(job: Job) -> dict[str, Any]:
         stopped = f"{REFUSED}{exc.kind}: " + " ".join(str(exc).split())
     finally:
         env.close()
+        if log is not None:
+            log.close()
     events = runner.events if runner is not None else []
     metrics = score(events)
     if stopped is not None:

@@ -1,0 +1,235 @@
+"""The explorer's pages in a real browser: headless Chromium (the system's, Debian's package)
+driven by Playwright (docs/design.md §9.2).
+
+Each page is loaded from a file URL with no console errors; every event is stepped through and
+every displayed probability (each site's location probability of the chosen object, each hidden
+state) is read back from the page and checked against the log itself, to the printed 3 decimals;
+the first differing decision of a known pair is checked; screenshots are taken at three steps and
+must not be blank.
+
+Locally these tests skip with a one-line reason when Chromium or Playwright is missing; under CI
+(``FG_TEA_BROWSER_REQUIRED=1``, set by .ci/run) a missing browser is a failure.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from fg_tea.episode.log import read_log
+
+REQUIRED = os.environ.get("FG_TEA_BROWSER_REQUIRED") == "1"
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+#: Chromium's flags on a machine with no network and no display (docs/guide/tests.md).
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+        "--disable-sync", "--no-first-run", "--disable-dev-shm-usage"]
+
+
+def _missing() -> str | None:
+    if CHROMIUM is None:
+        return "no chromium on PATH (Debian: apt-get install chromium)"
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        return "the playwright package is not installed (pip install -e '.[test]')"
+    return None
+
+
+@pytest.fixture(scope="module")
+def browser():
+    why = _missing()
+    if why is not None:
+        if REQUIRED:
+            pytest.fail(f"the browser tests must run under CI: {why}")
+        pytest.skip(why)
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        yield b
+        b.close()
+
+
+def _cli(*args, cwd):
+    proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return proc
+
+
+@pytest.fixture(scope="module")
+def pages(tmp_path_factory):
+    """The default episode (factorised and joint: they part at decision 2), a 27-site
+    milk-and-sugar episode, and their pages."""
+    from fg_tea.study.sweep import Job, run_job
+
+    tmp = tmp_path_factory.mktemp("browser")
+    for model in ("factorised", "joint"):
+        _cli("run", "--no-video", "--model", model, "--out", tmp / model, cwd=tmp)
+    run_job(Job("generated_medium_milk_sugar", 3, "factorised", "efe", task="make_tea_milk_sugar"),
+            tmp / "milk" / "episode.jsonl")
+    _cli("explore", tmp / "factorised" / "episode.jsonl", "--out", tmp / "one.html", cwd=tmp)
+    _cli("explore", tmp / "factorised" / "episode.jsonl", tmp / "joint" / "episode.jsonl",
+         "--out", tmp / "two.html", cwd=tmp)
+    _cli("explore", tmp / "milk" / "episode.jsonl", "--out", tmp / "milk.html", cwd=tmp)
+    return tmp
+
+
+def expected_states(events: list[dict]) -> list[tuple[dict, dict]]:
+    """(locations, hidden states) after each event, read from the log itself: the last
+    observation's ``after`` or belief snapshot's ``locations``, the last states snapshot, reading
+    or action's ``belief_after``."""
+    start = events[0]
+    loc = {o: list(p) for o, p in start["belief"]["locations"].items()}
+    states = dict(start["belief"]["states"])
+    out = []
+    for e in events:
+        if e["event"] == "observation":
+            loc.update(e["after"])
+        elif e["event"] == "belief":
+            loc.update(e["locations"])
+            states.update(e["states"])
+        elif e["event"] == "state_reading" and e.get("state") in states:
+            states[e["state"]] = e["after"]
+        elif e["event"] == "action" and isinstance(e.get("belief_after"), dict):
+            states.update(e["belief_after"])
+        out.append(({o: list(p) for o, p in loc.items()}, dict(states)))
+    return out
+
+
+def _open(browser, path: Path):
+    page = browser.new_page(viewport={"width": 1400, "height": 1000})
+    problems: list[str] = []
+    page.on("console", lambda m: problems.append(f"{m.type}: {m.text}") if m.type in ("error", "warning") else None)
+    page.on("pageerror", lambda e: problems.append(f"pageerror: {e}"))
+    page.goto(path.as_uri())
+    page.wait_for_function("document.body.dataset.ready === '1'", timeout=10_000)
+    return page, problems
+
+
+def _read(page, pane: int) -> tuple[dict[str, str], dict[str, str]]:
+    return page.evaluate(
+        """(pane) => {
+            const root = document.querySelector(`.pane[data-episode="${pane}"]`);
+            const sites = {}, states = {};
+            root.querySelectorAll('text.site-p').forEach(t => { sites[t.dataset.site] = t.textContent.trim(); });
+            root.querySelectorAll('td.p').forEach(t => { states[t.dataset.state] = t.textContent.trim(); });
+            return [sites, states];
+        }""", pane)
+
+
+def _check_every_step(page, logs: list[list[dict]]) -> int:
+    """Step through every slider position; check every displayed probability against the log."""
+    expected = [expected_states(events) for events in logs]
+    sites = [[s["name"] for s in events[0]["sites"]] for events in logs]
+    pairs = page.evaluate("explorer.data.pairs")
+    objects = page.evaluate("Array.from(document.querySelectorAll('#object option')).map(o => o.value)")
+    checked = 0
+    for i, pair in enumerate(pairs):
+        if i % 7 == 0:  # each object in turn shades the plan
+            page.select_option("#object", objects[(i // 7) % len(objects)])
+        page.evaluate(f"explorer.go({i})")
+        chosen = page.eval_on_selector("#object", "s => s.value")
+        for pane, step in enumerate(pair):
+            shown_sites, shown_states = _read(page, pane)
+            loc, states = expected[pane][step]
+            if chosen in loc:
+                assert shown_sites == {s: f"{p:.3f}" for s, p in zip(sites[pane], loc[chosen])}, (i, pane, chosen)
+            assert shown_states == {k: f"{v:.3f}" for k, v in states.items()}, (i, pane)
+            checked += len(shown_sites) + len(shown_states)
+    return checked
+
+
+def _not_blank(png: bytes) -> None:
+    import io
+
+    from PIL import Image
+
+    image = Image.open(io.BytesIO(png)).convert("RGB").resize((200, 140))
+    colours = len(image.getcolors(maxcolors=1 << 20) or ())
+    assert colours > 40, f"the screenshot looks blank ({colours} colours)"
+
+
+def test_one_episode_every_step_shows_the_logs_probabilities(browser, pages):
+    events = read_log(pages / "factorised" / "episode.jsonl")
+    page, problems = _open(browser, pages / "one.html")
+    assert _check_every_step(page, [events]) > 500
+    n = len(page.evaluate("explorer.data.pairs"))
+    for i in (0, n // 2, n - 1):  # three steps, three screenshots
+        page.evaluate(f"explorer.go({i})")
+        png = page.screenshot(full_page=True)
+        _not_blank(png)
+    # the keyboard and the buttons step too
+    page.evaluate("explorer.go(0)")
+    page.keyboard.press("ArrowRight")
+    page.click("#next")
+    assert page.evaluate("explorer.index()") == 2
+    page.keyboard.press("End")
+    assert page.evaluate("explorer.index()") == n - 1
+    assert "/ " + str(n) in page.inner_text("#step-label")
+    # the candidate table marks the logged choice; a header click sorts it
+    first = next(i for i, e in enumerate(events) if e["event"] == "decision")
+    page.evaluate(f"explorer.go({first})")
+    chosen = page.inner_text(".pane[data-episode='0'] table.candidates tr.chosen")
+    assert events[first]["object"] in chosen and events[first]["viewpoint"] in chosen
+    page.click(".pane[data-episode='0'] table.candidates th:has-text('total')")
+    totals = page.eval_on_selector_all(".pane[data-episode='0'] table.candidates tbody tr",
+                                       "rows => rows.map(r => r.dataset.total)")
+    values = [float(t) for t in totals if t not in (None, "")]
+    assert values and (values == sorted(values) or values == sorted(values, reverse=True))
+    # a click on a site shows its history for every object
+    site = events[0]["sites"][0]["name"]
+    page.click(f".pane[data-episode='0'] circle.site[data-site='{site}']")
+    history = page.inner_text(f".pane[data-episode='0'] .site-history[data-site='{site}']")
+    assert all(obj in history for obj in events[0]["objects"])
+    assert problems == []
+    page.close()
+
+
+def test_two_episodes_side_by_side_mark_where_choices_part(browser, pages):
+    logs = [read_log(pages / m / "episode.jsonl") for m in ("factorised", "joint")]
+    decisions = [[(e["object"], e["viewpoint"]) for e in ev if e["event"] == "decision"] for ev in logs]
+    first = next(k for k in range(min(map(len, decisions))) if decisions[0][k] != decisions[1][k])
+    page, problems = _open(browser, pages / "two.html")
+    assert page.get_attribute("#divergence", "data-decision") == str(first)
+    page.click("#goto-divergence")
+    pair = page.evaluate("explorer.data.pairs[explorer.index()]")
+    for pane, events in enumerate(logs):
+        assert events[pair[pane]]["event"] == "decision"
+        assert (events[pair[pane]]["object"], events[pair[pane]]["viewpoint"]) == decisions[pane][first]
+    assert _check_every_step(page, logs) > 1000
+    _not_blank(page.screenshot(full_page=True))
+    assert problems == []
+    page.close()
+
+
+def test_a_27_site_five_object_page(browser, pages):
+    events = read_log(pages / "milk" / "episode.jsonl")
+    assert len(events[0]["sites"]) >= 20 and len(events[0]["objects"]) == 5
+    assert (pages / "milk.html").stat().st_size < 5e6
+    page, problems = _open(browser, pages / "milk.html")
+    assert _check_every_step(page, [events]) > 1000
+    _not_blank(page.screenshot(full_page=True))
+    assert problems == []
+    page.close()
+
+
+def test_a_page_that_lacks_its_house_says_so(browser, pages, tmp_path):
+    text = (pages / "factorised" / "episode.jsonl").read_text().splitlines()
+    start = json.loads(text[0])
+    start["scenario"], start["scenario_file"], start["inputs"]["scenario"] = "gone#1", "gone.json", None
+    log = tmp_path / "old.jsonl"
+    log.write_text("\n".join([json.dumps(start)] + text[1:len(text) // 2]) + "\n")
+    _cli("explore", log, "--out", tmp_path / "old.html", cwd=tmp_path)
+    page, problems = _open(browser, tmp_path / "old.html")
+    notices = page.inner_text("#notices")
+    assert "gone.json" in notices and "episode_end" in notices
+    _not_blank(page.screenshot(full_page=True))
+    assert problems == []
+    page.close()
