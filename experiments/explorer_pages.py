@@ -74,7 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     p = build_parser()
     args = p.parse_args(argv)
-    out = Path(args.out)
+    out = Path(args.out).resolve()
     if not Path(args.chromium).is_file():
         p.error(f"--chromium: {args.chromium} not found (Debian: apt-get install chromium)")
     work = out / "work"
@@ -136,11 +136,11 @@ def main(argv=None) -> int:
              "Written by `python experiments/explorer_pages.py --out " + str(args.out) + "`: each page's "
              "size and the time from opening it in headless Chromium until it is drawn and "
              "interactive (this machine, one run).", "",
-             "| page | what | episodes | sites | objects | steps | size (MB) | ready (ms) | page errors |",
+             "| page | what | episodes | sites | objects | steps | size (kB) | ready (ms) | page errors |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['page']} | {r['what']} | {r['episodes']} | {r['sites']} | {r['objects']} | "
-                     f"{r['steps']} | {r['bytes'] / 1e6:.2f} | {r['ready_ms']:.0f} | {r['errors']} |")
+                     f"{r['steps']} | {r['bytes'] / 1e3:.0f} | {r['ready_ms']:.0f} | {r['errors']} |")
     atomic_write_text(out / "pages.md", "\n".join(lines) + "\n")
     shutil.rmtree(work, ignore_errors=True)
     for r in rows:

@@ -233,3 +233,27 @@ def test_a_page_that_lacks_its_house_says_so(browser, pages, tmp_path):
     _not_blank(page.screenshot(full_page=True))
     assert problems == []
     page.close()
+
+
+def test_the_video_is_seeked_to_each_steps_first_frame(browser, tmp_path):
+    """A small video (the log records how it was rendered): each step seeks it to the time at
+    which the step's frames begin in the frame plan (docs/design.md §8.6)."""
+    from fg_tea.render.video import VideoOptions, plan_frames
+
+    _cli("run", "--width", "160", "--height", "96", "--scene-scale", "0.5", "--frame-stride", "10",
+         "--fps", "10", "--hold", "0.5", "--out", tmp_path / "v", cwd=tmp_path)
+    _cli("explore", tmp_path / "v" / "episode.jsonl", "--video", tmp_path / "v" / "episode.mp4",
+         "--out", tmp_path / "page" / "v.html", cwd=tmp_path)
+    events = read_log(tmp_path / "v" / "episode.jsonl")
+    plan = plan_frames(events, VideoOptions(width=160, height=96, scene_scale=0.5, frame_stride=10, fps=10,
+                                            hold_seconds=0.5))
+    page, problems = _open(browser, tmp_path / "page" / "v.html")
+    page.wait_for_function("document.getElementById('video').readyState >= 1", timeout=10_000)
+    assert page.get_attribute("#video", "src") == "../v/episode.mp4"
+    for i in (3, len(events) // 2, len(events) - 3):
+        page.evaluate(f"explorer.go({i})")
+        page.wait_for_function(f"Math.abs(document.getElementById('video').currentTime - "
+                               f"{plan.event_frames[events[i]['seq']] / 10}) < 0.051", timeout=5_000)
+    assert page.evaluate("document.getElementById('video').error") is None
+    assert problems == []
+    page.close()
