@@ -83,6 +83,7 @@ LOOK_COST = 8 * 0.018
 ROLLOUTS = ("mppm", "none")
 MAX_TRUTHS = 50_000          # largest truth table the planner holds (K^|U|)
 OUTCOME_FLOOR = 1e-9         # outcomes less probable than this are not expanded
+EXPECTATION_CHUNK = 8        # nodes per batch of the rollout's joint contraction
 STOP_PROBABILITY = 1e-3      # a rollout ends once the search is over with at least 1 - this
 NULL_LOOK = 1e-9             # a look expected to find less than this cannot change the belief
 
@@ -277,9 +278,12 @@ def _expectation_steps(joint: np.ndarray, factors: np.ndarray) -> np.ndarray:
 
     Returns:
         shape (L, S): the joint contracted with each step's vectors, last object first; the
-        first product serves every step at once (the joint is not copied per step).
+        first product serves every step at once (the joint is not copied per step); nodes go
+        :data:`EXPECTATION_CHUNK` at a time (the same numbers, faster: blocks stay in cache).
     """
     count, steps, n, k = factors.shape
+    if count > (c := EXPECTATION_CHUNK):
+        return np.concatenate([_expectation_steps(joint[i:i + c], factors[i:i + c]) for i in range(0, count, c)])
     x = np.matmul(joint.reshape(count, -1, k), np.swapaxes(factors[:, :, n - 1, :], 1, 2))
     x = np.swapaxes(x, 1, 2)                              # (L, S, K'^(n-1))
     for u in range(n - 2, -1, -1):
