@@ -187,3 +187,56 @@ def test_compare_writes_an_index_linking_each_worlds_pair(tmp_path):
     assert "mismatch" not in index.split("</style>")[1], "the re-run episodes are the sweep's own"
     page = page_of((tmp_path / "c" / links[0]).read_text())
     assert [ep["model"] for ep in page["episodes"]] == ["factorised_close", "joint_close"]
+
+
+def test_the_page_never_overwrites_its_inputs(logs, tmp_path):
+    log = tmp_path / "v.jsonl"
+    log.write_bytes((logs / "factorised.jsonl").read_bytes())
+    before = log.read_bytes()
+    _one_line(_cli("explore", log, "--out", log, cwd=tmp_path), "--out", "input LOG")
+    assert log.read_bytes() == before
+    _one_line(_cli("explore", log, "--label", "a", "b", cwd=tmp_path), "--label")
+
+
+@pytest.mark.parametrize("field,value,fault", [
+    ("belief", {}, "belief.locations"), ("sites", None, "sites"), ("sites", [], "sites"),
+    ("pose", None, "pose"), ("sites", [{"name": "x"}], "sites[0]"),
+])
+def test_a_damaged_start_is_one_line(logs, tmp_path, field, value, fault):
+    text = (logs / "factorised.jsonl").read_text().splitlines()
+    start = json.loads(text[0])
+    start[field] = value
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text("\n".join([json.dumps(start)] + text[1:]) + "\n")
+    _one_line(_cli("explore", bad, cwd=tmp_path), "bad.jsonl", fault)
+
+
+def test_a_damaged_event_is_one_line_naming_its_line(logs, tmp_path):
+    text = (logs / "factorised.jsonl").read_text().splitlines()
+    n = next(i for i, line in enumerate(text) if '"motion"' in line)
+    event = json.loads(text[n])
+    event["motion"] = [["a", "b", "c"]]
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text("\n".join(text[:n] + [json.dumps(event)] + text[n + 1:]) + "\n")
+    _one_line(_cli("explore", bad, cwd=tmp_path), "bad.jsonl", f"line {n + 1}", event["event"])
+
+
+def test_a_partial_last_line_is_named_on_the_page(logs):
+    text = (logs / "factorised.jsonl").read_text()
+    path = logs / "partial.jsonl"
+    path.write_text(text + '{"event": "bro')
+    ep = episode_data(read_episode(path))
+    assert any("last line" in x for x in ep["lacks"]) and ep["outcome"] == "complete"
+    assert not any("entropy" in x for x in ep["lacks"])
+
+
+def test_two_episodes_of_different_tasks_each_get_their_own_graph(tmp_path):
+    from fg_tea.study.sweep import Job, run_job
+
+    for task in ("make_tea", "find_mug"):
+        run_job(Job("independent", 1, "factorised", "efe", task=task, env="fake"), tmp_path / f"{task}.jsonl")
+    data = page_data([(str(tmp_path / f"{t}.jsonl"), read_episode(tmp_path / f"{t}.jsonl"))
+                      for t in ("make_tea", "find_mug")])
+    a, b = data["episodes"]
+    assert {x for e in a["task_edges"] for x in e} <= set(a["tasks"])
+    assert b["task_edges"] == [] and b["tasks"] == ["search_mug"]

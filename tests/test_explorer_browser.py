@@ -236,8 +236,8 @@ def test_a_page_that_lacks_its_house_says_so(browser, pages, tmp_path):
 
 
 def test_the_video_is_seeked_to_each_steps_first_frame(browser, tmp_path):
-    """A small video (the log records how it was rendered): each step seeks it to the time at
-    which the step's frames begin in the frame plan (docs/design.md §8.6)."""
+    """A small video (the log records how it was rendered): each step seeks it to the step's
+    last frame in the frame plan (docs/design.md §8.6)."""
     from fg_tea.render.video import VideoOptions, plan_frames
 
     _cli("run", "--width", "160", "--height", "96", "--scene-scale", "0.5", "--frame-stride", "10",
@@ -250,10 +250,11 @@ def test_the_video_is_seeked_to_each_steps_first_frame(browser, tmp_path):
     page, problems = _open(browser, tmp_path / "page" / "v.html")
     page.wait_for_function("document.getElementById('video').readyState >= 1", timeout=10_000)
     assert page.get_attribute("#video", "src") == "../v/episode.mp4"
-    for i in (3, len(events) // 2, len(events) - 3):
+    starts = [plan.event_frames[e["seq"]] for e in events] + [plan.output_frames]
+    for i in (3, len(events) // 2, len(events) - 3):  # the step's last frame: the state after it
         page.evaluate(f"explorer.go({i})")
         page.wait_for_function(f"Math.abs(document.getElementById('video').currentTime - "
-                               f"{plan.event_frames[events[i]['seq']] / 10}) < 0.051", timeout=5_000)
+                               f"{max(starts[i], starts[i + 1] - 1) / 10}) < 0.051", timeout=5_000)
     assert page.evaluate("document.getElementById('video').error") is None
     assert problems == []
     page.close()

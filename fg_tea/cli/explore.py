@@ -44,10 +44,16 @@ def cmd_explore(args: argparse.Namespace) -> int:
     if len(args.logs) > 2:
         raise InputError("<command line>", "LOG", f"one or two logs, got {len(args.logs)}")
     first = Path(args.logs[0])
-    out = Path(args.out) if args.out else first.with_suffix(".html") if len(args.logs) == 1 \
+    out = Path(args.out) if args.out is not None else first.with_suffix(".html") if len(args.logs) == 1 \
         else first.parent / f"{first.stem}-vs-{Path(args.logs[1]).parent.name or Path(args.logs[1]).stem}.html"
+    if args.label is not None and len(args.label) != len(args.logs):
+        raise InputError("<command line>", "--label", f"one label per log: {len(args.logs)} logs, "
+                                                      f"{len(args.label)} labels")
     check_out_file(out)
-    logs = [(Path(name).name, read_episode(name)) for name in args.logs]
+    for given, flag in [(name, "LOG") for name in args.logs] + ([(args.video, "--video")] if args.video else []):
+        if Path(given).exists() and out.exists() and os.path.samefile(given, out):
+            raise InputError("<command line>", "--out", f"{out} is the input {flag} itself: name another file")
+    logs = [(name, read_episode(name)) for name in args.logs]
     if len(logs) == 2 and (why := same_world(logs[0][1], logs[1][1])):
         raise InputError(args.logs[1], "episode_start", f"not an episode of the same world as "
                                                         f"{args.logs[0]}: {why}")

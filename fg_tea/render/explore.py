@@ -24,16 +24,19 @@ from typing import Any, Mapping, Sequence
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_write_text
-from fg_tea.episode.log import read_log
+from fg_tea.episode.log import LOG_MAX_BYTES, read_log
 from fg_tea.world.interface import logged_viewpoint
 
+#: Key :func:`read_episode` sets on the start event (in memory only) when the log's last line
+#: was not whole JSON and was left out.
+PARTIAL = "_explorer_partial_last_line"
 #: Version of the page's data layout (the ``format`` of the embedded JSON).
 PAGE_FORMAT = 1
 #: Every n-th pose of the agent's motion is kept for the drawn path (the last of each move always).
 PATH_STRIDE = 6
 #: The terms of a candidate's score, in the order the table shows them (others follow).
-TERM_ORDER = ("object", "viewpoint", "viewpoint_kind", "distance", "probability", "information_gain",
-              "repeat", "relevance", "base", "total")
+TERM_ORDER = ("object", "viewpoint", "total", "viewpoint_kind", "distance", "probability",
+              "information_gain", "repeat", "relevance", "base")
 
 
 def _major(version: str) -> int | None:
@@ -52,6 +55,8 @@ def read_episode(path: str | Path) -> list[dict]:
     """
     from fg_tea._version import __version__
 
+    from fg_tea.common.inputs import read_text
+
     events = read_log(path, strict=False)
     if not events or events[0].get("event") != "episode_start":
         raise InputError(path, "line 1", "not an fg_tea episode log (it must start with episode_start)")
@@ -59,12 +64,43 @@ def read_episode(path: str | Path) -> list[dict]:
     for key in ("scenario", "sites", "belief"):
         if key not in start:
             raise InputError(path, "line 1", f"episode_start has no {key!r}: not a log this explorer can read")
+    _check_start(path, start)
+    lines = sum(1 for line in read_text(path, max_bytes=LOG_MAX_BYTES).splitlines() if line.strip())
+    if lines > len(events):  # read_log left out a partial last line (a crash mid-write)
+        start[PARTIAL] = True
     written = str((start.get("versions") or {}).get("fg_tea", ""))
     ours, theirs = _major(__version__), _major(written)
     if theirs is not None and ours is not None and theirs > ours:
         raise InputError(path, "line 1", f"written by fg_tea {written}, newer than this fg_tea "
                                          f"{__version__}: open it with that version")
     return events
+
+
+def _numbers(value: Any, least: int) -> bool:
+    return (isinstance(value, list) and len(value) >= least
+            and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value))
+
+
+def _check_start(path: str | Path, start: Mapping[str, Any]) -> None:
+    """One line naming the first field of `episode_start` the page cannot draw."""
+    def fault(field: str, what: str) -> InputError:
+        return InputError(path, f"line 1: episode_start.{field}", what)
+
+    sites = start["sites"]
+    if not isinstance(sites, list) or not sites:
+        raise fault("sites", "expected a non-empty list of sites")
+    for i, site in enumerate(sites):
+        if not isinstance(site, dict) or not isinstance(site.get("name"), str) \
+                or not _numbers(site.get("position"), 2):
+            raise fault(f"sites[{i}]", "expected a name and a position [x, y, ...]")
+    locations = start["belief"].get("locations") if isinstance(start["belief"], dict) else None
+    if not isinstance(locations, dict) or not locations:
+        raise fault("belief.locations", "expected each object's probabilities over the sites")
+    for obj, p in locations.items():
+        if not _numbers(p, len(sites)) or len(p) != len(sites):
+            raise fault(f"belief.locations.{obj}", f"expected {len(sites)} probabilities, one per site")
+    if "pose" in start and not _numbers(start["pose"], 3):
+        raise fault("pose", "expected [x, y, yaw]")
 
 
 # ------------------------------------------------------------------------------------ the house
@@ -219,8 +255,27 @@ def _entropy(p: Sequence[float]) -> float:
     return -sum(x * math.log(x) for x in p if x > 0)
 
 
-def episode_data(events: list[dict], label: str | None = None) -> dict[str, Any]:
-    """The page's data of one episode: the state after every event, and what the log lacks."""
+def episode_data(events: list[dict], label: str | None = None, source: str | Path = "<log>") -> dict[str, Any]:
+    """The page's data of one episode: the state after every event, and what the log lacks.
+
+    Raises:
+        InputError: an event whose fields are not what docs/design.md §9 says (`source` names
+            the log).
+    """
+    try:
+        return _episode_data(events, label)
+    except _BadEvent as exc:
+        raise InputError(source, f"line {exc.line}", f"{exc.kind} event: a field is not what the log "
+                                                     f"format says ({exc.why})") from None
+
+
+class _BadEvent(Exception):
+    def __init__(self, line: int, kind: str, why: str) -> None:
+        super().__init__(why)
+        self.line, self.kind, self.why = line, kind, why
+
+
+def _episode_data(events: list[dict], label: str | None) -> dict[str, Any]:
     start = events[0]
     sites = [s["name"] for s in start["sites"]]
     locations = {o: list(p) for o, p in start["belief"]["locations"].items()}
@@ -236,61 +291,30 @@ def episode_data(events: list[dict], label: str | None = None) -> dict[str, Any]
     lacks: list[str] = []
     if not start.get("viewpoints"):
         lacks.append("viewpoints (logs before room glances): every look is drawn as a close look at its site")
-    if "entropy" not in json.dumps([e for e in events if e.get("event") == "belief"][:1]):
+    beliefs = [e for e in events if e.get("event") == "belief"]
+    if beliefs and "entropy" not in beliefs[0]:
         lacks.append("entropy in belief events: computed here from the logged marginals")
+    if start.get(PARTIAL):
+        lacks.append("its last line, which is not a whole JSON line (a crash mid-write): left out")
     if not tasks:
         lacks.append("task statuses in episode_start: the task graph is not shown")
     decisions: list[dict[str, Any]] = []
     steps: list[dict[str, Any]] = []
     for i, e in enumerate(events):
         kind = e.get("event", "")
-        decision_index = None
-        detections = None
-        if kind == "decision":
-            name = logged_viewpoint(e)
-            sites_in_view = list(viewpoint_sites.get(name) or [name])
-            look = {"viewpoint": name, "kind": e.get("viewpoint_kind", "site"), "sites": sites_in_view}
-            decision_index = len(decisions)
-            decisions.append({"seq": e.get("seq", i), "step": i, "object": e.get("object"),
-                              "viewpoint": name, "planner": e.get("planner"), "total": e.get("total"),
-                              "serving": e.get("serving"), **_candidate_table(e)})
-        elif kind == "observation":
-            name = logged_viewpoint(e)
-            look = {"viewpoint": name, "kind": e.get("viewpoint_kind", "site"),
-                    "sites": list(e.get("sites_in_view") or viewpoint_sites.get(name) or [name])}
-            locations.update({o: list(p) for o, p in (e.get("after") or {}).items()})
-            entropy.update(e.get("entropy_after") or {o: round(_entropy(p), 9)
-                                                     for o, p in (e.get("after") or {}).items()})
-            detections = {"seen": e.get("detections", {}), "found_at": e.get("found_at", {}),
-                          "pixels": e.get("pixel_counts", {})}
-        elif kind == "belief":
-            locations.update({o: list(p) for o, p in (e.get("locations") or {}).items()})
-            states.update(e.get("states") or {})
-            entropy.update(e.get("entropy") or {o: round(_entropy(p), 9)
-                                                for o, p in (e.get("locations") or {}).items()})
-        elif kind == "state_reading" and e.get("state") in states and "after" in e:
-            states[e["state"]] = e["after"]
-        elif kind == "action" and isinstance(e.get("belief_after"), dict):
-            states.update(e["belief_after"])
-        if kind in ("action", "state_reading", "action_failed", "skip"):
-            look = {"viewpoint": None, "kind": None, "sites": []}
-        if kind == "activate" and e.get("action") in status:
-            status[e["action"]] = "active"
-        graph = e.get("graph_after") or e.get("graph")
-        if isinstance(graph, dict):
-            status.update({k: v for k, v in graph.items() if k in status})
-        motion = e.get("motion") or []
-        for j, p in enumerate(motion):
-            if j % PATH_STRIDE == 0 or j == len(motion) - 1:
-                path.append([round(p[0], 3), round(p[1], 3)])
-        if motion:
-            pose = list(motion[-1])
+        try:
+            look, pose = _apply(e, i, look, pose, locations, states, entropy, status, viewpoint_sites,
+                                decisions, path)
+        except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+            raise _BadEvent(i + 1, kind, f"{type(exc).__name__}: {exc}") from None
         steps.append({
             "seq": e.get("seq", i), "event": kind, "frame": e.get("frame"),
-            "caption": caption(e), "pose": [round(x, 3) for x in pose[:3]], "path": len(path),
+            "caption": caption(e), "pose": [round(float(x), 3) for x in pose[:3]], "path": len(path),
             "locations": {o: list(p) for o, p in locations.items()}, "states": dict(states),
             "entropy": dict(entropy), "tasks": [codes.get(status.get(n, "pending"), 0) for n in tasks],
-            "look": dict(look), "decision": decision_index, "detections": detections,
+            "look": dict(look), "decision": len(decisions) - 1 if kind == "decision" else None,
+            "detections": ({"seen": e.get("detections", {}), "found_at": e.get("found_at", {}),
+                            "pixels": e.get("pixel_counts", {})} if kind == "observation" else None),
         })
     end = next((e for e in reversed(events) if e.get("event") == "episode_end"), None)
     if end is None:
@@ -305,6 +329,48 @@ def episode_data(events: list[dict], label: str | None = None) -> dict[str, Any]
             "task_codes": list(codes), "placements": (start.get("world") or {}).get("placements", {}),
             "outcome": (end or {}).get("reason"), "steps": steps, "decisions": decisions,
             "path": path, "lacks": lacks}
+
+
+def _apply(e: Mapping[str, Any], i: int, look: dict, pose: list, locations: dict, states: dict,
+           entropy: dict, status: dict, viewpoint_sites: Mapping[str, Any], decisions: list,
+           path: list) -> tuple[dict, list]:
+    """Fold one event into the running state (in place); returns the look and pose after it."""
+    kind = e.get("event", "")
+    if kind == "decision":
+        name = logged_viewpoint(e)
+        look = {"viewpoint": name, "kind": e.get("viewpoint_kind", "site"),
+                "sites": list(viewpoint_sites.get(name) or [name])}
+        decisions.append({"seq": e.get("seq", i), "step": i, "object": e.get("object"),
+                          "viewpoint": name, "planner": e.get("planner"), "total": e.get("total"),
+                          "serving": e.get("serving"), "info": e.get("info"), **_candidate_table(e)})
+    elif kind == "observation":
+        name = logged_viewpoint(e)
+        look = {"viewpoint": name, "kind": e.get("viewpoint_kind", "site"),
+                "sites": list(e.get("sites_in_view") or viewpoint_sites.get(name) or [name])}
+        after = e.get("after") or {}
+        locations.update({o: [float(x) for x in p] for o, p in after.items()})
+        entropy.update(e.get("entropy_after") or {o: round(_entropy(p), 9) for o, p in after.items()})
+    elif kind == "belief":
+        locations.update({o: [float(x) for x in p] for o, p in (e.get("locations") or {}).items()})
+        states.update(e.get("states") or {})
+        entropy.update(e.get("entropy") or {o: round(_entropy(p), 9)
+                                            for o, p in (e.get("locations") or {}).items()})
+    elif kind == "state_reading" and e.get("state") in states and "after" in e:
+        states[e["state"]] = float(e["after"])
+    elif kind == "action" and isinstance(e.get("belief_after"), dict):
+        states.update(e["belief_after"])
+    if kind in ("action", "state_reading", "action_failed", "skip"):
+        look = {"viewpoint": None, "kind": None, "sites": []}
+    if kind == "activate" and e.get("action") in status:
+        status[e["action"]] = "active"
+    graph = e.get("graph_after") or e.get("graph")
+    if isinstance(graph, dict):
+        status.update({k: v for k, v in graph.items() if k in status})
+    motion = e.get("motion") or []
+    for j, p in enumerate(motion):
+        if j % PATH_STRIDE == 0 or j == len(motion) - 1:
+            path.append([round(float(p[0]), 3), round(float(p[1]), 3)])
+    return look, (list(motion[-1]) if motion else pose)
 
 
 def caption(e: Mapping[str, Any]) -> str:
@@ -336,6 +402,9 @@ def caption(e: Mapping[str, Any]) -> str:
         return f"end: {e.get('reason')}"
     if kind == "give_up":
         return f"give up on the {e.get('object')}"
+    if kind in ("fail", "reopen", "stuck", "alternative_site"):
+        what = " ".join(str(e[k]) for k in ("action", "object", "site") if e.get(k))
+        return kind.replace("_", " ") + (f" {what}" if what else "") + (f": {e['reason']}" if e.get("reason") else "")
     return kind.replace("_", " ")
 
 
@@ -390,8 +459,9 @@ def align(a: dict, b: dict) -> dict[str, Any]:
 
 # ------------------------------------------------------------------------------------- video
 def video_times(events: list[dict]) -> list[float]:
-    """Seconds into the episode's video at which each event's frames begin, for the video
-    rendered with the options the log records (docs/design.md §8.6)."""
+    """Seconds into the episode's video of each event's last frame (what the page shows is the
+    state after the event), for the video rendered with the options the log records
+    (docs/design.md §8.6)."""
     from dataclasses import fields
 
     from fg_tea.render.video import VideoOptions, plan_frames
@@ -400,7 +470,8 @@ def video_times(events: list[dict]) -> list[float]:
     names = {f.name for f in fields(VideoOptions)}
     options = VideoOptions(**{k: v for k, v in recorded.items() if k in names})
     plan = plan_frames(events, options)
-    return [round(plan.event_frames.get(e.get("seq", i), 0) / options.fps, 3) for i, e in enumerate(events)]
+    starts = [plan.event_frames.get(e.get("seq", i), 0) for i, e in enumerate(events)] + [plan.output_frames]
+    return [round(max(starts[i], starts[i + 1] - 1) / options.fps, 3) for i in range(len(events))]
 
 
 # -------------------------------------------------------------------------------------- page
@@ -413,12 +484,14 @@ def page_data(logs: Sequence[tuple[str, list[dict]]], video: str | None = None,
     """The data of a page of one episode, or two of the same world side by side."""
     from fg_tea._version import __version__
 
-    episodes = [episode_data(events, labels[i] if i < len(labels) else None) for i, (_, events) in enumerate(logs)]
-    for ep, (name, _) in zip(episodes, logs):
-        ep["log"] = name
+    episodes = [episode_data(events, labels[i] if i < len(labels) else None, name)
+                for i, (name, events) in enumerate(logs)]
+    for ep, (name, events) in zip(episodes, logs):
+        ep["log"] = Path(name).name
+        ep["task_edges"] = task_edges(events[0])
     start = logs[0][1][0]
     data: dict[str, Any] = {"format": PAGE_FORMAT, "fg_tea": __version__, "episodes": episodes,
-                            "house": house_data(start), "task_edges": task_edges(start), "video": None}
+                            "house": house_data(start), "task_edges": episodes[0]["task_edges"], "video": None}
     if len(episodes) == 2:
         data.update(align(episodes[0], episodes[1]))
     else:

@@ -108,6 +108,7 @@ def _index_html(entries: list[dict], configs: list[str], pair: list[str] | None,
                 mismatches: list[int], title: str, worlds: int, pages: int) -> str:
     e = html.escape
     head = "".join(f"<th>{e(c)}</th>" for c in configs)
+    houses = any(r.get("house_sites") for x in entries for r in x["cells"].values())
     diff_head = f"<th>{e(pair[1])} − {e(pair[0])} (m)</th><th>first differing decision</th>" if pair else ""
     body = []
     for entry in entries:
@@ -125,7 +126,8 @@ def _index_html(entries: list[dict], configs: list[str], pair: list[str] | None,
                       f"decision {page['differ']}" if page["differ"] else "same choices")
             extra = (f"<td class=num>{d:+.2f}</td>" if d is not None else "<td>—</td>") + f"<td>{differ}</td>"
         flag = " class=mismatch" if entry["seed"] in mismatches else ""
-        body.append(f"<tr{flag}><td>{link}</td><td class=num>{house}</td>{cells}{extra}</tr>")
+        sites = f"<td class=num>{house}</td>" if houses else ""
+        body.append(f"<tr{flag}><td>{link}</td>{sites}{cells}{extra}</tr>")
     notes = []
     if pair and pages < sum(1 for x in entries if x["diff"] is not None):
         notes.append(f"Side-by-side pages are written for the {pages} worlds whose pair differs most "
@@ -149,7 +151,7 @@ tr.mismatch {{ background: #fde8e8; }} .note {{ color: #555; }}
 of the difference of the pair shown side by side. Each link opens that world's two episodes in the
 explorer (a page that works from disk).</p>
 {''.join(f'<p class=note>{e(n)}</p>' for n in notes)}
-<table id="worlds"><thead><tr><th>world</th><th>sites</th>{head}{diff_head}</tr></thead>
+<table id="worlds"><thead><tr><th>world</th>{'<th>sites</th>' if houses else ''}{head}{diff_head}</tr></thead>
 <tbody>
 {chr(10).join(body)}
 </tbody></table>

@@ -1,4 +1,4 @@
-/* fg_tea episode explorer (docs/design.md §9.4).
+/* fg_tea episode explorer (docs/design.md §9.2).
  *
  * Draws the page data embedded in this file: one episode, or two episodes of the same world side
  * by side. Plain JavaScript, no libraries, no network. The static parts of each pane (the house,
@@ -21,6 +21,7 @@
   let pairs = [];         // slider positions: [step of pane 0, step of pane 1?]
   let cur = -1;           // current index into pairs
   let object = null;      // object whose location belief shades the sites
+  let pinned = false;     // the user chose the object; until then it follows the decision in force
   let objects = [];       // union of the episodes' objects
   let panes = [];         // one per episode, see buildPane
   let decisionPairs = []; // pair indices where some pane reaches a decision (PageUp / PageDown)
@@ -132,7 +133,7 @@
     const select = $('object');
     for (const o of objects) h('option', {value: o}, select, o);
     select.value = object;
-    select.addEventListener('change', () => safe(() => setObject(select.value)));
+    select.addEventListener('change', () => safe(() => { pinned = true; setObject(select.value); }));
 
     // The step keys work wherever the focus is (the slider's and the object list's own handling of
     // them is overridden; the list keeps ArrowUp / ArrowDown), except in a text field.
@@ -211,6 +212,7 @@
     video.addEventListener('loadedmetadata', () => {
       if (videoTime !== null) video.currentTime = videoTime;
     });
+    if (data.video.note) notice(data.video.note, 'warning');
     video.src = data.video.src; // after the listeners, so that an early failure is caught
   }
 
@@ -478,7 +480,7 @@
     if (plan.truthFor === object) return;
     plan.truthFor = object;
     plan.truth.textContent = '';
-    pane.legendObject.textContent = 'p(' + object + ' on site): ';
+    pane.legendObject.textContent = 'P(' + object + ' was on this site at the start): ';
     if (!at) return;
     const [x, y] = [plan.X(at[0]), plan.Y(at[1])];
     const cross = s('path', {class: 'truth-mark', d: 'M' + (x - 5) + ',' + (y - 5) + 'l10,10m0,-10l-10,10'}, plan.truth);
@@ -495,7 +497,7 @@
     const head = h('div', {class: 'history-head'}, box);
     h('b', null, head, name);
     h('span', null, head, (site.room ? ' (' + site.room + ')' : '') +
-      ': probability of each object being here, over the steps (0 to 1)');
+      ': belief that each object stood here at the start, over the steps (0 to 1)');
     const close = h('button', {class: 'close', type: 'button', 'aria-label': 'close', title: 'close'}, head, '×');
     close.addEventListener('click', () => closeHistory(pane));
     const rows = [];
@@ -568,7 +570,8 @@
     cand.head.textContent = 'decision ' + (k + 1) + ' of ' + decisions.length + ' at step ' + (d.step + 1) +
       ' (event ' + d.seq + ')' + (d.planner ? ' · ' + d.planner : '') +
       (d.serving ? ' · serving ' + d.serving : '') + ': look for the ' + d.object + ' from ' + d.viewpoint +
-      (d.total !== null && d.total !== undefined ? ' (total ' + fmt(d.total) + ')' : '');
+      (d.total !== null && d.total !== undefined ? ' (total ' + fmt(d.total) + ')' : '') +
+      '; the lowest total is chosen' + weights(d.info);
     if (!d.rows || !d.rows.length) {
       cand.note.textContent = 'no candidates logged for this decision';
       return;
@@ -587,6 +590,14 @@
       if (cand.table !== table) return;
       cand.wrap.scrollTop = chosen ? Math.max(0, chosen.offsetTop - cand.wrap.clientHeight / 3) : 0;
     });
+  }
+
+  /** The decision's score weights as logged (docs/design.md eq. 17), for recomputing a total. */
+  function weights(info) {
+    if (!info || typeof info !== 'object') return '';
+    const parts = Object.keys(info).filter((key) => typeof info[key] === 'number' && /^(w_|lambda)/.test(key))
+      .map((key) => key + ' ' + info[key]);
+    return parts.length ? ' · weights: ' + parts.join(', ') : '';
   }
 
   function buildCandidateTable(pane, d, k) {
@@ -719,9 +730,10 @@
     const ids = pane.ep.tasks || [];
     pane.tasks = [];
     if (!ids.length) { h('p', {class: 'note'}, parent, 'this log records no task statuses'); return; }
-    const layout = data.task_edges ? layeredLayout(ids, data.task_edges) : null;
+    const edges = pane.ep.task_edges !== undefined ? pane.ep.task_edges : data.task_edges;
+    const layout = edges ? layeredLayout(ids, edges) : null;
     if (!layout) {
-      h('p', {class: 'note'}, parent, data.task_edges ? 'task graph edges not available (the edges form a cycle); '
+      h('p', {class: 'note'}, parent, edges ? 'task graph edges not available (the edges form a cycle); '
         + 'actions in order' : 'task graph edges not available; actions in order');
     }
     const cols = 4;
@@ -905,20 +917,40 @@
       $('step-detail').textContent = panes.map((p) => LETTERS[p.i] + ': step ' + (stepOf(pairs[i], p.i) + 1) +
                                                        ' of ' + p.ep.steps.length).join(' · ');
     }
+    if (!pinned) follow(i);
     for (const pane of panes) drawPane(pane, stepOf(pairs[i], pane.i));
     if (data.divergence) $('divergence').classList.toggle('here', data.divergence.pair === i);
     syncVideo();
     return i;
   }
 
+  /** Shade the plans by the object of the decision in force (the first pane's, else the
+   * second's) until the user picks an object. */
+  function follow(i) {
+    for (const pane of panes) {
+      const steps = pane.ep.steps;
+      for (let k = stepOf(pairs[i], pane.i); k >= 0; k--) {
+        const d = steps[k].decision;
+        if (d === null || d === undefined) continue;
+        const name = pane.ep.decisions[d].object;
+        if (name !== object && objects.indexOf(name) >= 0) { object = name; $('object').value = name; highlightSeries(); }
+        return;
+      }
+    }
+  }
+
+  function highlightSeries() {
+    for (const pane of panes) {
+      pane.el.querySelectorAll('svg.entropy .series')
+        .forEach((p) => p.classList.toggle('selected', p.dataset.series === object));
+    }
+  }
+
   function setObject(name) {
     if (objects.indexOf(name) < 0) throw new Error('no object ' + name + ' in this page');
     object = name;
     $('object').value = name;
-    for (const pane of panes) {
-      pane.el.querySelectorAll('svg.entropy .series')
-        .forEach((p) => p.classList.toggle('selected', p.dataset.series === name));
-    }
+    highlightSeries();
     if (cur >= 0) go(cur);
   }
 
@@ -962,7 +994,7 @@
     // For tests and the console; errors are shown on the page, then rethrown to the caller.
     const shown = (fn) => (...args) => { try { return fn(...args); } catch (err) { showError(err); throw err; } };
     window.explorer = {data, go: shown(go), index: () => cur,
-                       object: shown((name) => (name === undefined ? object : setObject(name)))};
+                       object: shown((name) => (name === undefined ? object : (pinned = true, setObject(name))))};
     setObject(object);
     go(0);
     const loading = $('loading');
