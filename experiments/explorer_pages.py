@@ -64,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     from fg_tea.common.options import experiment_parser
 
     p = experiment_parser(__doc__, __file__, "§9.2")
-    p.add_argument("--out", type=out_folder, default="runs/explorer",
+    p.add_argument("--out", type=out_folder, default="runs/experiments/explorer_pages",
                    help="folder for pages.csv, pages.md and the screenshots (default: %(default)s)")
     p.add_argument("--chromium", default=shutil.which("chromium") or "/usr/bin/chromium",
                    help="the Chromium binary (default: the one on PATH)")
