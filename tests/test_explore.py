@@ -174,6 +174,7 @@ def test_read_episode_checks_the_first_event(tmp_path):
         read_episode(empty)
 
 
+@pytest.mark.slow
 def test_compare_writes_an_index_linking_each_worlds_pair(tmp_path):
     proc = _cli("compare", "--quick", "--env", "fake", "--worlds", "3", "--planners", "efe",
                 "--models", "factorised_close", "joint_close", "--executor", "serial", "--out", tmp_path / "c",

@@ -235,7 +235,8 @@ def test_a_page_that_lacks_its_house_says_so(browser, pages, tmp_path):
     page.close()
 
 
-def test_the_video_is_seeked_to_each_steps_first_frame(browser, tmp_path):
+@pytest.mark.slow
+def test_the_video_is_seeked_to_each_steps_last_frame(browser, tmp_path):
     """A small video (the log records how it was rendered): each step seeks it to the step's
     last frame in the frame plan (docs/design.md §8.6)."""
     from fg_tea.render.video import VideoOptions, plan_frames
