@@ -123,6 +123,7 @@ def test_shipped_houses_are_what_the_command_writes(stem, rooms):
 @pytest.mark.parametrize("args,words", [
     (["--rooms", "2"], "--rooms"), (["--rooms", "11"], "--rooms"), (["--seed", "-1"], "--seed"),
     (["--objects", "mug,kettle,spoon"], "'spoon'"), (["--objects", "mug,kettle"], "teabag"),
+    (["--sites-per-room", "0"], "--sites-per-room"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys, args, words):
     argv = ["house", "--rooms", "3", "--out", str(tmp_path / "h.json")] + args
@@ -191,3 +192,28 @@ def test_the_generator_does_not_import_the_simulator():
     code = "import sys, fg_tea.world.housegen, fg_tea.world.distributions; print('pybullet' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
     assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("stem,rooms,seed", [("small_6", 3, 1), ("small_8", 4, 2)])
+def test_small_houses_keep_the_first_sites_of_each_room(stem, rooms, seed, tmp_path):
+    from fg_tea.world.scenario import keep_sites
+
+    full = generate_house(rooms, seed, name=stem)
+    doc = keep_sites(full, 2)
+    path = ROOT / "scenarios" / f"{stem}.json"
+    assert path.read_text() == house_json(doc), "the bundled house is what the command writes"
+    assert main(["house", "--rooms", str(rooms), "--seed", str(seed), "--sites-per-room", "2",
+                 "--name", stem, "--out", str(tmp_path / "h.json")]) == 0
+    assert (tmp_path / "h.json").read_text() == path.read_text()
+    by_room = Counter(s["room"] for s in doc["sites"])
+    assert set(by_room) == {s["room"] for s in full["sites"]} and set(by_room.values()) == {2}
+    kept = [s["name"] for s in doc["sites"]]
+    assert doc["preparation_site"] in kept and doc["house"] == full["house"]  # the furniture stays
+    for room in by_room:  # the first of each room, the preparation site among them
+        first = [s["name"] for s in full["sites"] if s["room"] == room]
+        assert [n for n in kept if n in first] == [n for n in first if n in kept]
+    assert all(o["true_site"] in kept for o in doc["objects"])
+    scenario = parse_scenario(doc)
+    assert len(scenario.sites) == 2 * rooms and f"{2 * rooms} semantic sites" in doc["description"]
+    with pytest.raises(ValueError, match="1 or more"):
+        keep_sites(full, 0)

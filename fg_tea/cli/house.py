@@ -26,7 +26,18 @@ def cmd_house(args: argparse.Namespace) -> int:
     if out.is_dir() or not out.name:
         raise InputError(out, "$", "is a folder; expected a scenario file name")
     try:
-        doc = write_house(out, args.rooms, args.seed, objects, args.name)
+        if args.sites_per_room is None:
+            doc = write_house(out, args.rooms, args.seed, objects, args.name)
+        else:
+            from fg_tea.common.files import atomic_write_text
+            from fg_tea.world.housegen import generate_house, house_json
+            from fg_tea.world.scenario import keep_sites
+
+            try:
+                doc = keep_sites(generate_house(args.rooms, args.seed, objects, args.name), args.sites_per_room)
+            except ValueError as exc:
+                raise InputError("<command line>", "--sites-per-room", str(exc).split(": ", 1)[-1]) from None
+            atomic_write_text(out, house_json(doc))
     except OSError as exc:
         raise InputError(out, "$", f"cannot write the scenario: {exc.strerror or exc}") from None
     print(f"house: {out} ({args.rooms} rooms, {len(doc['sites'])} sites, "
@@ -64,3 +75,7 @@ def add_parser(sub) -> None:
                    help="comma-separated objects among mug, kettle, teabag, milk, sugar "
                    "(default: %(default)s)")
     p.add_argument("--name", help="scenario name (default: generated_<rooms>r_seed<seed>)")
+    p.add_argument("--sites-per-room", type=integer(1), default=None, metavar="N",
+                   help="keep only the first N sites of each room (the preparation site always): a "
+                   "small house whose furniture stays, for the search limit (docs/design.md §6.9); "
+                   "default: every site")

@@ -442,3 +442,52 @@ def load_scenario(path: str | Path) -> Scenario:
 
     path = resolve_scenario(path)
     return parse_scenario(read_json(path), path)
+
+
+def keep_sites(doc: dict, per_room: int) -> dict:
+    """A scenario document with only the first `per_room` sites of each room (the preparation
+    site always kept; the furniture of the others stays, as obstacles without a site).
+
+    For small houses of a generator's kind: ``fg-tea house --sites-per-room 2`` (a yardstick that
+    must enumerate every look needs few viewpoints, docs/design.md §6.9). An object whose true
+    site was dropped is moved to the kept site its category's prior rates highest, in site order
+    on ties, and capacities are respected; nothing is random.
+
+    Raises:
+        ValueError: `per_room` below 1, or the kept sites cannot hold the objects.
+    """
+    if per_room < 1:
+        raise ValueError(f"sites-per-room: expected 1 or more, got {per_room}")
+    prep = doc.get("preparation_site")
+    counts: dict[str, int] = {}
+    kept: list[dict] = []
+    for site in doc["sites"]:
+        room = site["room"]
+        if site["name"] == prep or counts.get(room, 0) < per_room - (1 if _holds(doc, room, prep, kept) else 0):
+            kept.append(site)
+            counts[room] = counts.get(room, 0) + 1
+    names = [s["name"] for s in kept]
+    load = {n: 0 for n in names}
+    objects = []
+    for obj in doc["objects"]:
+        obj = dict(obj)
+        if obj["true_site"] not in load:
+            free = [s for s in kept if load[s["name"]] < s.get("capacity", 10 ** 9)]
+            if not free:
+                raise ValueError("sites-per-room: the kept sites cannot hold every object")
+            obj["true_site"] = max(free, key=lambda s: s["affordances"].get(obj["category"], 0.0))["name"]
+        load[obj["true_site"]] += 1
+        objects.append(obj)
+    import re
+
+    text = re.sub(r"\d+ semantic sites", f"{len(kept)} semantic sites (the first {per_room} of each room)",
+                  doc.get("description", ""), count=1)
+    text = re.sub(r"(fg-tea house [^)]*?--seed \d+)", rf"\1 --sites-per-room {per_room}", text, count=1)
+    return {**doc, "description": text, "sites": kept, "objects": objects}
+
+
+def _holds(doc: dict, room: str, prep: str | None, kept: list) -> bool:
+    """True when the preparation site is in `room` and not yet among `kept` (a place is saved
+    for it)."""
+    return any(s["name"] == prep and s["room"] == room for s in doc["sites"]) and \
+        all(s["name"] != prep for s in kept)
