@@ -373,6 +373,13 @@ def _apply(e: Mapping[str, Any], i: int, look: dict, pose: list, locations: dict
     return look, (list(motion[-1]) if motion else pose)
 
 
+#: The caption of each event kind that names only its own fields.
+CAPTIONS = {"action": "action {action} done", "action_failed": "action {action} failed: {reason}",
+            "skip": "skip {action}: its goal already holds", "activate": "start {action}",
+            "confirm_search": "{object} found on {site}", "episode_end": "end: {reason}",
+            "give_up": "give up on the {object}"}
+
+
 def caption(e: Mapping[str, Any]) -> str:
     """One line saying what the event was."""
     kind = e.get("event", "")
@@ -388,20 +395,8 @@ def caption(e: Mapping[str, Any]) -> str:
         return f"look from {logged_viewpoint(e)}: found {what}"
     if kind == "state_reading":
         return f"read {e.get('state')}: {'true' if e.get('value') else 'false'} ({e.get('purpose')})"
-    if kind == "action":
-        return f"action {e.get('action')} done"
-    if kind == "action_failed":
-        return f"action {e.get('action')} failed: {e.get('reason')}"
-    if kind == "skip":
-        return f"skip {e.get('action')}: its goal already holds"
-    if kind == "activate":
-        return f"start {e.get('action')}"
-    if kind == "confirm_search":
-        return f"{e.get('object')} found on {e.get('site')}"
-    if kind == "episode_end":
-        return f"end: {e.get('reason')}"
-    if kind == "give_up":
-        return f"give up on the {e.get('object')}"
+    if kind in CAPTIONS:
+        return CAPTIONS[kind].format_map({k: e.get(k) for k in ("action", "reason", "object", "site")})
     if kind in ("fail", "reopen", "stuck", "alternative_site"):
         what = " ".join(str(e[k]) for k in ("action", "object", "site") if e.get(k))
         return kind.replace("_", " ") + (f" {what}" if what else "") + (f": {e['reason']}" if e.get("reason") else "")
