@@ -241,3 +241,17 @@ def test_two_episodes_of_different_tasks_each_get_their_own_graph(tmp_path):
     a, b = data["episodes"]
     assert {x for e in a["task_edges"] for x in e} <= set(a["tasks"])
     assert b["task_edges"] == [] and b["tasks"] == ["search_mug"]
+
+
+def test_a_log_written_before_viewpoints_and_inputs_opens(tmp_path):
+    """A log written by fg_tea before room glances existed (commit before eba4514: no
+    viewpoints, no `inputs`, absolute paths) opens, says what it lacks, and still finds its task
+    graph from the model file's name and the bundled task."""
+    old = ROOT / "tests" / "data" / "old_logs" / "before_viewpoints.jsonl"
+    proc = _cli("explore", old, "--out", tmp_path / "old.html", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    data = page_of((tmp_path / "old.html").read_text())
+    ep = data["episodes"][0]
+    assert any("viewpoints" in x for x in ep["lacks"]) and ep["outcome"] == "complete"
+    assert data["house"]["walls"] and data["task_edges"], "the bundled house and task stand in"
+    assert len(ep["decisions"]) == 4 and all(d["chosen"] is not None for d in ep["decisions"])

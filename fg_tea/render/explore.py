@@ -142,6 +142,7 @@ def logged_house(start: Mapping[str, Any]):
                 return dist.base, None
     recorded = inputs.get("scenario") or {}
     expected = recorded.get("sha256")
+    failed = None
     for ref in (start.get("scenario_file"), recorded.get("bundled")):
         path = found(ref)
         if path is None:
@@ -149,7 +150,8 @@ def logged_house(start: Mapping[str, Any]):
         try:
             scenario = load_scenario(path)
         except InputError as exc:
-            return None, f"the scenario file {ref} no longer loads ({exc.fault})"
+            failed = f"the scenario file {ref} no longer loads ({exc.fault})"
+            continue
         if expected and sha256_file(path) != expected:
             return scenario, (f"the scenario file {ref} has changed since the log was written: "
                               "the house is drawn as it is now")
@@ -163,8 +165,8 @@ def logged_house(start: Mapping[str, Any]):
     except InputError:
         pass
     where = start.get("scenario_file") or (world.get("file") if world else None) or base
-    return None, (f"the scenario {where} is not on this machine: walls and furniture are not drawn, "
-                  "sites and viewpoints are from the log")
+    return None, (failed or f"the scenario {where} is not on this machine") + \
+        ": walls and furniture are not drawn, sites and viewpoints are from the log"
 
 
 def house_data(start: Mapping[str, Any]) -> dict[str, Any]:
@@ -226,6 +228,14 @@ def task_edges(start: Mapping[str, Any]) -> list[list[str]] | None:
 
     models = inputs.get("model") or []
     task, model = path_of(inputs.get("task")), path_of(models[0] if models else None)
+    if not inputs:  # a log written before `inputs`: the model file and the task's bundled name
+        from fg_tea.common.resources import resolve_model, resolve_task
+
+        try:
+            task = resolve_task(str(start.get("task")))
+            model = path_of({"file": start.get("model_file")}) or resolve_model(str(start.get("model")))
+        except InputError:
+            return None
     scenario, _ = logged_house(start)
     if task is None or model is None or scenario is None:
         return None
