@@ -32,6 +32,8 @@ from fg_tea.world.interface import logged_viewpoint
 PARTIAL = "_explorer_partial_last_line"
 #: Version of the page's data layout (the ``format`` of the embedded JSON).
 PAGE_FORMAT = 1
+#: How far (m) above its centre vantage a room's name is written on the plan.
+ROOM_LABEL_RISE = 0.35
 #: Every n-th pose of the agent's motion is kept for the drawn path (the last of each move always).
 PATH_STRIDE = 6
 #: The terms of a candidate's score, in the order the table shows them (others follow).
@@ -199,11 +201,23 @@ def house_data(start: Mapping[str, Any]) -> dict[str, Any]:
         points = [s["position"] for s in sites] + [v["position"] for v in viewpoints]
         xs, ys = [p[0] for p in points], [p[1] for p in points]
         out["floor"] = [min(xs) - 1.0, min(ys) - 1.0, max(xs) + 1.0, max(ys) + 1.0]
+    # A room's name goes just above its centre vantage (sites line the walls, so their centroid
+    # falls among their labels), else at the mean of its room viewpoints, else of its sites.
     rooms: dict[str, list[list[float]]] = {}
     for s in sites:
         rooms.setdefault(str(s["room"]), []).append(s["position"])
-    out["rooms"] = [{"name": r, "centre": [sum(p[0] for p in pts) / len(pts), sum(p[1] for p in pts) / len(pts)]}
-                    for r, pts in rooms.items() if r != "None"]
+    out["rooms"] = []
+    for room, points in rooms.items():
+        if room == "None":
+            continue
+        glances = [v for v in viewpoints if v["kind"] == "room" and v["room"] == room]
+        centre = [v for v in glances if v["name"].endswith("_centre")]
+        if centre:
+            x, y = centre[0]["position"][0], centre[0]["position"][1] + ROOM_LABEL_RISE
+        else:
+            points = [v["position"] for v in glances] or points
+            x, y = sum(p[0] for p in points) / len(points), sum(p[1] for p in points) / len(points)
+        out["rooms"].append({"name": room, "centre": [round(x, 3), round(y, 3)]})
     return out
 
 
