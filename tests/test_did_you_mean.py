@@ -26,6 +26,8 @@ def _status(argv) -> int:
     (["run", "--no-vidoe"], "--no-vidoe: did you mean --no-video?"),
     (["compare", "--planers", "efe"], "--planers: did you mean --planners?"),
     (["run", "--max-fames=20"], "--max-fames: did you mean --max-frames?"),
+    # an option of another command is no typo: it used to suggest itself
+    (["run", "--scenario", "x"], "--scenario: not an option of this command, see its --help"),
 ])
 def test_fg_tea_suggests_the_planner_or_option_meant(argv, hint, capsys, tmp_path):
     assert _status([*argv, "--out", str(tmp_path / "out")]) == 2

@@ -121,7 +121,9 @@ def with_suggestions(parser: argparse.ArgumentParser, message: str) -> str:
     hints = []
     for word in message[len(prefix):].split():
         flag = word.split("=", 1)[0]
-        if flag.startswith("--"):
+        if flag in known:  # an option of another subcommand, not a typo
+            hints.append(f"{flag}: not an option of this command, see its --help")
+        elif flag.startswith("--"):
             close = difflib.get_close_matches(flag, known, n=1, cutoff=0.7)
             if close:
                 hints.append(f"{flag}: did you mean {close[0]}?")
