@@ -4,18 +4,18 @@ This module answers *given a task verb, what happens in the house, and what does
 back?* (docs/design.md §8). :class:`TruthBackedAdapter` implements the
 :class:`~fg_tea.env.base.EnvAdapter` contract over :class:`~fg_tea.env.truth.TeaTruth` and the
 floor plan: walking (:mod:`fg_tea.env.motion`), looking (eqs. 28-29, with the pixel counts a
-subclass supplies), reading states (eqs. 23-24) and carrying out actions with their effects.
-The PyBullet house and the fake house are its two subclasses.
-"""
+subclass supplies), reading states (eqs. 23-24) and carrying out actions with their effects;
+its subclasses are the PyBullet house and the fake house."""
 
 from __future__ import annotations
 
 import abc
 import math
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.env.company import company_from_alone, facing_offsets
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.env.motion import held_position, motion_of
 from fg_tea.env.truth import EFFECTS, TeaTruth
@@ -62,9 +62,8 @@ class TruthBackedAdapter(EnvAdapter):
     verb needs) raises ``ValueError``: that is a caller bug, not a world event.
 
     Randomness: one ``numpy.random.Generator`` seeded in :meth:`reset`; a state reading draws once,
-    an action draws once for fault injection only when its verb has a non-zero failure rate, and
-    an inspection draws once per would-be detection only when ``config.detection_miss_rate`` is
-    non-zero (a dropped detection is reported as False, "looked and not seen").
+    an action once for fault injection when its verb has a failure rate, an inspection once per
+    would-be detection when ``config.detection_miss_rate`` is non-zero (a drop reads as a miss).
     """
 
     def __init__(self, scenario: Scenario, config: EnvConfig = EnvConfig()) -> None:
@@ -279,21 +278,25 @@ class TruthBackedAdapter(EnvAdapter):
         return detections
 
     def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, list[float]]]]:
-        """Pixels an object of each category would cover on each in-view site of each viewpoint,
-        one count per placement slot of the site.
-
-        Computed from the house geometry and the object models alone (one object of the category
-        standing alone at each of the site's :meth:`slot_count` slots in turn, seen from the
-        viewpoint facing the site), never from where objects truly are. Returns viewpoint -> site
-        -> category -> [pixels at slot 0, slot 1, ...]; the agent weighs the slots
-        (:class:`~fg_tea.beliefs.detection.ViewModel`).
-        """
+        """See :meth:`fg_tea.env.base.EnvAdapter.expected_pixel_counts` (house geometry only)."""
         self._require_reset()
         out: dict[str, dict[str, dict[str, list[float]]]] = {}
         for k, view in enumerate(self._viewpoints):
             out[view.name] = {s: self._expected_pixels(k, self._site_index(s), list(categories))
                               for s in view.sites}
         return out
+
+    def company_pixel_counts(self, categories: Sequence[str]) -> dict[str, Any]:
+        """See :meth:`fg_tea.env.base.EnvAdapter.company_pixel_counts` (house geometry only)."""
+        self._require_reset()
+        offsets = facing_offsets(self.config.face_tolerance_deg)
+        return {"offsets_deg": offsets,
+                "views": {view.name: {s: self._company_pixels(k, self._site_index(s), list(categories), offsets)
+                                      for s in view.sites} for k, view in enumerate(self._viewpoints)}}
+
+    def _company_pixels(self, target: int, site: int, cats: Sequence[str], offsets: Sequence[float]) -> dict:
+        """A camera with no heading dependence or occlusion: the alone counts (PyBullet renders)."""
+        return company_from_alone(self._expected_pixels(target, site, list(dict.fromkeys(cats))), cats, len(offsets))
 
     def observe_state(self, obj: str, state: str, site: str | None,
                       sensitivity: float, specificity: float) -> StateReading:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 from fg_tea.world.interface import (
     ActionRequest,
@@ -114,6 +114,19 @@ class EnvAdapter(abc.ABC):
         """
         raise NotImplementedError(f"{type(self).__name__} cannot predict visibility; use the "
                                   "threshold detector with close looks only")
+
+    def company_pixel_counts(self, categories: Sequence[str]) -> Mapping[str, Any]:
+        """What the expected counts of :meth:`expected_pixel_counts` leave out: the turn
+        tolerance of a real look and the other objects on the same site (docs/design.md §3.4,
+        "Facing and company").
+
+        House geometry and object models only, never where objects truly are. Returns
+        ``{"offsets_deg": [h_1, ...], "views": viewpoint -> site -> {"facing": category ->
+        [[pixels at slot s, heading offset h] ...], "company": "c|c2" -> [[pixels of c at slot s
+        with c2 at slot s2] ...]}}`` (the diagonal s = s2 is None). A category is paired with
+        itself only when `categories` names it twice.
+        """
+        raise NotImplementedError(f"{type(self).__name__} cannot predict occlusion")
 
     @abc.abstractmethod
     def observe_state(self, obj: str, state: str, site: str | None,

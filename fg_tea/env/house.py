@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import itertools
 import json
 import math
 import os
@@ -36,6 +37,7 @@ from fg_tea.common.files import atomic_write_text
 from fg_tea.env import assets
 from fg_tea.env._pybullet import pybullet
 from fg_tea.env.adapter import TruthBackedAdapter
+from fg_tea.env.company import category_pairs
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.motion import follow_path, held_position
 from fg_tea.world.interface import Pose
@@ -259,14 +261,16 @@ class PyBulletHouse(TruthBackedAdapter):
 
     # --- expected visibility ---------------------------------------------------------------
 
-    def _probe(self, category: str) -> tuple[int, np.ndarray]:
-        """A body of `category` (the scenario's asset for it) parked out of sight, and its bounds."""
-        if category not in self._probes:
+    def _probe(self, category: str, copy: int = 0) -> tuple[int, np.ndarray]:
+        """A body of `category` (the scenario's asset for it) parked out of sight, and its bounds;
+        `copy` 1 is a second body of the same category (a category paired with itself)."""
+        key = category if copy == 0 else f"{category}#{copy}"
+        if key not in self._probes:
             asset = next((s.asset for s in self.scenario.objects if s.category == category), category)
             parts = assets.object_parts(asset, category)
             body = assets.create_compound(self._client, parts, PARKED)
-            self._probes[category] = (body, _corners(parts))
-        return self._probes[category]
+            self._probes[key] = (body, _corners(parts))
+        return self._probes[key]
 
     def _expected_pixels(self, target: int, site: int, categories: Sequence[str]) -> dict[str, list[float]]:
         vx, vy = self._viewpoints[target].position
@@ -294,6 +298,48 @@ class PyBulletHouse(TruthBackedAdapter):
             self._pose = saved
             self._sync()
 
+    def _company_pixels(self, target: int, site: int, categories: Sequence[str],
+                        offsets: Sequence[float]) -> dict[str, dict[str, list]]:
+        """Rendered: each category alone at each slot and heading offset, then each pair of
+        categories at each two different slots, facing the site exactly (docs/design.md §3.4)."""
+        vx, vy = self._viewpoints[target].position
+        spec = self.scenario.sites[site]
+        px, py, _ = spec.position
+        saved = self._pose
+        facing_yaw = math.degrees(math.atan2(py - vy, px - vx))
+        try:
+            for body in self._bodies.values():
+                self._place_body(body, PARKED, 0.0)
+            slots = [self._slot_position(spec.name, k) for k in range(self.slot_count(spec.name))]
+            facing: dict[str, list[list[float]]] = {c: [[0.0] * len(offsets) for _ in slots]
+                                                    for c in dict.fromkeys(categories)}
+            for h, offset in enumerate(offsets):
+                self._pose = Pose(float(vx), float(vy), facing_yaw + float(offset))
+                self._place_drone(self._pose)
+                for category in facing:
+                    body, bounds = self._probe(category)
+                    for s, slot in enumerate(slots):
+                        self._place_body(body, slot, 0.0)
+                        facing[category][s][h] = float(self._count_pixels({category: (body, bounds)})[category])
+                    self._place_body(body, PARKED, 0.0)
+            self._pose = Pose(float(vx), float(vy), facing_yaw)
+            self._place_drone(self._pose)
+            company: dict[str, list[list[float | None]]] = {}
+            for c, c2 in category_pairs(categories):
+                first, second = self._probe(c), self._probe(c2, 1 if c == c2 else 0)
+                rows: list[list[float | None]] = [[None] * len(slots) for _ in slots]
+                for s, s2 in itertools.permutations(range(len(slots)), 2):
+                    self._place_body(first[0], slots[s], 0.0)
+                    self._place_body(second[0], slots[s2], 0.0)
+                    rows[s][s2] = float(self._count_pixels({"a": first, "b": second})["a"])
+                self._place_body(first[0], PARKED, 0.0)
+                self._place_body(second[0], PARKED, 0.0)
+                company[f"{c}|{c2}"] = rows
+            return {"facing": facing, "company": company}
+        finally:
+            self._pose = saved
+            self._sync()
+
     def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, list[float]]]]:
         """See :meth:`TruthBackedAdapter.expected_pixel_counts`; cached per house and camera.
 
@@ -302,10 +348,21 @@ class PyBulletHouse(TruthBackedAdapter):
         the cache lives in memory and in
         ``$FG_TEA_CACHE_DIR`` (default ``~/.cache/fg_tea``), so a second run pays nothing.
         """
+        return self._cached("visibility", categories, lambda: super(PyBulletHouse, self).expected_pixel_counts(categories))
+
+    def company_pixel_counts(self, categories: Sequence[str]) -> dict:
+        """See :meth:`TruthBackedAdapter.company_pixel_counts`; cached as :meth:`expected_pixel_counts`
+        (the face tolerance is part of the key)."""
+        return self._cached("company", categories, lambda: super(PyBulletHouse, self).company_pixel_counts(categories))
+
+    def _cached(self, kind: str, categories: Sequence[str], compute: Callable[[], dict]) -> dict:
         key = self._visibility_key(categories)
+        if kind != "visibility":
+            key = hashlib.sha256(f"{kind}:{key}:{self.config.face_tolerance_deg!r}:"
+                                 f"{list(categories)!r}".encode()).hexdigest()[:32]
         if key in _VISIBILITY_CACHE:
             return copy.deepcopy(_VISIBILITY_CACHE[key])
-        path = cache_dir() / "visibility" / f"{key}.json"
+        path = cache_dir() / kind / f"{key}.json"
         table = None
         if path.is_file():
             try:
@@ -313,7 +370,7 @@ class PyBulletHouse(TruthBackedAdapter):
             except (OSError, ValueError):
                 table = None
         if table is None:
-            table = super().expected_pixel_counts(categories)
+            table = compute()
             try:
                 atomic_write_text(path, json.dumps(table, sort_keys=True))
             except OSError:
