@@ -28,6 +28,7 @@ import numpy as np
 
 from fg_tea.agent.give_up import sweep_length, weigh
 from fg_tea.beliefs.detection import PixelTable, ViewModel
+from fg_tea.beliefs.occlusion import CompanyTable
 from fg_tea.beliefs.engine import BeliefEngine, LookUpdate
 from fg_tea.model.spec import Model
 from fg_tea.planning import Decision, DistanceModel, distances_for, make_planner
@@ -113,15 +114,28 @@ class Agent:
             self.set_view_geometry(expected_pixels)
 
     # ------------------------------------------------------------------ set-up
-    def set_view_geometry(self, expected_pixels: PixelTable | None) -> ViewModel:
+    def set_view_geometry(self, expected_pixels: PixelTable | None,
+                          company: CompanyTable | None = None) -> ViewModel:
         """Build the viewpoints' detection probabilities from what each one would see.
 
         Args:
             expected_pixels: viewpoint -> site -> category -> expected pixels per placement slot
                 (an environment's ``expected_pixel_counts``); None for a close-looks model.
+            company: the environment's ``company_pixel_counts`` (heading offsets and pairs on a
+                site), needed when the model sets ``[perception] facing_tolerance`` or
+                ``occlusion`` (docs/design.md §3.4).
         """
-        self.views = ViewModel(self.scenario, self.model, self.belief.objects, expected_pixels)
+        self.views = ViewModel(self.scenario, self.model, self.belief.objects, expected_pixels,
+                               company)
+        self._reweigh()
         return self.views
+
+    def _reweigh(self) -> None:
+        """Under ``occlusion``, each look's probabilities are those under the belief of the last
+        decision (docs/design.md §3.4, "Facing and company"); a no-op otherwise."""
+        if self.views is not None and self.views.belief_dependent:
+            b = self.belief
+            self.views.reweigh(b.location_matrix(), b.pairwise() if b.correlated else None)
 
     # ------------------------------------------------------------------ deciding
     @property
@@ -159,6 +173,7 @@ class Agent:
             raise ValueError(f"model {self.model.name!r} needs the view geometry before deciding: "
                              "call set_view_geometry(env.expected_pixel_counts(...))")
         objects = self.executor.pending_search_objects()
+        self._reweigh()
         distances = distances_for(self.model, self.scenario, position,
                                   geodesic=distances or self._grid_distances(position))
         learned = self.model.learning is not None and self.model.learning.detection_active
@@ -195,6 +210,7 @@ class Agent:
         distances = distances_for(self.model, self.scenario, position,
                                   geodesic=distances or self._grid_distances(position))
         excluded = frozenset(self.executor.excluded_sites)
+        self._reweigh()
         if self._sweep is None:  # fixed at the first weighing, from where the search starts
             self._sweep = sweep_length([v for v in self.views.names if v not in excluded], distances)
         value = planning.task_value(self.graph.name) * self._sweep

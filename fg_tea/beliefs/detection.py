@@ -32,11 +32,12 @@ Nothing here imports a simulator: the expected pixel counts arrive as numbers.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.beliefs.occlusion import CompanyModel, CompanyTable, together_from
 from fg_tea.model.spec import Model
 from fg_tea.world.interface import logged_viewpoint
 from fg_tea.world.scenario import Scenario
@@ -68,6 +69,7 @@ class View:
             threshold detector's close look, so the pre-viewpoint factors are reproduced exactly).
         pixels: the same shape; expected pixel counts averaged over the site's placement slots
             (NaN where none were computed), for reports; p is computed per slot, not from these.
+        conditional: under ``occlusion``, p given the other objects on the site (eq. 59).
     """
 
     name: str
@@ -77,6 +79,9 @@ class View:
     probability: np.ndarray
     miss: np.ndarray
     pixels: np.ndarray
+    #: (N, len(sites), 2^N) p_o(j, v | companions) under ``occlusion`` (eq. 59), which a joint
+    #: belief absorbs exactly; None otherwise (docs/design.md §3.4, "Facing and company").
+    conditional: np.ndarray | None = None
 
     def probability_over_sites(self, n_sites: int) -> np.ndarray:
         """p_{o,a} over all K sites, shape (N, K): zero outside the view."""
@@ -131,7 +136,8 @@ class ViewModel:
     """
 
     def __init__(self, scenario: Scenario, model: Model, objects: Sequence[str] | None = None,
-                 expected_pixels: PixelTable | None = None) -> None:
+                 expected_pixels: PixelTable | None = None,
+                 company: CompanyTable | None = None) -> None:
         self.model = model
         self.sites = scenario.site_names
         self.objects = tuple(objects) if objects is not None else scenario.object_names
@@ -182,7 +188,45 @@ class ViewModel:
                 prob, miss = _learned(model, scenario, vp, categories, prob, miss)
             views.append(View(vp.name, vp.kind, vp.room, tuple(site_index[s] for s in vp.sites),
                               prob, miss, pixels))
+        self.company: CompanyModel | None = None
+        if model.facing_tolerance or model.occlusion:
+            if company is None:
+                raise ValueError(f"model {model.name!r} needs the company pixel counts of every "
+                                 "viewpoint ([perception] facing_tolerance or occlusion)")
+            assert expected_pixels is not None and curve is not None  # visibility detector
+            self.company = CompanyModel(categories, curve, [(v.name, [self.sites[j] for j in v.sites])
+                                                            for v in views],
+                                        company, expected_pixels, model.occlusion)
+            tables = self.company.tables
+            views = [replace(v, probability=tables[v.name][:, :, 0].copy(),
+                             miss=1.0 - tables[v.name][:, :, 0],
+                             conditional=tables[v.name] if model.occlusion else None)
+                     for v in views]
         self.views: tuple[View, ...] = tuple(views)
+        self._by_name = {v.name: v for v in self.views}
+
+    @property
+    def belief_dependent(self) -> bool:
+        """True when each look's probabilities depend on the belief (``occlusion``)."""
+        return self.company is not None and self.company.occlusion
+
+    def reweigh(self, marginals: np.ndarray, pairwise: np.ndarray | None = None) -> None:
+        """Set every view's probabilities to their mean under a belief over who shares each site
+        (docs/design.md §3.4, "Facing and company"); nothing changes without ``occlusion``.
+
+        Args:
+            marginals: (N, K) location marginals in this view model's object order.
+            pairwise: (N, N, K, K) pairwise marginals of a joint belief; None for a factorised one.
+        """
+        if not self.belief_dependent:
+            return
+        assert self.company is not None
+        together = together_from(np.asarray(marginals, dtype=float), pairwise)
+        views = []
+        for v in self.views:
+            prob = np.clip(self.company.expected(v.name, v.sites, together), 0.0, 1.0)
+            views.append(replace(v, probability=prob, miss=1.0 - prob))
+        self.views = tuple(views)
         self._by_name = {v.name: v for v in self.views}
 
     @property

@@ -46,7 +46,9 @@ from fg_tea.beliefs.factors import (
     state_prior,
     view_miss_factor,
 )
-from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, build_graph
+from fg_tea.beliefs.graph import (DENSE_LIMIT, BeliefGraph, build_graph, check_exact_method,
+                                  pair_weight_matrices)
+from fg_tea.beliefs.occlusion import CompanyEvidence
 from fg_tea.beliefs.solvers import GtsamSolver, NumpySolver
 from fg_tea.beliefs.structured import (
     MAX_OBJECTS,
@@ -152,23 +154,14 @@ class BeliefEngine:
         self._loc_factors: list[Factor] = list(graph.location_priors)
         self._unary = np.stack([f.table / f.table.sum() for f in graph.location_priors])
         self._correlated = graph.correlated
-        self._pair_weights = self._pair_matrices(graph)
+        self._pair_weights = pair_weight_matrices(graph)
         self._structurable = (self._correlated and not graph.extra and n <= MAX_OBJECTS
                               and bool(np.all(self._pair_weights.same_room > 0)))
         self._dense_ok = graph.joint_size <= DENSE_LIMIT
-        if self._correlated and not (self._structurable or self._dense_ok):
-            raise ValueError(f"joint model with {n} objects over {k} sites has "
-                             f"{graph.joint_size:,} joint states, more than the dense limit "
-                             f"{DENSE_LIMIT:,}, and relational factors the structured solver "
-                             "cannot take (it needs site/room-local factors and at most "
-                             f"{MAX_OBJECTS} objects)")
-        if location_solver == "dense" and self._correlated and not self._dense_ok:
-            raise ValueError(f"the dense joint of {graph.joint_size:,} states exceeds the dense "
-                             f"limit {DENSE_LIMIT:,}")
-        if location_solver == "structured" and self._correlated and not self._structurable:
-            raise ValueError("this model's relational factors are not site/room-local")
+        check_exact_method(graph, self._structurable, location_solver)
         self.location_solver = location_solver
         self._rel_joint: np.ndarray | None = None
+        self._company: CompanyEvidence | None = None  # coupled looks under occlusion (eq. 59)
         self._serial = 0
         self._slice: dict[str, str] = {}
         self._state_factors: list[Factor] = []
@@ -176,30 +169,18 @@ class BeliefEngine:
             self._add_state(f.variables[0], f.table[1])
         self._cache: dict[str, Any] = {}
 
-    @staticmethod
-    def _pair_matrices(graph: BeliefGraph) -> PairWeights:
-        n = len(graph.objects)
-        index = {o: i for i, o in enumerate(graph.objects)}
-        same_site, same_room = np.ones((n, n)), np.ones((n, n))
-        for p in graph.pairs:
-            a, b = index[p.a], index[p.b]
-            for x, y in ((a, b), (b, a)):
-                same_site[x, y] *= p.same_site
-                same_room[x, y] *= p.same_room
-        return PairWeights(same_site, same_room)
-
     # ------------------------------------------------------------------ bookkeeping
     @contextmanager
     def _trial(self) -> Iterator[None]:
         """Evidence tried on the belief: if anything in the block raises (a contradiction, an
         interrupt), the belief is restored exactly as it was, and the exception goes on."""
         saved = (self._unary.copy(), list(self._loc_factors), list(self._state_factors),
-                 dict(self._slice), dict(self._cache))
+                 dict(self._slice), dict(self._cache), self._company)
         try:
             yield
         except BaseException:
             (self._unary, self._loc_factors, self._state_factors, self._slice,
-             self._cache) = saved
+             self._cache, self._company) = saved
             raise
 
     def copy(self) -> "BeliefEngine":
@@ -279,7 +260,9 @@ class BeliefEngine:
             cached = StructuredLocationModel(self._unary, g.rooms, g.capacities,
                                              g.capacity_penalty if g.capacity_active else None,
                                              self._pair_weights,
-                                             previous=self._cache.get("structured_previous"))
+                                             previous=self._cache.get("structured_previous"),
+                                             site_weights=None if self._company is None
+                                             else self._company.weights)
             self._cache["structured"] = cached
         return cached
 
@@ -309,7 +292,9 @@ class BeliefEngine:
         return self._pair_weights
 
     def _location_factors(self) -> list[Factor]:
-        return self._loc_factors + list(self.graph.relational)
+        company = [] if self._company is None else [Factor(
+            tuple(location_var(o) for o in self.objects), self._company.dense(), "company")]
+        return self._loc_factors + list(self.graph.relational) + company
 
     def _gtsam_marginals(self, factors: Sequence[Factor]) -> np.ndarray:
         names = [location_var(o) for o in self.objects]
@@ -439,6 +424,8 @@ class BeliefEngine:
                 operands += [self._unary[i], [i]]
             if self._correlated:
                 operands += [self._relational_joint(), list(range(n))]
+            if self._company is not None:
+                operands += [self._company.dense(), list(range(n))]
             table = np.einsum(*operands, list(range(n)))
             total = table.sum()
             if not np.isfinite(total) or total <= 0:
@@ -644,6 +631,8 @@ class BeliefEngine:
             log_l = np.asarray(ev.log_table, dtype=float)
             seen = ev.kind_count("collapse") + ev.kind_count("detect") > 0
             looks = ev.count - ev.kind_count("collapse") - ev.kind_count("detect")
+        if self._company is not None:  # misses absorbed coupled count with their p̄ (eq. 60)
+            log_l, looks = log_l + self._company.log_miss[o], looks + int(self._company.misses[o])
         if seen:
             return None, looks
         skip = {self._site_index[s] for s in excluded if s in self._site_index}
@@ -777,16 +766,26 @@ class BeliefEngine:
                 raise KeyError(f"site {site!r} is not in view of {view.name!r}")
         label = str(view.sites[0]) if view.kind == "site" else view.name
         before = self.locations()
+        coupled = getattr(view, "conditional", None) is not None and self._correlated
         with self._trial():
-            misses = [view_miss_factor(o, view.sites, view.miss[self._obj_index[o]], k, label)
-                      for o in self.objects if o in found and found[o] is None]
-            self._commit_location(misses)
+            if coupled:  # eq. 59 kept exactly: site-local factors over who stands there
+                company = self._company or CompanyEvidence.empty(len(self.objects), k)
+                self._company = company.absorb(view.conditional, view.sites, {
+                    self._obj_index[o]: None if s is None else self._site_index[s]
+                    for o, s in found.items()}, view.probability)
+                for key in ("locations", "joint", "pairwise", "structured"):
+                    self._cache.pop(key, None)
+            else:
+                self._commit_location([view_miss_factor(o, view.sites, view.miss[self._obj_index[o]],
+                                                        k, label)
+                                       for o in self.objects if o in found and found[o] is None])
             seen = []
             for o in self.objects:
                 site = found.get(o)
                 if site is not None:
                     j = self._site_index[site]
-                    seen.append((o, j, float(view.miss[self._obj_index[o], view.sites.index(j)])))
+                    seen.append((o, j, 0.0 if coupled else
+                                 float(view.miss[self._obj_index[o], view.sites.index(j)])))
             self._apply_detections(seen)
             after = self.locations()
         detected = tuple(o for o in self.objects if found.get(o) is not None)

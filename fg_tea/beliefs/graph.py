@@ -29,6 +29,7 @@ from fg_tea.beliefs.factors import (
     pair_factor,
     state_prior,
 )
+from fg_tea.beliefs.structured import MAX_OBJECTS, PairWeights
 from fg_tea.model.learning import learned_relation_weights, location_weights
 from fg_tea.model.spec import Model
 from fg_tea.world.scenario import Scenario
@@ -229,5 +230,40 @@ def build_graph(scenario: Scenario, model: Model) -> BeliefGraph:
     )
 
 
+
+
+def pair_weight_matrices(graph: BeliefGraph) -> PairWeights:
+    """Same-site and same-room weights between objects (eq. 35), in the graph's object order."""
+    n = len(graph.objects)
+    index = {o: i for i, o in enumerate(graph.objects)}
+    same_site, same_room = np.ones((n, n)), np.ones((n, n))
+    for p in graph.pairs:
+        a, b = index[p.a], index[p.b]
+        for x, y in ((a, b), (b, a)):
+            same_site[x, y] *= p.same_site
+            same_room[x, y] *= p.same_room
+    return PairWeights(same_site, same_room)
+
+
+def check_exact_method(graph: BeliefGraph, structurable: bool, location_solver: str) -> None:
+    """Raise ValueError when no exact method can hold the graph's joint (or the requested one
+    cannot): the dense table above :data:`DENSE_LIMIT` states with relational factors the subset
+    program cannot take."""
+    n, k = len(graph.objects), len(graph.sites)
+    dense_ok = graph.joint_size <= DENSE_LIMIT
+    if graph.correlated and not (structurable or dense_ok):
+        raise ValueError(f"joint model with {n} objects over {k} sites has "
+                         f"{graph.joint_size:,} joint states, more than the dense limit "
+                         f"{DENSE_LIMIT:,}, and relational factors the structured solver "
+                         "cannot take (it needs site/room-local factors and at most "
+                         f"{MAX_OBJECTS} objects)")
+    if location_solver == "dense" and graph.correlated and not dense_ok:
+        raise ValueError(f"the dense joint of {graph.joint_size:,} states exceeds the dense "
+                         f"limit {DENSE_LIMIT:,}")
+    if location_solver == "structured" and graph.correlated and not structurable:
+        raise ValueError("this model's relational factors are not site/room-local")
+
+
 __all__ = ["BeliefGraph", "DENSE_LIMIT", "PairRelation", "assemble_graph", "build_graph",
+           "check_exact_method", "pair_weight_matrices",
            "prior_weights", "location_var"]

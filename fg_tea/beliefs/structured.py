@@ -229,6 +229,9 @@ class StructuredLocationModel:
             rescaled by prod_{o in S} c_o — exact, since every one is a sum over arrangements
             of the room's objects S. A look that changes one room's evidence thus recomputes
             that room only.
+        site_weights: (K, 2^N) non-negative factors W_j(S) on which set S of objects stands at
+            site j, multiplied into g_j (the coupled detection evidence of
+            :class:`fg_tea.beliefs.occlusion.CompanyEvidence`); None = none.
 
     Raises:
         ValueError: more objects than :data:`MAX_OBJECTS` or a non-positive same-room weight.
@@ -236,7 +239,8 @@ class StructuredLocationModel:
 
     def __init__(self, unary: np.ndarray, rooms: Sequence[str], capacities: Sequence[int | None],
                  penalty: float | None, pairs: PairWeights | None,
-                 previous: "StructuredLocationModel | None" = None) -> None:
+                 previous: "StructuredLocationModel | None" = None,
+                 site_weights: np.ndarray | None = None) -> None:
         unary = np.asarray(unary, dtype=float)
         n, k = unary.shape
         self.n, self.k = n, k
@@ -261,6 +265,8 @@ class StructuredLocationModel:
         # g_j(S) for every site: capacity, unaries, and same-site pair corrections.
         self.unary = unary.copy()                      # the caller may change its array later
         self._cap_pairs = cap * site_pairs[:, None]
+        if site_weights is not None:  # site-local evidence over who stands there (occlusion)
+            self._cap_pairs = self._cap_pairs * np.asarray(site_weights, dtype=float).T
         self.g = (subset_products(unary) * self._cap_pairs).T             # (K, 2^N)
         room_names = list(dict.fromkeys(rooms))
         self.room_sites = [np.array([j for j in range(k) if rooms[j] == r]) for r in room_names]

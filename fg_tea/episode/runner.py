@@ -256,12 +256,15 @@ class EpisodeRunner:
         pose = self.env.reset(self.config.seed)
         self._started = True
         model = self.model
-        expected = None
+        expected = company = None
         assert self.views is None or model.close_looks_only
         if not model.close_looks_only:
             categories = sorted({self.scenario.object(o).category for o in self.belief.objects})
             expected = self.env.expected_pixel_counts(categories)
-        views = self.agent.set_view_geometry(expected)
+            if model.facing_tolerance or model.occlusion:
+                company = self.env.company_pixel_counts(
+                    sorted(self.scenario.object(o).category for o in self.belief.objects))
+        views = self.agent.set_view_geometry(expected, company)
         self._yardstick_start = ((pose.x, pose.y), dict(self.env.truth_report().get("sites") or {}))
         # JSON records of the log (mixed value types); the yardstick reads them back.
         viewpoints: list[dict[str, Any]] = [

@@ -210,6 +210,10 @@ class Model:
     detector: str = "threshold"
     detection_curve: VisibilityCurve | None = None
     room_glances: bool = False
+    #: docs/design.md §3.4, "Facing and company": average the detection probability over the
+    #: turn tolerance of a look, and condition it on the other objects sharing the site.
+    facing_tolerance: bool = False
+    occlusion: bool = False
     #: Experience learned from logs (docs/design.md §12); None or without counts: no change.
     learning: Learning | None = None
     #: The declared sensors before eq. 52 was applied (None when no learning changed them).
@@ -423,6 +427,13 @@ def parse_model(data: dict, file: str | Path = "<model>",
         raise perception.fail("has no effect with detector = \"threshold\" (an object is seen iff "
                               "it covers min_visible_pixels); remove it, or assume the visibility "
                               "detector", "visibility")
+    facing_tolerance = perception.opt("facing_tolerance", bool, False)
+    occlusion = perception.opt("occlusion", bool, False)
+    for key, on in (("facing_tolerance", facing_tolerance), ("occlusion", occlusion)):
+        if on and detector != "visibility":
+            raise perception.fail("needs detector = \"visibility\" (it changes the expected "
+                                  "pixel counts of eq. 33, which the threshold detector's close "
+                                  "look does not use)", key)
     assumed_r = perception.child("visibility", required=False)
     detection_curve = (read_curve(assumed_r) if assumed_r is not None
                        else VisibilityCurve() if detector == "visibility" else None)
@@ -432,6 +443,9 @@ def parse_model(data: dict, file: str | Path = "<model>",
     learning_r = r.child("learning", required=False)
     if learning_r is not None:
         learning = read_learning(learning_r)
+        if learning.detection_active and (facing_tolerance or occlusion):
+            raise learning_r.fail("learned detection probabilities (eq. 51) cannot be combined "
+                                  "with [perception] facing_tolerance or occlusion yet", "detection")
         learned = apply_to_sensors(learning, sensors, learning_r)
         if learned != sensors:
             declared_sensors = MappingProxyType(dict(sensors))
@@ -460,6 +474,8 @@ def parse_model(data: dict, file: str | Path = "<model>",
         detector=detector,
         detection_curve=detection_curve,
         room_glances=viewpoints.opt("room_glances", bool, False),
+        facing_tolerance=facing_tolerance,
+        occlusion=occlusion,
         retries=retries,
         learning=learning,
         declared_sensors=declared_sensors,
