@@ -77,7 +77,8 @@ from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_swe
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}
 LOOKS = {"glances": ("factorised", "joint"), "close": ("factorised_close", "joint_close"),
-         "derived": ("factorised", "joint_derived")}
+         "derived": ("factorised", "joint_derived"),
+         "occlusion": ("factorised_occlusion", "joint_occlusion")}
 GAINS = ("factorised_efe", "mi_efe")
 BASELINES = ("nearest", "greedy")
 METRICS = ("search_distance", "inspections", "spl")
@@ -113,7 +114,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--looks", choices=tuple(LOOKS), default="glances",
                    help="glances: factorised/joint (room glances, visibility detector); derived: "
                    "factorised/joint_derived (co-location weights derived from the generator's "
-                   "placement rules, experiments/derive_relations.py); close: "
+                   "placement rules, experiments/derive_relations.py); occlusion: "
+                   "factorised_occlusion/joint_occlusion (detection that knows the turn tolerance "
+                   "and what shares a site, docs/design.md §3.4); close: "
                    "factorised_close/joint_close (default: %(default)s)")
     p.add_argument("--planners", nargs="+", default=list(GAINS + BASELINES),
                    help=f"planner names (default: {' '.join(GAINS + BASELINES)})")
