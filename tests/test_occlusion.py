@@ -351,3 +351,34 @@ def test_coupled_misses_count_for_the_give_up():
                    for j, q in enumerate(engine.graph.location_priors[i].table
                                          / engine.graph.location_priors[i].table.sum()))
     assert after == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.slow
+def test_beside_plain_pairs_the_company_models_with_the_plain_ones(tmp_path, capsys):
+    """On the fake camera the company models play the plain models' episodes, so every paired
+    difference is zero and the joint − factorised answer is the same under both."""
+    import csv
+    import subprocess
+    import sys
+
+    for looks in ("occlusion", "glances"):
+        subprocess.run([sys.executable, str(ROOT / "experiments" / "compare_at_scale.py"), "--table",
+                        "houses", "--looks", looks, "--worlds", "2", "--confirmation-first-seed",
+                        "10000", "--sizes", "small", "--tasks", "make_tea", "--planners",
+                        "factorised_efe", "--env", "fake", "--workers", "1", "--timing-worlds", "0",
+                        "--out", str(tmp_path / looks)], check=True, capture_output=True)
+    mod = _script("occlusion_beside_plain")
+    args = ["--occlusion", str(tmp_path / "occlusion" / "houses" / "episodes.csv"),
+            "--plain", str(tmp_path / "glances" / "houses" / "episodes.csv"), "--out", str(tmp_path / "out")]
+    assert mod.main(args) == 0
+    rows = list(csv.DictReader(open(tmp_path / "out" / "summary.csv")))
+    assert len(rows) == 4 and {r["seed_set"] for r in rows} == {"discovery", "confirmation"}
+    for r in rows:
+        assert r["company_minus_plain"] == "0.00 [0.00, 0.00]" and r["jf_plain"] == r["jf_company"]
+        assert r["given_up"] == r["plain_given_up"] and int(r["searches"]) == 6
+    with pytest.raises(SystemExit) as exc:
+        from fg_tea.common.errors import run_script
+        run_script(lambda: mod.main([*args[:2], "--plain", str(tmp_path / "none.csv"), "--out",
+                                     str(tmp_path / "out2")]), "occlusion_beside_plain.py")
+    assert exc.value.code == 2
+    assert capsys.readouterr().err.count("\n") == 1
