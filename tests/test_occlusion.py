@@ -382,3 +382,28 @@ def test_beside_plain_pairs_the_company_models_with_the_plain_ones(tmp_path, cap
                                      str(tmp_path / "out2")]), "occlusion_beside_plain.py")
     assert exc.value.code == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_hundreds_of_coupled_misses_then_a_detection():
+    """The unary part of each coupled miss is kept in log space and the site factors hold only the
+    company's ratios, so hundreds of misses at one site do not rule it out: the object seen there
+    afterwards is found there (with raw products the factors underflowed to zero after ~400 misses
+    of the fake camera's 0.84 and the detection raised a contradiction)."""
+    from fg_tea.beliefs.engine import BeliefEngine
+
+    scenario = load_scenario("default_apartment")
+    for name in ("joint_occlusion", "factorised_occlusion"):
+        model = load_model(name)
+        expected, company = _fake_tables(scenario, model)
+        for views, misses in ((ViewModel(scenario, model, scenario.object_names, expected, company), 450),
+                              (_occluding_views(scenario, model), 150)):
+            engine = BeliefEngine(scenario, model)
+            view = views.view("sideboard")
+            for _ in range(misses):
+                engine.observe_viewpoint(view, {"mug": None})
+            assert engine.location("mug")[engine.sites.index("sideboard")] < 1e-10
+            engine.observe_viewpoint(view, {"mug": "sideboard"})
+            assert engine.location("mug")[engine.sites.index("sideboard")] > 0.99
+            if engine.correlated:
+                weights = engine._company.weights
+                assert np.isfinite(weights).all() and (weights[:, 0] == 1.0).all()

@@ -48,7 +48,7 @@ from fg_tea.beliefs.factors import (
 )
 from fg_tea.beliefs.graph import (DENSE_LIMIT, BeliefGraph, build_graph, check_exact_method,
                                   pair_weight_matrices)
-from fg_tea.beliefs.occlusion import CompanyEvidence
+from fg_tea.beliefs.occlusion import CompanyEvidence, alone_miss
 from fg_tea.beliefs.solvers import GtsamSolver, NumpySolver
 from fg_tea.beliefs.structured import (
     MAX_OBJECTS,
@@ -631,8 +631,8 @@ class BeliefEngine:
             log_l = np.asarray(ev.log_table, dtype=float)
             seen = ev.kind_count("collapse") + ev.kind_count("detect") > 0
             looks = ev.count - ev.kind_count("collapse") - ev.kind_count("detect")
-        if self._company is not None:  # misses absorbed coupled count with their p̄ (eq. 60)
-            log_l, looks = log_l + self._company.log_miss[o], looks + int(self._company.misses[o])
+        if self._company is not None:  # coupled misses count with their p̄ (eq. 60)
+            log_l = log_l + self._company.log_miss[o]
         if seen:
             return None, looks
         skip = {self._site_index[s] for s in excluded if s in self._site_index}
@@ -775,10 +775,9 @@ class BeliefEngine:
                     for o, s in found.items()}, view.probability)
                 for key in ("locations", "joint", "pairwise", "structured"):
                     self._cache.pop(key, None)
-            else:
-                self._commit_location([view_miss_factor(o, view.sites, view.miss[self._obj_index[o]],
-                                                        k, label)
-                                       for o in self.objects if o in found and found[o] is None])
+            miss = alone_miss(view.conditional) if coupled else view.miss
+            self._commit_location([view_miss_factor(o, view.sites, miss[self._obj_index[o]], k, label)
+                                   for o in self.objects if o in found and found[o] is None])
             seen = []
             for o in self.objects:
                 site = found.get(o)

@@ -45,6 +45,10 @@ import numpy as np
 
 from fg_tea.world.visibility import VisibilityCurve
 
+#: Smallest unary miss factor of a coupled look (see :func:`alone_miss`).
+ALONE_FLOOR = 1e-300
+#: A row of :class:`CompanyEvidence` weights is rescaled to a maximum of 1 above this.
+RESCALE_ABOVE = 1e250
 #: The company table handed over by an environment: {"offsets_deg": [...], "views": viewpoint ->
 #: site -> {"facing": category -> [[px per heading] per slot], "company": "c|c2" -> [[px] ...]}}.
 CompanyTable = Mapping[str, Any]
@@ -228,10 +232,15 @@ def site_masks(n: int, k: int, sites: Sequence[int]) -> list[np.ndarray]:
 
 def look_weights(conditional: np.ndarray, sites: Sequence[int],
                  found: Mapping[int, int | None]) -> np.ndarray:
-    """The site-local factors of one look, shape (in-view sites, 2^N): for the c-th site j and a
-    set S of objects standing there, the product over the objects o in S that the look considered
-    of P(o missed | S) = 1 - p_o(j, v | S minus o) if it missed o, or p_o(j, v | S minus o) if it
-    saw o at j (an o seen elsewhere cannot be at j; its own unary factor says so)."""
+    """The site-local factors of one look beyond its unary part, shape (in-view sites, 2^N).
+
+    The likelihood of a look, for the c-th in-view site j and a set S of objects standing there,
+    is the product over the objects o in S the look considered of 1 - p_o(j, v | S minus o) if it
+    missed o, or p_o(j, v | S minus o) if it saw o at j (an o seen elsewhere cannot be at j; its
+    unary factor says so). A miss's part that does not depend on the company, 1 - p_o(j, v | {}),
+    is the unary miss factor the engine keeps in log space (exact however many misses); this
+    returns the rest: (1 - p_o(j | S minus o)) / (1 - p_o(j | {})) for a miss, p_o(j | S minus o)
+    for a detection."""
     n = conditional.shape[0]
     masks = np.arange(1 << n)
     out = np.ones((len(sites), 1 << n))
@@ -240,50 +249,65 @@ def look_weights(conditional: np.ndarray, sites: Sequence[int],
         for c, j in enumerate(sites):
             p = conditional[o, c][masks & ~(1 << o)]
             if seen_at is None:
-                out[c] = np.where(has, out[c] * (1.0 - p), out[c])
+                alone = max(1.0 - float(conditional[o, c, 0]), ALONE_FLOOR)
+                out[c] = np.where(has, out[c] * (1.0 - p) / alone, out[c])
             elif seen_at == j:
                 out[c] = np.where(has, out[c] * p, out[c])
     return out
+
+
+def alone_miss(conditional: np.ndarray) -> np.ndarray:
+    """1 - p_o(j, v | nobody else there), shape (N, in-view sites): a miss's unary part (eq. 34),
+    at least :data:`ALONE_FLOOR` (a curve whose p_max is 1 would otherwise rule the site out)."""
+    return np.maximum(1.0 - conditional[:, :, 0], ALONE_FLOOR)
 
 
 @dataclass(frozen=True)
 class CompanyEvidence:
     """The looks of a joint belief under the company model, kept exactly (eq. 59).
 
-    The likelihood of a look factorises over the sites in view into site-local factors over which
-    objects stand there (:func:`look_weights`); their product over looks, W[j, S], multiplies the
-    joint as the capacity factor does, so the dense joint and the subset program (docs/design.md
-    §4.4) hold it exactly. An object seen at j also gets the unary factor "at j" (eq. 4, or eq. 31
-    with the false-positive rate elsewhere).
+    The likelihood of a look is a unary part, each missed object's 1 - p_o(j | nobody else)
+    (kept with the other unary evidence, in log space), times site-local factors over which
+    objects stand at each site in view (:func:`look_weights`). Their product over looks, W[j, S],
+    multiplies the joint as the capacity factor does, so the dense joint and the subset program
+    (docs/design.md §4.4) hold it exactly. With the unary part taken out, W[j, S] is 1 for an
+    empty site and grows only by the company's ratios, so it stays within floating point for any
+    realistic run of looks (the look budget of a search is tens of looks); a row whose ratios
+    would overflow (hundreds of misses at one site of an object its company hides) is rescaled.
 
     Attributes:
         weights: (K, 2^N) W[j, S].
-        log_miss: (N, K) the sum over the looks that missed o of log(1 - p̄_{o,j}), p̄ the
-            probability under the belief the look was taken with (eq. 60): the per-object miss
-            evidence the give-up rule's R_o counts (docs/design.md §7.8).
-        misses: (N,) the looks that missed each object.
+        log_miss: (N, K) the sum over the looks that missed o of log((1 - p̄_{o,j}) /
+            (1 - p_o(j | nobody else))), p̄ the probability under the belief the look was taken
+            with (eq. 60): what the give-up rule's R_o (docs/design.md §7.8) adds to the unary
+            misses so that each miss counts with p̄.
     """
 
     weights: np.ndarray
     log_miss: np.ndarray
-    misses: np.ndarray
 
     @classmethod
     def empty(cls, n: int, k: int) -> "CompanyEvidence":
-        return cls(np.ones((k, 1 << n)), np.zeros((n, k)), np.zeros(n, dtype=np.int64))
+        return cls(np.ones((k, 1 << n)), np.zeros((n, k)))
 
     def absorb(self, conditional: np.ndarray, sites: Sequence[int], found: Mapping[int, int | None],
                mean: np.ndarray) -> "CompanyEvidence":
         """This evidence and one more look (`mean`: the look's p̄, shape (N, in-view sites))."""
         weights = self.weights.copy()
-        weights[list(sites)] *= look_weights(conditional, sites, found)
-        log_miss, misses = self.log_miss.copy(), self.misses.copy()
+        rows = weights[list(sites)] * look_weights(conditional, sites, found)
+        top = rows.max(axis=1, keepdims=True)
+        # W[j, {}] stays 1 (a look weighs nobody at j by 1); a row is rescaled, a factor common to
+        # every placement, only if its company ratios near overflow (hundreds of misses at one
+        # site of an object its company hides).
+        weights[list(sites)] = np.where(top > RESCALE_ABOVE, rows / np.where(top > 0, top, 1.0), rows)
+        log_miss = self.log_miss.copy()
+        alone = alone_miss(conditional)
         for o, seen_at in found.items():
             if seen_at is None:
-                with np.errstate(divide="ignore"):
-                    log_miss[o, list(sites)] += np.log1p(-np.asarray(mean[o], dtype=float))
-                misses[o] += 1
-        return CompanyEvidence(weights, log_miss, misses)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    log_miss[o, list(sites)] += (np.log1p(-np.asarray(mean[o], dtype=float))
+                                                 - np.log(alone[o]))
+        return CompanyEvidence(weights, np.nan_to_num(log_miss, nan=0.0, posinf=0.0))
 
     def dense(self) -> np.ndarray:
         """prod_j W[j, S_j(L)] over every joint placement L, shape (K,) * N."""
@@ -308,5 +332,5 @@ def together_from(marginals: np.ndarray, pairwise: np.ndarray | None) -> np.ndar
     return np.clip(out, 0.0, 1.0)
 
 
-__all__ = ["CompanyEvidence", "CompanyModel", "CompanyTable", "look_weights", "site_masks", "company_probability", "coupled_likelihood", "curve_values", "share_matrix",
+__all__ = ["CompanyEvidence", "CompanyModel", "CompanyTable", "alone_miss", "look_weights", "site_masks", "company_probability", "coupled_likelihood", "curve_values", "share_matrix",
            "slot_probability", "together_from"]
