@@ -39,7 +39,9 @@ def test_gymnasium_make_builds_it_from_a_scenario_and_a_model():
 
 @pytest.mark.parametrize("scenario,model,seed", [("default_apartment", "factorised", 3),
                                                  ("default_apartment", "joint", 1),
-                                                 ("generated_small", "factorised_close", 0)])
+                                                 ("generated_small", "factorised_close", 0),
+                                                 # the company table goes through the adapter too
+                                                 ("default_apartment", "joint_occlusion", 2)])
 def test_the_agent_through_gymnasium_writes_the_log_of_fg_tea_run(scenario, model, seed):
     s, m = load_scenario(scenario), load_model(model)
     plain = EpisodeRunner(s, m, make_env(s, m, "fake"), RunConfig(seed=seed))

@@ -407,3 +407,63 @@ def test_hundreds_of_coupled_misses_then_a_detection():
             if engine.correlated:
                 weights = engine._company.weights
                 assert np.isfinite(weights).all() and (weights[:, 0] == 1.0).all()
+
+
+def test_an_object_the_agent_moved_hides_where_it_is_now():
+    """Location beliefs are where objects stood at the start; once the agent has put the kettle on
+    the dining table, it hides the sugar there and nowhere else, whatever the kettle's start site
+    (the review found the old site kept hiding and the new one not)."""
+    scenario = load_scenario("milk_sugar_apartment")
+    model = load_model("joint_occlusion")
+    expected, company = _fake_tables(scenario, model)
+    for cell in (c for v in company["views"].values() for c in v.values()):
+        rows = cell["company"]["sugar|kettle"]
+        cell["company"]["sugar|kettle"] = [[None if x is None else 0.0 for x in r] for r in rows]
+    agent = Agent(scenario, model)
+    views = agent.set_view_geometry(expected, company)
+    table_site = "dining_table"
+    glance = next(v for v in scenario.viewpoints if v.kind == "room" and table_site in v.sites)
+    before = views.probabilities(glance.name)["sugar"][table_site]
+    agent.observe_look("kitchen_counter", {"kettle": "kitchen_counter"})
+    agent.executor.objects["kettle"].current_site = table_site  # picked and put on the table
+    agent._reweigh()
+    after = views.probabilities(glance.name)["sugar"][table_site]
+    assert after < 0.02 * before
+    view = views.view(glance.name)
+    s, k = agent.belief.objects.index("sugar"), agent.belief.objects.index("kettle")
+    c = view.sites.index(agent.belief.sites.index(table_site))
+    assert view.conditional[s, c, 0] == pytest.approx(0.0)       # nobody else by start site:
+    assert view.conditional[s, c, 1 << k] == pytest.approx(0.0)  # the kettle is there anyway
+    agent.executor.objects["kettle"].held = True                 # picked up again: hides nothing
+    agent.executor.objects["kettle"].current_site = None
+    agent._reweigh()
+    assert views.probabilities(glance.name)["sugar"][table_site] == pytest.approx(
+        views.view(glance.name).conditional[s, c, 0], rel=0.2)
+
+
+def test_a_view_of_another_object_order_is_refused(tmp_path):
+    from fg_tea.beliefs.engine import BeliefEngine
+
+    scenario = load_scenario("default_apartment")
+    model = load_model("joint_occlusion")
+    expected, company = _fake_tables(scenario, model)
+    views = ViewModel(scenario, model, list(reversed(scenario.object_names)), expected, company)
+    with pytest.raises(ValueError, match="has rows for"):
+        BeliefEngine(scenario, model).observe_viewpoint(views.views[0], {"mug": None})
+
+
+def test_an_extending_file_that_switches_the_detector_is_named(tmp_path):
+    path = tmp_path / "t1.toml"
+    path.write_text('extends = "factorised_occlusion"\nname = "t1"\n[perception]\ndetector = "threshold"\n')
+    with pytest.raises(InputError) as exc:
+        load_model(path)
+    assert str(path) in str(exc.value) and "detector" in str(exc.value)
+
+
+def test_learning_cannot_be_combined_with_the_company_models(tmp_path, capsys):
+    from fg_tea.cli.main import main
+
+    assert main(["learn", "--base", "factorised_occlusion", "--out", str(tmp_path / "x.toml"),
+                 str(ROOT / "tests" / "data" / "old_logs" / "before_viewpoints.jsonl")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--base" in err[0] and "occlusion" in err[0]

@@ -85,6 +85,8 @@ class Agent:
         expected_pixels: what each viewpoint would see of each category (from an environment's
             ``expected_pixel_counts``); needed unless the model makes close looks only. It can also
             be given later, with :meth:`set_view_geometry`.
+        company: an environment's ``company_pixel_counts``, needed with it when the model sets
+            ``[perception] facing_tolerance`` or ``occlusion`` (docs/design.md §3.4).
 
     Raises:
         fg_tea.PlannerRefused: the planner cannot plan for this house or belief (too many sites
@@ -94,7 +96,8 @@ class Agent:
     def __init__(self, scenario: Scenario, model: Model, planner: str | Planner = "efe",
                  task: str = "make_tea", *, seed: int = 0, preparation_site: str | None = None,
                  solver: str = "numpy", max_reopenings: int = MAX_REOPENINGS,
-                 expected_pixels: PixelTable | None = None) -> None:
+                 expected_pixels: PixelTable | None = None,
+                 company: CompanyTable | None = None) -> None:
         self.scenario, self.model = scenario, model
         self.belief = BeliefEngine(scenario, model, backend=solver)
         self.graph = load_task(task, model, scenario, preparation_site)
@@ -111,7 +114,7 @@ class Agent:
         self._navigator: Navigator | None = None
         self._sweep: float | None = None  # metres of one sweep of the house (the give-up's unit)
         if expected_pixels is not None or model.close_looks_only:
-            self.set_view_geometry(expected_pixels)
+            self.set_view_geometry(expected_pixels, company)
 
     # ------------------------------------------------------------------ set-up
     def set_view_geometry(self, expected_pixels: PixelTable | None,
@@ -130,12 +133,20 @@ class Agent:
         self._reweigh()
         return self.views
 
+    def _geometry_call(self) -> str:
+        company = self.model.facing_tolerance or self.model.occlusion
+        return ("set_view_geometry(env.expected_pixel_counts(...)"
+                + (", env.company_pixel_counts(...))" if company else ")"))
+
     def _reweigh(self) -> None:
         """Under ``occlusion``, each look's probabilities are those under the belief of the last
         decision (docs/design.md §3.4, "Facing and company"); a no-op otherwise."""
         if self.views is not None and self.views.belief_dependent:
-            b = self.belief
-            self.views.reweigh(b.location_matrix(), b.pairwise() if b.correlated else None)
+            b, sites = self.belief, {s: i for i, s in enumerate(self.belief.sites)}
+            placed = {i: (None if st.held or st.contained_in else sites.get(st.current_site or ""))
+                      for i, o in enumerate(b.objects) if (st := self.executor.objects.get(o)) is not None
+                      and (st.held or st.contained_in is not None or st.current_site is not None)}
+            self.views.reweigh(b.location_matrix(), b.pairwise() if b.correlated else None, placed)
 
     # ------------------------------------------------------------------ deciding
     @property
@@ -171,7 +182,7 @@ class Agent:
         """
         if self.views is None:
             raise ValueError(f"model {self.model.name!r} needs the view geometry before deciding: "
-                             "call set_view_geometry(env.expected_pixel_counts(...))")
+                             f"call {self._geometry_call()}")
         objects = self.executor.pending_search_objects()
         self._reweigh()
         distances = distances_for(self.model, self.scenario, position,
@@ -206,7 +217,7 @@ class Agent:
             return None
         if self.views is None:
             raise ValueError(f"model {self.model.name!r} needs the view geometry before weighing a "
-                             "search: call set_view_geometry(env.expected_pixel_counts(...))")
+                             f"search: call {self._geometry_call()}")
         distances = distances_for(self.model, self.scenario, position,
                                   geodesic=distances or self._grid_distances(position))
         excluded = frozenset(self.executor.excluded_sites)

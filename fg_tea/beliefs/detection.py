@@ -37,7 +37,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.beliefs.occlusion import CompanyModel, CompanyTable, together_from
+from fg_tea.beliefs.occlusion import CompanyModel, CompanyTable, fixed_companions, together_from
 from fg_tea.model.spec import Model
 from fg_tea.world.interface import logged_viewpoint
 from fg_tea.world.scenario import Scenario
@@ -82,6 +82,8 @@ class View:
     #: (N, len(sites), 2^N) p_o(j, v | companions) under ``occlusion`` (eq. 59), which a joint
     #: belief absorbs exactly; None otherwise (docs/design.md §3.4, "Facing and company").
     conditional: np.ndarray | None = None
+    #: the object order of the rows (the view model's); a belief refuses a view of another order
+    objects: tuple[str, ...] = ()
 
     def probability_over_sites(self, n_sites: int) -> np.ndarray:
         """p_{o,a} over all K sites, shape (N, K): zero outside the view."""
@@ -187,8 +189,12 @@ class ViewModel:
             if model.learning is not None and model.learning.detection_active:
                 prob, miss = _learned(model, scenario, vp, categories, prob, miss)
             views.append(View(vp.name, vp.kind, vp.room, tuple(site_index[s] for s in vp.sites),
-                              prob, miss, pixels))
+                              prob, miss, pixels, objects=self.objects))
         self.company: CompanyModel | None = None
+        if (model.facing_tolerance or model.occlusion) and model.learning is not None \
+                and model.learning.detection_active:
+            raise ValueError(f"model {model.name!r}: learned detection probabilities (eq. 51) "
+                             "cannot be combined with [perception] facing_tolerance or occlusion")
         if model.facing_tolerance or model.occlusion:
             if company is None:
                 raise ValueError(f"model {model.name!r} needs the company pixel counts of every "
@@ -210,22 +216,34 @@ class ViewModel:
         """True when each look's probabilities depend on the belief (``occlusion``)."""
         return self.company is not None and self.company.occlusion
 
-    def reweigh(self, marginals: np.ndarray, pairwise: np.ndarray | None = None) -> None:
+    def reweigh(self, marginals: np.ndarray, pairwise: np.ndarray | None = None,
+                placed: Mapping[int, int | None] | None = None) -> None:
         """Set every view's probabilities to their mean under a belief over who shares each site
         (docs/design.md §3.4, "Facing and company"); nothing changes without ``occlusion``.
 
         Args:
             marginals: (N, K) location marginals in this view model's object order.
             pairwise: (N, N, K, K) pairwise marginals of a joint belief; None for a factorised one.
+            placed: objects the agent has moved (object index -> the site index it put it on, or
+                None while held or inside another): their company is where they are now, not
+                where the belief's start locations say (:func:`~fg_tea.beliefs.occlusion.fixed_companions`).
         """
         if not self.belief_dependent:
             return
         assert self.company is not None
+        placed = dict(placed or {})
         together = together_from(np.asarray(marginals, dtype=float), pairwise)
+        for o2, j in placed.items():
+            together[:, o2, :] = 0.0
+            if j is not None:
+                together[:, o2, j] = 1.0
         views = []
         for v in self.views:
-            prob = np.clip(self.company.expected(v.name, v.sites, together), 0.0, 1.0)
-            views.append(replace(v, probability=prob, miss=1.0 - prob))
+            table = self.company.tables[v.name]
+            if placed:
+                table = fixed_companions(table, v.sites, placed)
+            prob = np.clip(self.company.expected(v.name, v.sites, together, table), 0.0, 1.0)
+            views.append(replace(v, probability=prob, miss=1.0 - prob, conditional=table))
         self.views = tuple(views)
         self._by_name = {v.name: v for v in self.views}
 

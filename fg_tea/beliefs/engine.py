@@ -758,6 +758,8 @@ class BeliefEngine:
             ContradictionError: the evidence has probability zero; the belief is left unchanged.
         """
         k = len(self.sites)
+        if getattr(view, "objects", ()) and tuple(view.objects) != self.objects:
+            raise ValueError(f"view {view.name!r} has rows for {view.objects}, not {self.objects}")
         in_view = {self.sites[j] for j in view.sites}
         for obj, site in found.items():
             if obj not in self._obj_index:

@@ -172,14 +172,17 @@ class CompanyModel:
                         out[o, c, mask] = company_probability(curve, cat, facing[cat], members)
             self.tables[name] = out
 
-    def expected(self, name: str, sites: Sequence[int], together: np.ndarray) -> np.ndarray:
+    def expected(self, name: str, sites: Sequence[int], together: np.ndarray,
+                 table: np.ndarray | None = None) -> np.ndarray:
         """p̄_{o,j}: the probabilities of viewpoint `name` under a belief, shape (N, in-view sites).
 
         Args:
             sites: belief indices of the in-view sites.
             together: (N, N, K) with together[o, o2, j] = P(o2 at j | o at j) under the belief.
+            table: the conditional table to weigh (default the viewpoint's own; see
+                :func:`fixed_companions`).
         """
-        table = self.tables[name]
+        table = self.tables[name] if table is None else table
         if not self.occlusion:
             return table[:, :, 0].copy()
         n = self.n
@@ -320,6 +323,26 @@ class CompanyEvidence:
         return out
 
 
+def fixed_companions(table: np.ndarray, sites: Sequence[int],
+                     placed: Mapping[int, int | None]) -> np.ndarray:
+    """The conditional table of a look once some objects have been moved by the agent.
+
+    The belief's location variables are where objects stood when the episode began; an object
+    the agent has picked up stands where it put it (`placed`: object index -> site index, or None
+    while it is held or inside another), whatever its start site. Its company effect on a look is
+    then fixed: table'[o, c, M] = table[o, c, (M without moved objects) + moved objects at the
+    c-th site]."""
+    n = table.shape[0]
+    masks = np.arange(1 << n)
+    moved = sum(1 << o for o in placed)
+    out = np.empty_like(table)
+    for c, j in enumerate(sites):
+        here = sum(1 << o for o, s in placed.items() if s == j)
+        for o in range(n):
+            out[o, c] = table[o, c][((masks & ~moved) | here) & ~(1 << o)]
+    return out
+
+
 def together_from(marginals: np.ndarray, pairwise: np.ndarray | None) -> np.ndarray:
     """P(o2 at j | o at j), shape (N, N, K): from the pairwise marginals P(L_o = a, L_o2 = b)
     where the belief is joint, else the other object's own marginal (a factorised belief)."""
@@ -332,5 +355,5 @@ def together_from(marginals: np.ndarray, pairwise: np.ndarray | None) -> np.ndar
     return np.clip(out, 0.0, 1.0)
 
 
-__all__ = ["CompanyEvidence", "CompanyModel", "CompanyTable", "alone_miss", "look_weights", "site_masks", "company_probability", "coupled_likelihood", "curve_values", "share_matrix",
+__all__ = ["CompanyEvidence", "CompanyModel", "CompanyTable", "alone_miss", "fixed_companions", "look_weights", "site_masks", "company_probability", "coupled_likelihood", "curve_values", "share_matrix",
            "slot_probability", "together_from"]

@@ -207,6 +207,11 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
                           env=args.env))  # unknown worlds, models, planners named first
     world = load_world(world_path(args.world))
     models = [load_model(model_path(m)) for m in args.models]
+    for m in models:
+        if m.facing_tolerance or m.occlusion:
+            raise InputError("<command line>", "--models", f"{m.name!r} sets [perception] "
+                             "facing_tolerance or occlusion, which learned detection "
+                             "probabilities (eq. 51) cannot be combined with yet")
     base = world.base if world.base is not None else world.house(args.first_seed)
     if planners[0] == "optimal":  # the Bayes-optimal DP's size limit, before any episode
         from fg_tea.tasks.load import load_task

@@ -11,9 +11,8 @@ in DIRECT mode (CPU, no window, no GPU) in place of Habitat-Sim:
   egocentric segmentation image; n_o counts the pixels of object o [28]; o is detected iff
   n_o >= ``min_visible_pixels`` and o lies within ``site_association_radius`` of the site [29].
   Occlusion is real: the image is rendered, so a body in front of an object hides it;
-* kinematic manipulation and hidden truth through :class:`~fg_tea.env.adapter.TruthBackedAdapter`
-  (docs/design.md §8.5); cameras for people: the egocentric view and a chase camera (defaults:
-  docs/design.md §8.6).
+* kinematic manipulation and hidden truth (:class:`~fg_tea.env.adapter.TruthBackedAdapter`,
+  §8.5); cameras for people: the egocentric view and a chase camera (defaults §8.6).
 
 Headless use renders exactly one egocentric image per inspection; with ``render_motion`` every
 frame of motion is mirrored into the scene and handed to a frame sink (or rendered). This is the
@@ -326,28 +325,31 @@ class PyBulletHouse(TruthBackedAdapter):
             self._place_drone(self._pose)
             company: dict[str, list[list[float | None]]] = {}
             for c, c2 in category_pairs(categories):
+                if f"{c}|{c2}" in company:
+                    continue  # rendered with its mirror: one image gives both objects' counts
                 first, second = self._probe(c), self._probe(c2, 1 if c == c2 else 0)
                 rows: list[list[float | None]] = [[None] * len(slots) for _ in slots]
+                mirror: list[list[float | None]] = [[None] * len(slots) for _ in slots]
                 for s, s2 in itertools.permutations(range(len(slots)), 2):
                     self._place_body(first[0], slots[s], 0.0)
                     self._place_body(second[0], slots[s2], 0.0)
-                    rows[s][s2] = float(self._count_pixels({"a": first, "b": second})["a"])
+                    counts = self._count_pixels({"a": first, "b": second})
+                    rows[s][s2], mirror[s2][s] = float(counts["a"]), float(counts["b"])
                 self._place_body(first[0], PARKED, 0.0)
                 self._place_body(second[0], PARKED, 0.0)
                 company[f"{c}|{c2}"] = rows
+                if c != c2:
+                    company[f"{c2}|{c}"] = mirror
             return {"facing": facing, "company": company}
         finally:
             self._pose = saved
             self._sync()
 
     def expected_pixel_counts(self, categories: Sequence[str]) -> dict[str, dict[str, dict[str, list[float]]]]:
-        """See :meth:`TruthBackedAdapter.expected_pixel_counts`; cached per house and camera.
-
-        The cache key is a hash of everything the numbers depend on (walls, furniture, sites and
-        their capacities, viewpoints, the number of objects, object models, camera parameters);
-        the cache lives in memory and in
-        ``$FG_TEA_CACHE_DIR`` (default ``~/.cache/fg_tea``), so a second run pays nothing.
-        """
+        """See :meth:`TruthBackedAdapter.expected_pixel_counts`; cached in memory and in
+        ``$FG_TEA_CACHE_DIR`` (default ``~/.cache/fg_tea``) under a hash of everything the numbers
+        depend on (walls, furniture, sites and capacities, viewpoints, the number of objects,
+        object models, camera parameters), so a second run pays nothing."""
         return self._cached("visibility", categories, lambda: super(PyBulletHouse, self).expected_pixel_counts(categories))
 
     def company_pixel_counts(self, categories: Sequence[str]) -> dict:

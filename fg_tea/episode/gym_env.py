@@ -275,6 +275,9 @@ class GymAdapter(EnvAdapter):
     def expected_pixel_counts(self, categories: Sequence[str]):
         return self.env.adapter.expected_pixel_counts(categories)
 
+    def company_pixel_counts(self, categories: Sequence[str]):
+        return self.env.adapter.company_pixel_counts(categories)
+
     def inspect_viewpoint(self, viewpoint: str, objects: Sequence[str]) -> InspectionResult:
         return self.env.step(self.env.look(viewpoint, objects))[4]["result"]
 

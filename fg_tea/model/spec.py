@@ -430,10 +430,11 @@ def parse_model(data: dict, file: str | Path = "<model>",
     facing_tolerance = perception.opt("facing_tolerance", bool, False)
     occlusion = perception.opt("occlusion", bool, False)
     for key, on in (("facing_tolerance", facing_tolerance), ("occlusion", occlusion)):
-        if on and detector != "visibility":
-            raise perception.fail("needs detector = \"visibility\" (it changes the expected "
-                                  "pixel counts of eq. 33, which the threshold detector's close "
-                                  "look does not use)", key)
+        if on and detector != "visibility":  # named on the detector: a file that extends a
+            # company model and switches the detector is the one at fault
+            raise perception.fail(f"\"{detector}\" cannot be combined with {key} = true, which "
+                                  "needs the visibility detector (docs/design.md §3.4); set "
+                                  f"{key} = false too", "detector")
     assumed_r = perception.child("visibility", required=False)
     detection_curve = (read_curve(assumed_r) if assumed_r is not None
                        else VisibilityCurve() if detector == "visibility" else None)

@@ -339,6 +339,10 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
         raise InputError("<command line>", "--out", f"cannot write into folder {folder}")
     base_path = Path(resolve_model(base))
     base_model = load_model(base)
+    if base_model.facing_tolerance or base_model.occlusion:
+        raise InputError("<command line>", "--base", f"{base_model.name!r} sets [perception] "
+                         "facing_tolerance or occlusion, which learned detection probabilities "
+                         "(eq. 51) cannot be combined with yet; learn from a base without them")
     try:
         same = out.exists() and out.resolve() == base_path.resolve()
     except OSError:
