@@ -368,8 +368,8 @@ def test_beside_plain_pairs_the_company_models_with_the_plain_ones(tmp_path, cap
                         "factorised_efe", "--env", "fake", "--workers", "1", "--timing-worlds", "0",
                         "--out", str(tmp_path / looks)], check=True, capture_output=True)
     mod = _script("occlusion_beside_plain")
-    args = ["--occlusion", str(tmp_path / "occlusion" / "houses" / "episodes.csv"),
-            "--plain", str(tmp_path / "glances" / "houses" / "episodes.csv"), "--out", str(tmp_path / "out")]
+    args = ["--plain", str(tmp_path / "glances" / "houses" / "episodes.csv"),
+            "--occlusion", str(tmp_path / "occlusion" / "houses" / "episodes.csv"), "--out", str(tmp_path / "out")]
     assert mod.main(args) == 0
     rows = list(csv.DictReader(open(tmp_path / "out" / "summary.csv")))
     assert len(rows) == 4 and {r["seed_set"] for r in rows} == {"discovery", "confirmation"}
