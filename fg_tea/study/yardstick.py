@@ -223,8 +223,10 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
         env.reset(0)
         agent = Agent(scenario, model, planner, task)
         if agent.views is None:
-            agent.set_view_geometry(env.expected_pixel_counts(
-                sorted({scenario.object(o).category for o in agent.belief.objects})))
+            cats = [scenario.object(o).category for o in agent.belief.objects]
+            agent.set_view_geometry(env.expected_pixel_counts(sorted(set(cats))),
+                                    env.company_pixel_counts(sorted(cats))
+                                    if model.facing_tolerance or model.occlusion else None)
         assert agent.views is not None
         start = {v: float(env.distance_to_site(v)) for v in agent.views.names}
         cache: dict[tuple[str, str], float] = {}
