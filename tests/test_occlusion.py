@@ -42,6 +42,15 @@ def _fake_tables(scenario, model):
     return env.expected_pixel_counts(sorted(set(cats))), env.company_pixel_counts(sorted(cats))
 
 
+def _hiding_tables(scenario, model, pair, share):
+    """The fake house's tables with `pair` ("hidden|hider") scaled by `share` everywhere."""
+    expected, company = _fake_tables(scenario, model)
+    for cell in (c for v in company["views"].values() for c in v.values()):
+        cell["company"][pair] = [[None if x is None else x * share for x in r]
+                                 for r in cell["company"][pair]]
+    return expected, company
+
+
 def test_the_curve_on_arrays_is_the_curve():
     curve = VisibilityCurve(half_pixels=50, slope=3.0, max_probability=0.95)
     n = np.array([0.0, 1.0, 20.0, 50.0, 400.0, 1e9])
@@ -159,10 +168,7 @@ def test_with_occlusion_the_update_differs_from_the_exact_coupled_one():
     mod = _script("occlusion_error")
     scenario = load_scenario("default_apartment")
     model = replace(load_model("factorised_occlusion"), positive_update="likelihood")
-    expected, company = _fake_tables(scenario, model)
-    for cell in (c for v in company["views"].values() for c in v.values()):
-        rows = cell["company"]["teabag|kettle"]
-        cell["company"]["teabag|kettle"] = [[None if x is None else x * 0.3 for x in r] for r in rows]
+    expected, company = _hiding_tables(scenario, model, "teabag|kettle", 0.3)
     views = ViewModel(scenario, model, scenario.object_names, expected, company)
     rows = mod.run_chain(scenario, model, views, np.random.default_rng(0), 20)
     assert max(r["kl"] for r in rows) > 1e-6
@@ -174,10 +180,7 @@ def test_the_belief_sets_who_hides_whom():
     and on a site the kettle has left it does not fall."""
     scenario = load_scenario("default_apartment")
     model = load_model("factorised_occlusion")
-    expected, company = _fake_tables(scenario, model)
-    for cell in (c for v in company["views"].values() for c in v.values()):
-        rows = cell["company"]["teabag|kettle"]
-        cell["company"]["teabag|kettle"] = [[None if x is None else 0.0 for x in r] for r in rows]
+    expected, company = _hiding_tables(scenario, model, "teabag|kettle", 0.0)
     agent = Agent(scenario, model)
     with pytest.raises(ValueError, match="company pixel counts"):
         agent.set_view_geometry(expected)
@@ -415,10 +418,7 @@ def test_an_object_the_agent_moved_hides_where_it_is_now():
     (the review found the old site kept hiding and the new one not)."""
     scenario = load_scenario("milk_sugar_apartment")
     model = load_model("joint_occlusion")
-    expected, company = _fake_tables(scenario, model)
-    for cell in (c for v in company["views"].values() for c in v.values()):
-        rows = cell["company"]["sugar|kettle"]
-        cell["company"]["sugar|kettle"] = [[None if x is None else 0.0 for x in r] for r in rows]
+    expected, company = _hiding_tables(scenario, model, "sugar|kettle", 0.0)
     agent = Agent(scenario, model)
     views = agent.set_view_geometry(expected, company)
     table_site = "dining_table"
