@@ -28,8 +28,8 @@ import numpy as np
 
 from fg_tea.agent.give_up import sweep_length, weigh
 from fg_tea.beliefs.detection import PixelTable, ViewModel
-from fg_tea.beliefs.occlusion import CompanyTable
 from fg_tea.beliefs.engine import BeliefEngine, LookUpdate
+from fg_tea.beliefs.occlusion import CompanyTable
 from fg_tea.model.spec import Model
 from fg_tea.planning import Decision, DistanceModel, distances_for, make_planner
 from fg_tea.planning.base import Planner
