@@ -97,3 +97,25 @@ def test_a_sweep_is_the_nearest_neighbour_walk():
 
     assert sweep_length(["3", "1", "2"], Line()) == 3.0
     assert sweep_length([], Line()) == 0.0
+
+
+def test_prior_fit_tells_a_world_drawn_from_the_prior_from_one_that_is_not(tmp_path):
+    """experiments/prior_fit.py: in `independent` (drawn from the agent's prior) the share of
+    objects on low-prior sites matches the prior's own mass there; in `contrary_household` it is
+    many times larger."""
+    import csv
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("prior_fit", root / "experiments" / "prior_fit.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main(["--world", "independent", "--world", "contrary_household", "--worlds", "300",
+                     "--model", "factorised_close", "--out", str(tmp_path)]) == 0
+    rows = {(r["world"], float(r["tail"])): r for r in csv.DictReader(open(tmp_path / "summary.csv"))}
+    for t in (0.03, 0.1):
+        r = rows[("independent", t)]
+        assert float(r["low"]) <= float(r["expected"]) <= float(r["high"])
+    r = rows[("contrary_household", 0.03)]
+    assert float(r["low"]) > 5 * float(r["expected"])
