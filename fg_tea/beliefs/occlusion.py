@@ -74,12 +74,10 @@ def _orders(companions: int, slots: int) -> np.ndarray:
     return np.array(rows, dtype=np.int64).reshape(len(rows), companions + 1)
 
 
-def slot_probability(curve: VisibilityCurve, category: str, facing: np.ndarray,
-                     slots: Sequence[int] | None = None) -> float:
-    """Mean of the curve over heading offsets and over `slots` (default all) of one site's facing
-    counts (shape (slots, headings)): eq. (33) with the turn tolerance averaged in."""
-    rows = facing if slots is None else facing[list(slots)]
-    return float(curve_values(curve, category, rows).mean())
+def slot_probability(curve: VisibilityCurve, category: str, facing: np.ndarray) -> float:
+    """Mean of the curve over heading offsets and slots of one site's facing counts (shape
+    (slots, headings)): eq. (33) with the turn tolerance averaged in."""
+    return float(curve_values(curve, category, facing).mean())
 
 
 def company_probability(curve: VisibilityCurve, category: str, facing: np.ndarray,
