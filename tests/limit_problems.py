@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fg_tea.planning.lookahead import SearchProblem
+from fg_tea.planning.problem import SearchProblem
 
 
 def make_problem(prob, factors, start, between, look) -> SearchProblem:

@@ -408,3 +408,50 @@ def test_a_tie_goes_to_the_first_candidate_with_or_without_pruning():
     assert got[0].object == got[1].object and got[0].total == got[1].total
     twin = [c for c in got[0].candidates if c.viewpoint == first + "_twin" and c.object == got[0].object]
     assert not twin[0].gain_bound and twin[0].total == got[0].total     # a tie, kept and exact
+
+
+def _by_view(decision):
+    """Each viewpoint's score (its best object's total), in the lookahead's order."""
+    best: dict[str, float] = {}
+    for c in decision.candidates:
+        best[c.viewpoint] = min(best.get(c.viewpoint, np.inf), c.total)
+    return sorted(best.items(), key=lambda item: item[1])
+
+
+@pytest.mark.parametrize("n,k,seed,relations", [(4, 16, 0, "all pairs"), (5, 12, 3, "all pairs"),
+                                                (4, 16, 5, "bundled"), (6, 8, 7, "bundled")])
+@pytest.mark.parametrize("rank", [2, 3, 5])
+def test_ranked_pruning_keeps_the_best_viewpoints_exact_and_in_order(n, k, seed, relations, rank):
+    """With ``rank``, every viewpoint that could make the `rank` best keeps exact gains: the
+    `rank` best viewpoints, their scores and their order equal the unpruned ones (the lookahead's
+    root candidates); a bounded score is at most the exact one, and above the rank-th best or
+    its viewpoint's own score."""
+    if relations == "bundled":
+        graph, model = _bundled_joint_graph(n, k, seed)
+    else:
+        graph, model = joint_graph(n, k, rooms_of=4, seed=seed)
+    belief = BeliefEngine(graph, model)
+    rng = np.random.default_rng(seed)
+    names = list(belief.objects)
+    bounded_any = 0
+    for step in range(3):
+        belief.observe_site(belief.sites[int(rng.integers(k))], {o: False for o in names[:1 + step % n]})
+        views = _views_of(belief, rng, twin=False)
+        dist = _distances(views.names, rng, None)
+        relevance = {o: float(rng.choice([1.0, 0.75, 0.5])) for o in names}
+        ranked = EFEPlanner(model.planning, information="joint", rank=rank).choose(
+            belief, names, relevance, dist, {}, views=views)
+        full = EFEPlanner(model.planning, information="joint", prune=False).choose(
+            belief, names, relevance, dist, {}, views=views)
+        top, exact = _by_view(ranked)[:rank], _by_view(full)[:rank]
+        assert [v for v, _ in top] == [v for v, _ in exact]
+        np.testing.assert_allclose([s for _, s in top], [s for _, s in exact], atol=1e-12)
+        view_score = dict(_by_view(full))
+        for p, f in zip(ranked.candidates, full.candidates):
+            if p.gain_bound:  # a viewpoint out of the running, or an object that is not its best
+                bounded_any += 1
+                assert p.total <= f.total + 1e-12
+                assert p.total > min(exact[-1][1], view_score[p.viewpoint])
+    assert bounded_any > 0
+    with pytest.raises(ValueError, match="rank must be at least 1"):
+        EFEPlanner(model.planning, rank=0)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fg_tea.planning import limit
-from fg_tea.planning.lookahead import SearchProblem
+from fg_tea.planning.problem import SearchProblem
 from fg_tea.planning.optimal import expected_travel_table
 from limit_problems import make_problem as _problem, random_problem as _random_problem
 

@@ -3,6 +3,8 @@ re-look under the miss model, conditions exactly like the belief engine, and bea
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -12,7 +14,7 @@ from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.model.spec import load_model
 from fg_tea.planning import (DistanceTable, LookaheadPlanner, LookaheadSettings,
     check_planner_name, make_planner, planner_names)
-from fg_tea.planning.lookahead import build_problem, rollout_values
+from fg_tea.planning.problem import build_problem, rollout_values
 from fg_tea.world.scenario import load_scenario
 from fg_tea.episode.log import encode
 from fg_tea.study.sweep import world_path
@@ -200,25 +202,92 @@ def test_specs_and_registry():
 # ------------------------------------------------------------------ size: per-object form, refusals
 def test_factorised_belief_is_held_per_object_beyond_the_truth_limit(monkeypatch):
     """A factorised belief is planned on its per-object marginals, so the truth limit (which
-    bounds only a correlated belief's joint) does not apply; the choice does not change."""
-    from fg_tea.planning import lookahead
+    bounds only a correlated belief's dense joint) does not apply; the choice does not change."""
+    from fg_tea.planning import lookahead, problem
 
     scenario = _world("correlated").sample(5)
     model = load_model("factorised_close")
     before, _ = _decisions(scenario, model, "lookahead", 5)
-    monkeypatch.setattr(lookahead, "MAX_TRUTHS", 10)  # 8 sites ^ 3 objects = 512 truths > 10
+    monkeypatch.setattr(problem, "MAX_TRUTHS", 10)  # 8 sites ^ 3 objects = 512 truths > 10
     after, runner = _decisions(scenario, model, "lookahead", 5)
     assert after == before and runner.metrics()["success"]
+
+
+@pytest.mark.parametrize("model_name", ["joint_close", "joint"])
+def test_joint_belief_beyond_the_dense_limit_is_planned_on_its_subset_program(monkeypatch, model_name):
+    """Beyond the dense limit a correlated belief is held as the engine's subset program times
+    one weight vector per object: whole episodes (close looks; glances) make the dense joint's
+    choices. Without a subset program it is refused in one line."""
+    from fg_tea.planning import lookahead, problem
+
+    scenario = _world("correlated").sample(5)
+    model = load_model(model_name)
+    before, _ = _decisions(scenario, model, "lookahead", 5)
+    forms = []
+    build = lookahead.build_problem
+
+    def recording(*args, **kwargs):
+        problem = build(*args, **kwargs)
+        forms.append(problem.structured is not None)
+        return problem
+
+    monkeypatch.setattr(lookahead, "build_problem", recording)
+    monkeypatch.setattr(problem, "MAX_TRUTHS", 10)  # 8 sites ^ 3 objects = 512 truths > 10
+    after, runner = _decisions(scenario, model, "lookahead", 5)
+    assert after == before and runner.metrics()["success"] and forms and all(forms)
+    monkeypatch.setattr(BeliefEngine, "structured_model", lambda self: None)
     with pytest.raises(ValueError, match="^lookahead planner: 3 objects over 8 sites give 512 joint"):
-        _decisions(scenario, load_model("joint_close"), "lookahead", 5)
+        _decisions(scenario, model, "lookahead", 5)
+
+
+def test_structured_and_dense_forms_agree_on_a_correlated_belief():
+    """The same correlated belief held as a dense joint and as its subset program gives the same
+    children (probabilities and marginals, two looks deep, close looks and glances, a site
+    excluded) and the same rollout values, to 1e-12."""
+    from dataclasses import replace as dc_replace
+
+    from fg_tea.planning.lookahead import _Node
+    from fg_tea.planning.problem import StructuredTruths, marginals
+
+    scenario = _world("generated_small").sample(4)
+    for model_name in ("joint_close", "joint"):
+        model = load_model(model_name)
+        belief = BeliefEngine(scenario, model)
+        belief.observe_site(scenario.site_names[0], {o: False for o in belief.objects})
+        objects = ["teabag", "mug", "kettle"]
+        views = _views(scenario, model)
+        dense = build_problem(belief, objects, _viewpoint_distances(scenario),
+                              frozenset(scenario.site_names[1:2]), views, 0.144)
+        assert ("room" in dense.kinds) == (model_name == "joint")
+        rows = np.array([belief.objects.index(o) for o in objects])
+        held = dc_replace(dense, joint=None,
+                          structured=StructuredTruths(belief.structured_model(), rows, dense.allowed))
+        planner = LookaheadPlanner(model.planning)
+        n, a_count = len(objects), len(dense.names)
+        worst = 0.0
+        for a in range(a_count):
+            kids = [planner._outcomes(pr, _Node(-1, pr.root(), np.ones(n, bool), 2, np.zeros(a_count)), a)
+                    for pr in (dense, held)]
+            assert len(kids[0]) == len(kids[1]) >= 2
+            for (p0, c0), (p1, c1) in zip(*kids):
+                worst = max(worst, abs(p0 - p1), np.abs(marginals(dense, c0.b) - c1.q).max())
+                deeper = [planner._outcomes(pr, c, (a + 1) % a_count) for pr, c in ((dense, c0), (held, c1))]
+                for (pp0, cc0), (pp1, cc1) in zip(*deeper):
+                    worst = max(worst, abs(pp0 - pp1), np.abs(marginals(dense, cc0.b) - cc1.q).max())
+        assert worst < 1e-12
+        unfound = np.array([[True] * n, [False] + [True] * (n - 1)])
+        values = [rollout_values(pr, np.array([-1, 2]), np.stack([pr.root()] * 2), unfound)[0]
+                  for pr in (dense, held)]
+        np.testing.assert_allclose(values[0], values[1], rtol=1e-12)
 
 
 def test_refusal_is_a_row_in_a_sweep_and_one_line_in_run(monkeypatch, capsys, tmp_path):
     from fg_tea import cli
-    from fg_tea.planning import lookahead
+    from fg_tea.planning import lookahead, problem
     from fg_tea.study.sweep import Job, run_job
 
-    monkeypatch.setattr(lookahead, "MAX_TRUTHS", 100)
+    monkeypatch.setattr(problem, "MAX_TRUTHS", 100)
+    monkeypatch.setattr(BeliefEngine, "structured_model", lambda self: None)
     row = run_job(Job("correlated", 0, model="joint_close", planner="lookahead", env="fake"))
     assert row["reason"].startswith("refused: belief: lookahead planner: 3 objects over 8 sites give 512 joint")
     assert row["success"] is False
@@ -235,7 +304,8 @@ def test_refusal_is_a_row_in_a_sweep_and_one_line_in_run(monkeypatch, capsys, tm
 def test_product_and_joint_forms_agree_on_an_independent_belief():
     """The same product belief held as factors and as a dense joint gives the same children
     (probabilities and marginals) and the same rollout values."""
-    from fg_tea.planning.lookahead import _Node, _outer, marginals
+    from fg_tea.planning.lookahead import _Node
+    from fg_tea.planning.problem import _outer, marginals
     from dataclasses import replace as dc_replace
 
     scenario = _world("correlated").sample(2)
@@ -261,6 +331,23 @@ def test_product_and_joint_forms_agree_on_an_independent_belief():
     np.testing.assert_allclose(values[0], values[1], rtol=1e-12)
 
 
+def _views(scenario, model):
+    """The viewpoints' detection model of an episode in the fake house (None: close looks only)."""
+    env = FakeHouse(scenario, env_config_for(model))
+    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=0))
+    runner.start()
+    env.close()
+    return runner.views
+
+
+def _viewpoint_distances(scenario):
+    """Straight-line distances between every viewpoint (sites and room vantages), the agent at
+    the first site's vantage point."""
+    from fg_tea.planning import euclidean_distances
+
+    return euclidean_distances(scenario, scenario.sites[0].vantage[:2])
+
+
 def _at_near_of(scenario):
     names = [s.name for s in scenario.sites]
     pts = np.array([s.vantage for s in scenario.sites])
@@ -273,7 +360,7 @@ def test_a_look_that_cannot_find_anything_is_not_a_candidate():
     nothing; kept as a candidate, a depth-limited tree can still prefer it for ever (this
     27-site joint episode re-looked one site 105 times and ran out of looks). Now the episode
     ends, and no chosen look is expected to find less than NULL_LOOK."""
-    from fg_tea.planning import lookahead
+    from fg_tea.planning import lookahead, problem
 
     scenario = _world("generated_medium").sample(9)
     model = load_model("joint_close")
@@ -281,3 +368,59 @@ def test_a_look_that_cannot_find_anything_is_not_a_candidate():
     assert runner.metrics()["success"]
     assert max(runner.agent.inspected.values()) < 10
     assert lookahead.NULL_LOOK > 0
+
+
+def test_grouping_glance_outcomes_by_who_is_seen_loses_nothing_for_a_factorised_belief():
+    """Outcomes are grouped by which objects a look shows, not where (docs/design.md §6.6). For a
+    factorised belief a found object leaves the search, so the grouped tree's values equal those
+    of a tree that branches on every in-view site each object could be seen at (brute force,
+    every viewpoint at every node, two looks deep)."""
+    from fg_tea.planning.lookahead import _Node
+
+    scenario = _world("generated_small").sample(2)
+    model = load_model("factorised")
+    belief = BeliefEngine(scenario, model)
+    objects = ["mug", "kettle", "teabag"]
+    problem = build_problem(belief, objects, _viewpoint_distances(scenario), frozenset(),
+                            _views(scenario, model), 0.144)
+    planner = LookaheadPlanner(model.planning)
+    a_count = len(problem.names)
+    assert any(kind == "room" for kind in problem.kinds)
+
+    def cost(pos, a):
+        return (problem.start[a] if pos < 0 else problem.between[pos, a]) + problem.look[a]
+
+    def by_site(q, unfound, pos, depth):
+        """Brute force: each unfound object unseen, or seen at one in-view site."""
+        if not unfound or depth == 0:
+            return 0.0
+        best = np.inf
+        for a in range(a_count):
+            p = problem.prob[a]
+            branches = []
+            for u in unfound:
+                options = [(float(q[u] @ (1 - p[u])), True)]
+                options += [(float(q[u][k] * p[u][k]), False) for k in np.flatnonzero(p[u] > 0)]
+                branches.append(options)
+            total = 0.0
+            for combo in itertools.product(*branches):
+                mass = float(np.prod([m for m, _ in combo]))
+                if mass < 1e-12:
+                    continue
+                left = [u for u, (_, unseen) in zip(unfound, combo) if unseen]
+                post = q.copy()
+                for u in left:
+                    post[u] = q[u] * (1 - p[u]) / (q[u] @ (1 - p[u]))
+                total += mass * by_site(post, left, a, depth - 1)
+            best = min(best, cost(pos, a) + total)
+        return best
+
+    def grouped(node, depth):
+        if not node.unfound.any() or depth == 0:
+            return 0.0
+        return min(cost(node.pos, a) + sum(p * grouped(kid, depth - 1)
+                                           for p, kid in planner._outcomes(problem, node, a))
+                   for a in range(a_count))
+
+    root = _Node(-1, problem.root(), np.ones(3, bool), 2, np.zeros(a_count))
+    assert grouped(root, 2) == pytest.approx(by_site(problem.root(), [0, 1, 2], -1, 2), rel=1e-9)

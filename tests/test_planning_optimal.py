@@ -263,6 +263,8 @@ def test_every_built_in_refusal_is_a_planner_refused_with_its_kind():
     joint = BeliefEngine(big, load_model("joint"))
     planner = make_planner("lookahead", load_model("joint"))
     assert isinstance(planner, LookaheadPlanner) and joint.correlated
+    assert planner.check(joint, ["mug", "kettle", "teabag"]) is None  # held as its subset program
+    joint.structured_model = lambda: None   # relations that are not site- or room-local
     with pytest.raises(PlannerRefused) as refused:
         planner.check(joint, ["mug", "kettle", "teabag"])
     assert refused.value.kind == "belief" and refused.value.planner == "lookahead"

@@ -56,12 +56,12 @@ def test_refusal_names_the_peer(planner, monkeypatch, capsys, tmp_path):
     refuses (for a factorised belief too: the peers hold the table of truths), as a row in a
     sweep and one line with exit status 2 in `fg-tea run`."""
     from fg_tea import cli
-    from fg_tea.planning import lookahead, peers
+    from fg_tea.planning import peers, problem
     from fg_tea.study.sweep import run_job
 
     kind = planner.split(":")[0]
     monkeypatch.setattr(peers, "MAX_TRUTHS", 100)
-    monkeypatch.setattr(lookahead, "MAX_TRUTHS", 100)
+    monkeypatch.setattr(problem, "MAX_TRUTHS", 100)
     for model in ("joint_close", "factorised_close"):
         with pytest.raises(ValueError, match=f"^{kind} planner: 3 objects over 8 sites give 512 truths"):
             _run(planner, model)

@@ -23,7 +23,7 @@ from typing import Sequence
 import numpy as np
 
 from fg_tea.planning.base import DistanceModel
-from fg_tea.planning.lookahead import LOOK_COST
+from fg_tea.planning.problem import LOOK_COST
 
 
 def sweep_length(names: Sequence[str], distances: DistanceModel) -> float:

@@ -26,7 +26,9 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
 
 from fg_tea.agent.agent import Agent
 from fg_tea.beliefs.detection import ViewModel
@@ -95,13 +97,15 @@ class _EnvDistances:
     Distances between viewpoints do not change during an episode (the floor plan is fixed), so
     `between`, when given, is the episode's cache of them: a planner that asks for the whole
     matrix at every decision (the lookahead: 27 sites and 9 room viewpoints, 1,296 lookups)
-    computes it once.
+    computes it once, and keeps each whole matrix asked for (`matrices`, by viewpoint names).
     """
 
-    def __init__(self, env: EnvAdapter, between: dict[tuple[str, str], float] | None = None) -> None:
+    def __init__(self, env: EnvAdapter, between: dict[tuple[str, str], float] | None = None,
+                 matrices: dict[tuple[str, ...], np.ndarray] | None = None) -> None:
         self._env = env
         self._from: dict[str, float] = {}
         self._between = {} if between is None else between
+        self._matrices = {} if matrices is None else matrices
 
     def from_agent(self, site: str) -> float:
         if site not in self._from:
@@ -113,6 +117,16 @@ class _EnvDistances:
         if key not in self._between:
             self._between[key] = float(self._env.distance_between_sites(a, b))
         return self._between[key]
+
+    def matrix_for(self, sites: Sequence[str]) -> np.ndarray:
+        """Metres between every two of `sites`, shape (K, K), zero diagonal (read-only, cached)."""
+        key = tuple(sites)
+        found = self._matrices.get(key)
+        if found is None:
+            found = np.array([[self.between(a, b) if a != b else 0.0 for b in key] for a in key])
+            found.setflags(write=False)
+            self._matrices[key] = found
+        return found
 
 
 @dataclass
@@ -162,6 +176,7 @@ class EpisodeRunner:
         self.config = config
         self.log = log if log is not None else EventLog()
         self._between: dict[tuple[str, str], float] = {}  # viewpoint distances (_EnvDistances)
+        self._matrices: dict[tuple[str, ...], np.ndarray] = {}
         self.agent = Agent(self.scenario, self.model, config.planner, config.task,
                            seed=config.seed, preparation_site=config.preparation_site,
                            solver=config.belief_backend, max_reopenings=config.max_reopenings)
@@ -381,11 +396,11 @@ class EpisodeRunner:
         excluded = frozenset(self.executor.excluded_sites)
         inspected = dict(agent.inspected)
         pose = self.env.agent_pose()
-        if agent.weigh_search((pose.x, pose.y), _EnvDistances(self.env, self._between)) is not None:
+        if agent.weigh_search((pose.x, pose.y), _EnvDistances(self.env, self._between, self._matrices)) is not None:
             self._flush_executor()  # the give_up; the next step ends the episode not_found
             return
         try:
-            decision = agent.decide(action, (pose.x, pose.y), _EnvDistances(self.env, self._between))
+            decision = agent.decide(action, (pose.x, pose.y), _EnvDistances(self.env, self._between, self._matrices))
         except (Exception, SystemExit) as exc:  # a planner of the user's own, often: end, saying why
             first = (str(exc).splitlines() or [""])[0]
             what = f"failed: {type(exc).__name__}" + (f": {first}" if first else "")

@@ -82,6 +82,13 @@ class DistanceTable:
     def between(self, a: str, b: str) -> float:
         return self.matrix[self._i(a)][self._i(b)]
 
+    def matrix_for(self, sites: Sequence[str]) -> np.ndarray:
+        """Metres between every two of `sites`, shape (K, K), zero diagonal."""
+        idx = [self._i(s) for s in sites]
+        out = np.asarray(self.matrix, dtype=float)[np.ix_(idx, idx)]
+        np.fill_diagonal(out, 0.0)
+        return out
+
     def moved_to(self, site: str) -> "DistanceTable":
         """The same house with the agent standing at `site`'s vantage point."""
         return DistanceTable(self.sites, self.matrix[self._i(site)], self.matrix, self.kind)
@@ -112,8 +119,16 @@ def distance_vector(distances: DistanceModel, sites: Sequence[str]) -> np.ndarra
 
 
 def distance_matrix(distances: DistanceModel, sites: Sequence[str]) -> np.ndarray:
-    """Vantage-to-vantage distances, shape (K, K), metres."""
-    return np.array([[float(distances.between(a, b)) for b in sites] for a in sites])
+    """Vantage-to-vantage distances, shape (K, K), metres, zero diagonal.
+
+    A distance model may offer the whole matrix at once, ``matrix_for(sites)`` (the episode's
+    holds it for the episode, since the floor plan does not change); otherwise it is asked pair
+    by pair. Do not write into the result: it may be the model's own cached copy.
+    """
+    whole = getattr(distances, "matrix_for", None)
+    if whole is not None:
+        return np.asarray(whole(sites), dtype=float)
+    return np.array([[float(distances.between(a, b)) if a != b else 0.0 for b in sites] for a in sites])
 
 
 # ---------------------------------------------------------------------------------- decisions

@@ -292,18 +292,25 @@ class EFEPlanner(PlannerBase):
             candidate that provably cannot be chosen (docs/design.md §6.2, eq. 56); the choice
             is the same, and those candidates log the gain's upper bound, flagged. False
             computes every gain exactly (for callers that rank all candidates).
+        rank: with `prune`, keep exact every candidate that could make one of the `rank`
+            viewpoints of best score (a viewpoint's score: its best object's), not only the
+            argmin, so that those viewpoints and their order are exact (the lookahead's root
+            candidates); 1 is the argmin alone.
     """
 
     name = "efe"
 
     def __init__(self, weights: PlanningWeights, information: str = "auto",
-                 prune: bool = True) -> None:
+                 prune: bool = True, rank: int = 1) -> None:
         if information not in INFORMATION_MODES:
             raise ValueError(f"unknown information mode {information!r}; use one of "
                              f"{', '.join(INFORMATION_MODES)}")
         self.weights = weights
         self.information = information
         self.prune = prune
+        if rank < 1:
+            raise ValueError(f"rank must be at least 1, got {rank}")
+        self.rank = rank
 
     def information_gain(self, belief, objects: Sequence[str]) -> tuple[np.ndarray, str]:
         """I(o, j) for the objects (caller's order) and every site, shape (|objects|, K), nats.
@@ -431,8 +438,17 @@ class EFEPlanner(PlannerBase):
                 # gain's upper bound is above the best score with a gain's lower bound cannot be
                 # the argmin, nor tie with it; its exact gain is not computed.
                 lower, upper = solver.gain_bounds(look)
-                least = scores(upper)[1]
-                need = least <= scores(lower)[1].min() + PRUNE_SLACK
+                least, most = scores(upper)[1], scores(lower)[1]
+                if self.rank == 1:
+                    need = least <= most.min() + PRUNE_SLACK
+                else:
+                    # A viewpoint makes the `rank` best only if its least possible score is at
+                    # most the rank-th smallest of the viewpoints' largest possible scores; of
+                    # its objects, only those that could be its best need the exact gain.
+                    view_most = most.min(axis=0)
+                    kth = np.sort(view_most)[min(self.rank, m) - 1]
+                    need = ((least.min(axis=0) <= kth + PRUNE_SLACK)[None, :]
+                            & (least <= view_most[None, :] + PRUNE_SLACK))
                 gain = solver.gains(look, need)
                 bound = np.isnan(gain)
                 gain = np.where(bound, upper, gain)

@@ -28,7 +28,7 @@ from fg_tea.common.errors import PlannerRefused
 from fg_tea.planning.base import (Candidate, Decision, DistanceModel, PlannerBase, check_inputs,
                                   parse_settings)
 from fg_tea.planning.limit import Tables, _entries, _useful, solve_tables
-from fg_tea.planning.lookahead import LOOK_COST, build_problem
+from fg_tea.planning.problem import LOOK_COST, build_problem
 
 #: Table entries one solve may hold (about 8 bytes each); the cap is lowered until it fits.
 MAX_ENTRIES = 8_000_000

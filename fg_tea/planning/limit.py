@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fg_tea.planning.lookahead import SearchProblem
+from fg_tea.planning.problem import SearchProblem
 
 #: Table entries (count vectors x viewpoints x found sets) the solver may hold, about 8 bytes each.
 MAX_ENTRIES = 40_000_000

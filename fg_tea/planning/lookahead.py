@@ -6,18 +6,23 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
 - **Belief.** The hidden truth is the sites L_U = (L_u)_{u in U} of the required objects U =
   `objects`, distributed as the current belief P(L_U) over the open sites (truths that put an
   object on an excluded site are conditioned away, as in the Bayes-optimal planner, unless that
-  leaves nothing). It is held exactly in one of two forms. A correlated belief: the dense joint
-  of U (from ``belief.location_joint()``), a table of K'^|U| truths, at most
-  :data:`MAX_TRUTHS`; a larger one is refused before the episode starts (:func:`size_fault`).
-  A factorised belief: the |U| per-object marginals, whose product *is* the joint, so every
-  operation below is a product or sum of per-object terms, O(|U| K') however many truths the
-  product has, with no limit. Every hypothetical outcome is conditioned exactly (Bayes' rule,
-  eq. 37 for one object), so a chain of hypothetical looks needs no inference call.
+  leaves nothing), held exactly as a :class:`~fg_tea.planning.problem.SearchProblem`: a
+  correlated belief as its dense joint over U (up to
+  :data:`~fg_tea.planning.problem.MAX_TRUTHS` truths) or beyond that as the engine's subset
+  program times one weight vector per object (docs/design.md §4.4; a correlated belief without
+  one is refused before the episode starts); a factorised belief as its |U| per-object
+  marginals, whose product *is* the joint, with no limit. Every hypothetical outcome is
+  conditioned exactly (Bayes' rule, eq. 37 for one object), so a chain of hypothetical looks
+  needs no inference call.
 - **Looks and outcomes.** A look from viewpoint v shows each unfound object u standing at an
   in-view site a with probability p_{u,a}(v) (1 - mu for a threshold close look; the visibility
   curve otherwise), independently given the truth; false positives are not branched on (their
-  rate, 1e-4 by default, is below the outcome pruning). An outcome is the set of objects seen
-  and where; an object seen is found.
+  rate, 1e-4 by default, is below the outcome pruning). An outcome is the set of objects seen;
+  an object seen is found. A room glance's outcomes are grouped by who is seen, not where:
+  for a factorised belief a found object's site changes nothing left to find, so no value
+  changes (a test checks it against branching on every site); for a joint belief the tree plans
+  as if a glance told which objects it showed, not at which of its sites (the belief the agent
+  acts on still learns the site).
 - **Cost.** c(v) = travel from the current viewpoint to v (metres, the caller's distances) +
   ``look`` metres per image the look takes (one for a close look, one per in-view site for a room
   glance). ``look`` defaults to 0.144 m, the distance the agent would move in the 8 frames it holds
@@ -31,7 +36,8 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
   at the leaves, V is the expected cost of a rollout of the base policy (below), or 0 without one.
 - **Pruning.** At every node only the `width` viewpoints with the best one-step EFE score
   (eq. 39 without the repeat term, since re-looks are priced by the miss model) are expanded.
-  At the root the score is the EFE planner's own (exact joint information for joint beliefs); in
+  At the root the score is the EFE planner's own (exact joint information for joint beliefs;
+  candidates that provably cannot make the `width` best keep a bound, docs/design.md §6.2); in
   the tree it is eqs. 39-41 on the tree's marginals.
   A look expected to find fewer than :data:`NULL_LOOK` objects cannot change the belief and is
   dropped from the candidates (unless nothing else is left; see ``LookaheadPlanner._useful``).
@@ -77,14 +83,18 @@ from fg_tea.planning.base import (
     parse_settings,
 )
 from fg_tea.planning.efe import EFEPlanner, entropies
+from fg_tea.planning.problem import (
+    LOOK_COST,
+    SearchProblem,
+    _mppm_choice,
+    build_problem,
+    marginals,
+    rollout_values,
+    size_fault,
+)
 
-#: Metres-equivalent of one image: 8 frames held still x 0.018 m per frame (EnvConfig defaults).
-LOOK_COST = 8 * 0.018
 ROLLOUTS = ("mppm", "none")
-MAX_TRUTHS = 50_000          # largest truth table the planner holds (K^|U|)
 OUTCOME_FLOOR = 1e-9         # outcomes less probable than this are not expanded
-EXPECTATION_CHUNK = 8        # nodes per batch of the rollout's joint contraction
-STOP_PROBABILITY = 1e-3      # a rollout ends once the search is over with at least 1 - this
 NULL_LOOK = 1e-9             # a look expected to find less than this cannot change the belief
 
 
@@ -135,398 +145,11 @@ class LookaheadSettings:
                 f"nodes={self.nodes},look={self.look:g}" + (",relook=1" if self.relook else ""))
 
 
-# ---------------------------------------------------------------------------- the search problem
-@dataclass
-class SearchProblem:
-    """The search problem one decision solves, derived from the belief, distances and views.
-
-    The belief over the truths L_U is held in one of two exact forms: ``joint``, the dense table
-    of shape (K',) * |U| (correlated beliefs), or ``factors``, the per-object marginals of shape
-    (|U|, K') whose outer product is the table (factorised beliefs; O(|U| K') however many
-    truths). K' = ``len(allowed)``, the open sites.
-
-    Attributes:
-        objects: the required objects U (caller's order).
-        names: viewpoint names (actions), kinds and ``probability[a]`` of shape (|U|, K): the
-            chance look a shows u if u stands at site k (0 out of view).
-        start: shape (A,), metres from the agent to each viewpoint.
-        between: shape (A, A), metres between viewpoints.
-        look: shape (A,), metres-equivalent look cost of each viewpoint.
-        p_max: the detector's best detection probability (for eq. 40's normalisation).
-        n_sites: K, the belief's sites.
-        allowed: shape (K',), the open sites (indices into the belief's sites) the truths range over.
-        joint: the dense P(L_U) over ``allowed`` (correlated beliefs), or None.
-        factors: shape (|U|, K'), P(L_u) over ``allowed`` when P(L_U) is their product, or None.
-    """
-
-    objects: tuple[str, ...]
-    names: tuple[str, ...]
-    kinds: tuple[str, ...]
-    probability: np.ndarray
-    start: np.ndarray
-    between: np.ndarray
-    look: np.ndarray
-    p_max: float
-    n_sites: int
-    allowed: np.ndarray
-    joint: np.ndarray | None = None
-    factors: np.ndarray | None = None
-
-    @property
-    def independent(self) -> bool:
-        """True when the truths' distribution is held as a product over objects."""
-        return self.joint is None
-
-    @property
-    def prob(self) -> np.ndarray:
-        """``probability`` restricted to the open sites, shape (A, |U|, K') (cached)."""
-        cached = self.__dict__.get("_prob")
-        if cached is None:
-            cached = np.ascontiguousarray(self.probability[:, :, self.allowed])
-            self.__dict__["_prob"] = cached
-        return cached
-
-    def _held(self) -> np.ndarray:
-        """``joint`` if the problem holds one, else ``factors`` (one of the two is always set)."""
-        held = self.factors if self.joint is None else self.joint
-        assert held is not None, "a search problem holds a joint or factors"
-        return held
-
-    def root(self) -> np.ndarray:
-        """The root belief in the problem's form: a copy of ``joint`` or of ``factors``."""
-        return self._held().copy()
-
-    def truth_count(self) -> int:
-        """Truths of nonzero probability (a product of per-object counts for factors)."""
-        if self.joint is not None:
-            return int(np.count_nonzero(self.joint))
-        return math.prod(int(np.count_nonzero(f)) for f in self._held())
-
-    def _table(self) -> tuple[np.ndarray, np.ndarray]:
-        cached = self.__dict__.get("_truths")
-        if cached is None:
-            n, k = len(self.objects), len(self.allowed)
-            if k ** n > MAX_TRUTHS:
-                raise ValueError(f"search problem: {n} objects over {k} sites give {k ** n:,} "
-                                 f"truths, more than {MAX_TRUTHS:,}")
-            table = self.joint if self.joint is not None else _outer(self._held())
-            loc = self.allowed[np.array(list(itertools.product(range(k), repeat=n)),
-                                        dtype=np.int64).reshape(-1, n)]
-            p = table.reshape(-1)
-            keep = p > 0
-            cached = (loc[keep], p[keep])
-            self.__dict__["_truths"] = cached
-        return cached
-
-    @property
-    def loc(self) -> np.ndarray:
-        """Shape (T, |U|): each truth of nonzero probability's site per object (belief indices).
-
-        Raises:
-            ValueError: the table would exceed :data:`MAX_TRUTHS` entries.
-        """
-        return self._table()[0]
-
-    @property
-    def p(self) -> np.ndarray:
-        """Shape (T,): the probabilities of the truths of :attr:`loc` (sum 1)."""
-        return self._table()[1]
-
-    def onehot(self, u: int) -> np.ndarray:
-        """E[t, k] = [L_u(t) = k], shape (T, K) (cached)."""
-        cache = self.__dict__.setdefault("_onehot", {})
-        if u not in cache:
-            e = np.zeros((len(self.p), self.n_sites))
-            e[np.arange(len(self.p)), self.loc[:, u]] = 1.0
-            cache[u] = e
-        return cache[u]
-
-    @property
-    def seen(self) -> np.ndarray:
-        """G[a, t, u] = P(look a shows u | truth t), shape (A, T, |U|)."""
-        cached = self.__dict__.get("_seen")
-        if cached is None:
-            u = np.arange(len(self.objects))
-            cached = self.probability[:, u[None, :], self.loc]  # (A, T, n)
-            self.__dict__["_seen"] = cached
-        return cached
-
-
-def _outer(factors: np.ndarray) -> np.ndarray:
-    """The product table of shape (K,) * n of per-object vectors ``factors`` (n, K)."""
-    table = factors[0]
-    for row in factors[1:]:
-        table = np.multiply.outer(table, row)
-    return table
-
-
-def marginals(problem: SearchProblem, belief: np.ndarray) -> np.ndarray:
-    """Per-object marginals, shape (|U|, K'), of one belief in the problem's form."""
-    if problem.joint is None:
-        return belief
-    n = belief.ndim
-    axes = tuple(range(n))
-    return np.stack([belief.sum(axis=axes[:u] + axes[u + 1:]) for u in range(n)])
-
-
-def _expectation_steps(joint: np.ndarray, factors: np.ndarray) -> np.ndarray:
-    """E_t[prod_u f_{s,u}(L_u(t))] for a batch of joints and S factor sets each.
-
-    Args:
-        joint: shape (L,) + (K',) * n, one joint per node.
-        factors: shape (L, S, n, K'), per node and step one vector per object.
-
-    Returns:
-        shape (L, S): the joint contracted with each step's vectors, last object first; the
-        first product serves every step at once (the joint is not copied per step); nodes go
-        :data:`EXPECTATION_CHUNK` at a time (the same numbers, faster: blocks stay in cache).
-    """
-    count, steps, n, k = factors.shape
-    if count > (c := EXPECTATION_CHUNK):
-        return np.concatenate([_expectation_steps(joint[i:i + c], factors[i:i + c]) for i in range(0, count, c)])
-    x = np.matmul(joint.reshape(count, -1, k), np.swapaxes(factors[:, :, n - 1, :], 1, 2))
-    x = np.swapaxes(x, 1, 2)                              # (L, S, K'^(n-1))
-    for u in range(n - 2, -1, -1):
-        x = np.matmul(x.reshape(count, steps, -1, k), factors[:, :, u, :, None])[..., 0]
-    return x.reshape(count, steps)
-
-
-def size_fault(n_sites: int, n_objects: int, correlated: bool, limit: int | None = None) -> str | None:
-    """Why the lookahead planner cannot hold this search problem, or None.
-
-    A correlated belief is planned on its exact joint over the required objects, a table of
-    ``n_sites ** n_objects`` truths; a factorised belief is held per object (``n_objects x
-    n_sites`` numbers) and has no limit. The first decision of an episode plans over every site
-    for every object still to find, the largest problem the planner will be asked. `limit`
-    defaults to :data:`MAX_TRUTHS`.
-    """
-    limit = MAX_TRUTHS if limit is None else limit
-    if correlated and n_sites ** n_objects > limit:
-        return (f"{n_objects} objects over {n_sites} sites give {n_sites ** n_objects:,} joint "
-                f"truths, more than the limit of {limit:,} (a correlated belief is planned on its "
-                "exact joint; a factorised one has no limit)")
-    return None
-
-
-def truth_table(belief, objects: Sequence[str], allowed: Sequence[int]) -> np.ndarray:
-    """P(L_U) over the `allowed` sites, normalised: the dense joint of shape (K',) * |U| for a
-    correlated belief, the per-object marginals of shape (|U|, K') for a factorised one.
-
-    Raises:
-        ValueError: a correlated belief's K'^|U| exceeds :data:`MAX_TRUTHS`, or the belief puts no mass on
-            `allowed`.
-    """
-    idx = [belief.objects.index(o) for o in objects]
-    n, k = len(idx), len(allowed)
-    if belief.correlated:
-        fault = size_fault(k, n, True)
-        if fault is not None:
-            raise ValueError(f"lookahead planner: {fault}; use a factorised model or another planner")
-        joint = belief.location_joint()
-        others = tuple(a for a in range(joint.ndim) if a not in idx)
-        p_u = joint.sum(axis=others) if others else joint
-        order = sorted(idx)
-        p_u = np.transpose(p_u, [order.index(i) for i in idx])
-        p_u = p_u[np.ix_(*([list(allowed)] * n))]
-        total = float(p_u.sum())
-        if not total > 0:
-            raise ValueError("lookahead: the belief puts no mass on the open sites")
-        return p_u / total
-    q = belief.location_matrix()[np.ix_(idx, list(allowed))]
-    totals = q.sum(axis=1, keepdims=True)
-    if not np.all(totals > 0):
-        raise ValueError("lookahead: the belief puts no mass on the open sites")
-    return q / totals
-
-
-def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
-                  excluded: frozenset[str], views, look: float) -> SearchProblem:
-    """Derive the :class:`SearchProblem` of one decision (see the module docstring).
-
-    Raises:
-        ValueError: every viewpoint is excluded, or a correlated belief's joint over the open
-            sites has more than :data:`MAX_TRUTHS` truths (``"lookahead planner: ..."``).
-    """
-    sites = list(belief.sites)
-    k = len(sites)
-    idx = [belief.objects.index(o) for o in objects]
-    mu = belief.model.miss_likelihood
-    names, kinds, probs, looks = [], [], [], []
-    if views is None:
-        for j, s in enumerate(sites):
-            if s in excluded:
-                continue
-            pr = np.zeros((len(idx), k))
-            pr[:, j] = 1.0 - mu
-            names.append(s)
-            kinds.append("site")
-            probs.append(pr)
-            looks.append(look)
-        p_max = 1.0 - mu
-    else:
-        for v in views.views:
-            if v.name in excluded:
-                continue
-            names.append(v.name)
-            kinds.append(v.kind)
-            probs.append(v.probability_over_sites(k)[idx])
-            looks.append(look * len(v.sites))
-        p_max = float(views.max_probability)
-    if not names:
-        raise ValueError("planner: every viewpoint is excluded")
-    open_sites = [j for j, s in enumerate(sites) if s not in excluded]
-    try:
-        table = truth_table(belief, objects, open_sites)
-    except ValueError as exc:
-        if "no mass" not in str(exc) or len(open_sites) == k:
-            raise
-        open_sites = list(range(k))
-        table = truth_table(belief, objects, open_sites)
-    start = np.array([float(distances.from_agent(s)) for s in names])
-    between = np.array([[float(distances.between(a, b)) if a != b else 0.0 for b in names]
-                        for a in names])
-    joint, factors = (table, None) if belief.correlated else (None, table)
-    return SearchProblem(tuple(objects), tuple(names), tuple(kinds), np.stack(probs), start,
-                         between, np.array(looks), p_max, k, np.asarray(open_sites, dtype=np.int64),
-                         joint, factors)
-
-
-# ---------------------------------------------------------------------------- rollouts
-def _step_costs(problem: SearchProblem) -> tuple[np.ndarray, np.ndarray]:
-    """c(v) from each viewpoint (rows 0..A-1) and from the start (row A, so row -1), shape
-    (A+1, A), and its reciprocal (cost floored at 1e-9 m) (cached)."""
-    cached = problem.__dict__.get("_costs")
-    if cached is None:
-        cost = np.vstack([problem.between, problem.start[None, :]]) + problem.look[None, :]
-        cached = (cost, 1.0 / np.maximum(cost, 1e-9))
-        problem.__dict__["_costs"] = cached
-    return cached
-
-
-def _mppm_choice(problem: SearchProblem, gain: np.ndarray, here: np.ndarray,
-                 looked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One step of the most-probable-per-metre policy for a batch: (best look, its cost).
-
-    Sweeps: only the viewpoints looked from least often (among those that can still find
-    something, more than 1e-12 expected new finds) compete, so a cheap re-look never beats a
-    first look elsewhere; ties go to the first viewpoint in order.
-    """
-    cost, inverse = _step_costs(problem)
-    seen_count = np.where(gain > 1e-12, looked, np.inf)
-    fresh = seen_count <= seen_count.min(axis=1, keepdims=True)
-    best = np.argmax(np.where(fresh, gain * inverse[here], -np.inf), axis=1)
-    return best, cost[here, best]
-
-
-def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray, unfound: np.ndarray,
-                   looked: np.ndarray | None = None, stop: float = STOP_PROBABILITY,
-                   max_looks: int | None = None,
-                   first: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-    """Expected cost of the most-probable-per-metre rollout from a batch of belief nodes.
-
-    Along the rollout's fixed sequence of looks a_1, a_2, ..., the chance that u is still unseen
-    given that it stands at site k is rem_u(k) = prod_s (1 - p_{u,k}(a_s)): it depends on the
-    truth only through u's own site. So the expected number of new finds of a look a is
-    sum_u sum_k q_u(k) rem_u(k) p_{u,k}(a) (marginals only), and the chance the search is not over
-    is 1 - E_t[prod_u (1 - rem_u(L_u(t)))] (eq. 47): a product of per-object sums for a product
-    belief, the joint contracted with one vector per object otherwise. The whole batch steps
-    together; a node whose search is over (or nearly) stops adding cost.
-
-    Args:
-        problem: the search problem.
-        pos: shape (L,), each node's current viewpoint (-1: the agent's start position).
-        beliefs: each node's posterior in the problem's form, stacked: shape (L, |U|, K')
-            (factors) or (L,) + (K',) * |U| (joint).
-        unfound: shape (L, |U|) booleans, the objects still to find at each node.
-        looked: shape (L, A), looks from each viewpoint so far (default 0); the rollout sweeps:
-            only the viewpoints looked from least often compete.
-        stop: the rollout ends once P(search not over) falls to this or below.
-        max_looks: the give-up bound (default 2 x the number of viewpoints).
-        first: if given, shape (L,) ints, filled with each node's first rollout look (-1: none).
-
-    Returns:
-        (values, looks): values of shape (L,), metres-equivalent; looks, the rollout steps taken
-        summed over nodes (for the log).
-    """
-    prob = problem.prob                                    # (A, n, K')
-    a_count, n, k = prob.shape
-    count = len(beliefs)
-    independent = problem.independent
-    max_looks = 2 * a_count if max_looks is None else max_looks
-    if independent:
-        q = beliefs
-    else:
-        axes = tuple(range(1, n + 1))
-        q = np.stack([beliefs.sum(axis=axes[:u] + axes[u + 1:]) for u in range(n)], axis=1)
-    # One product gives both E[new finds] of every look (A columns) and, for a product belief,
-    # P(u unseen) of every object (n columns of ones over its own sites). Per-object arrays are
-    # held flat, (L, n K').
-    flat = problem.__dict__.get("_rollout_flat")
-    if flat is None:
-        flat = (np.hstack([prob.reshape(a_count, n * k).T, np.kron(np.eye(n), np.ones((k, 1)))]),
-                (1.0 - prob).reshape(a_count, n * k))
-        problem.__dict__["_rollout_flat"] = flat
-    flat, miss = flat
-    cost_table, inverse = _step_costs(problem)
-    q = q.reshape(count, n * k)
-    rem = np.repeat(unfound.astype(float), k, axis=1)      # P(u unseen | L_u = k), (L, n K')
-    value = np.zeros(count)
-    cur = np.asarray(pos, dtype=np.int64).copy()
-    looked = np.zeros((count, a_count)) if looked is None else looked.astype(float)
-    rows = np.arange(count)
-    if first is not None:
-        first[:] = -1
-    # The policy's looks depend only on the marginals, so a correlated belief's P(not over) is
-    # computed after the loop for every step at once (n batched products instead of n per step);
-    # the loop ends once sum_u P(u unseen) (>= P(not over)) is at most `stop` for every node.
-    history, costs, firsts = [], [], None
-    for step in range(max_looks + 1):
-        both = (q * rem) @ flat                            # (L, A + n)
-        unseen = both[:, a_count:]                         # P(u unseen), (L, n)
-        if independent:                                    # P(not over) = 1 - prod_u P(u seen)
-            cont = 1.0 - np.multiply.reduce(1.0 - unseen, axis=1)
-            going = cont > stop
-        else:
-            history.append(rem.copy())
-            going = unseen.sum(axis=1) > stop
-        if step == max_looks or not going.any():
-            break
-        if independent:
-            history.append(cont)
-        gain = both[:, :a_count]
-        # The most-probable-per-metre step (as _mppm_choice), inlined: sweeps, then gain/cost.
-        seen_count = np.where(gain > 1e-12, looked, np.inf)
-        score = np.where(seen_count <= seen_count.min(axis=1, keepdims=True),
-                         gain * inverse[cur], -np.inf)
-        best = score.argmax(axis=1)
-        if step == 0:
-            firsts = best
-        costs.append(cost_table[cur, best])
-        looked[rows, best] += 1.0
-        rem *= miss[best]
-        cur = best
-    taken = len(costs)
-    if not taken:
-        return np.zeros(count), 0
-    if independent:
-        cont = np.stack(history[:taken], axis=1)           # (L, S)
-    else:
-        done = 1.0 - np.stack(history[:taken], axis=1).reshape(count, taken, n, k)
-        cont = 1.0 - _expectation_steps(beliefs, done)    # (L, S)
-    active = np.logical_and.accumulate(cont > stop, axis=1)
-    value = (np.stack(costs, axis=1) * cont * active).sum(axis=1)
-    if first is not None:
-        assert firsts is not None  # set by the first step taken
-        first[active[:, 0]] = firsts[active[:, 0]]
-    steps = int(active.sum())
-    return value, steps
-
-
 # ---------------------------------------------------------------------------- the tree
 @dataclass
 class _Node:
     pos: int
-    b: np.ndarray          # posterior over truths in the problem's form (joint table or factors)
+    b: np.ndarray          # posterior over truths in the problem's form (joint, factors, weights)
     unfound: np.ndarray    # (n,) bool
     depth: int             # looks still to expand
     looked: np.ndarray     # (A,) looks from each viewpoint so far (history + path; rollout sweeps)
@@ -537,6 +160,7 @@ class _Node:
     base: int = -1                   # the rollout policy's first look from here (-1: none)
     rollout: float = math.inf        # the rollout's value from here (fortification)
     q: np.ndarray | None = None      # (n, K') marginals (cached)
+    z: float = 1.0                   # structured: the node's probability relative to the root
 
 
 def _node_marginals(problem: SearchProblem, node: _Node) -> np.ndarray:
@@ -546,57 +170,42 @@ def _node_marginals(problem: SearchProblem, node: _Node) -> np.ndarray:
 
 
 def _options(problem: SearchProblem, a: int) -> np.ndarray:
-    """Per-object likelihood vectors of look `a`'s outcomes, shape (|U|, M, K') (cached).
+    """Per-object likelihood vectors of look `a`'s outcomes, shape (|U|, 2, K') (cached).
 
-    Row 0 is "not seen", 1 - p_{u,.}(a). A close look has one "seen" row, p_{u,.}(a); a glance
-    one per in-view site k, p_{u,k}(a) at k and 0 elsewhere (the site it was seen at), in site
-    order. Objects with fewer rows are padded with zero rows: their outcomes have probability 0
-    and are dropped, so the order of the others is unchanged.
+    Row 0 is "not seen", 1 - p_{u,.}(a); row 1 is "seen", p_{u,.}(a). For a room glance "seen"
+    means seen at one of its in-view sites, whichever: outcomes are grouped by which objects are
+    seen, not where (docs/design.md §6.6). A found object leaves the search, so for a factorised
+    belief the group's members have the same future and grouping changes no value; for a joint
+    belief the tree plans as if a glance told only which objects it showed.
     """
     cache = problem.__dict__.setdefault("_options", {})
     cached = cache.get(a)
     if cached is None:
         s_all = problem.prob[a]                                    # (n, K')
-        n, k = s_all.shape
-        if problem.kinds[a] == "site":
-            cached = np.stack([1.0 - s_all, s_all], axis=1)
-        else:
-            width = 1 + max(int(np.count_nonzero(s > 0)) for s in s_all)
-            cached = np.zeros((n, width, k))
-            cached[:, 0] = 1.0 - s_all
-            for u, s in enumerate(s_all):
-                ks = np.flatnonzero(s > 0)
-                cached[u, np.arange(1, 1 + len(ks)), ks] = s[ks]
+        cached = np.stack([1.0 - s_all, s_all], axis=1)
         cache[a] = cached
     return cached
 
 
-def _outcome_codes(options: Sequence[int]) -> np.ndarray:
-    """Outcome codes of a look, shape (C, len(options)), in the fixed expansion order (cached).
-
-    ``options[i]`` is 1 + the seen options of the i-th unfound object; a code names one option
-    per object (0 = not seen). Outcomes come by the set of objects seen (by size, then in
-    combination order), then by the seen options of those objects in lexicographic order (for
-    a glance, the sites they stood at).
-    """
-    key = tuple(options)
-    cached = _CODE_CACHE.get(key)
+def _outcome_codes(count: int) -> np.ndarray:
+    """Outcome codes of a look with `count` unfound objects, shape (2^count, count), in the fixed
+    expansion order (cached): code[i] = 1 if the i-th unfound object is seen. Outcomes come by
+    the number of objects seen, then in combination order."""
+    cached = _CODE_CACHE.get(count)
     if cached is None:
         codes = []
-        m = len(options)
-        for size in range(m + 1):
-            for subset in itertools.combinations(range(m), size):
-                for choice in itertools.product(*[range(1, options[i]) for i in subset]):
-                    code = [0] * m
-                    for i, c in zip(subset, choice):
-                        code[i] = c
-                    codes.append(code)
-        cached = np.array(codes, dtype=np.int64).reshape(len(codes), m)
-        _CODE_CACHE[key] = cached
+        for size in range(count + 1):
+            for subset in itertools.combinations(range(count), size):
+                code = [0] * count
+                for i in subset:
+                    code[i] = 1
+                codes.append(code)
+        cached = np.array(codes, dtype=np.int64).reshape(len(codes), count)
+        _CODE_CACHE[count] = cached
     return cached
 
 
-_CODE_CACHE: dict[tuple[int, ...], np.ndarray] = {}
+_CODE_CACHE: dict[int, np.ndarray] = {}
 
 
 class LookaheadPlanner(PlannerBase):
@@ -615,8 +224,10 @@ class LookaheadPlanner(PlannerBase):
         self.weights = weights
         self.settings = settings
         self.efe = EFEPlanner(weights, information)
-        # The root's candidates are ranked by their one-step scores, so every one is exact.
-        self.pruner = EFEPlanner(replace(weights, repeat_penalty=0.0), information, prune=False)
+        # The root's candidates are the `width` viewpoints of best one-step score, exact and in
+        # exact order (the structured joint gain bounds the others, docs/design.md §6.2).
+        self.pruner = EFEPlanner(replace(weights, repeat_penalty=0.0), information,
+                                 rank=settings.width)
 
     # ------------------------------------------------------------------ one-step scores in the tree
     def _tree_scores(self, problem: SearchProblem, node: _Node, relevance: np.ndarray) -> np.ndarray:
@@ -639,17 +250,25 @@ class LookaheadPlanner(PlannerBase):
 
         Given the truth, each unfound object is seen or not independently, so an outcome's
         likelihood is a product of one vector per object over its own site: 1 - p_{u,.}(a) if
-        u was not seen, p_{u,.}(a) if it was (for a glance, restricted to the site it was seen
-        at). Conditioning multiplies each object's factor by its vector (factors), or the joint
+        u was not seen, p_{u,.}(a) if it was (for a glance: at any of its in-view sites, see
+        :func:`_options`). Conditioning multiplies each object's factor by its vector (factors), or the joint
         by their outer product (joint table); the outcome's probability is the product of the
         per-object masses, or the joint contracted with the vectors.
         """
         us = np.flatnonzero(node.unfound)
-        options = _options(problem, a)[us]                         # (n', M, K')
-        m_count = options.shape[1]
-        codes = _outcome_codes((m_count,) * len(us))               # (C, n')
+        options = _options(problem, a)[us]                         # (n', 2, K')
+        codes = _outcome_codes(len(us))                            # (C, n')
         b = node.b
-        if problem.independent:
+        child_q = child_z = None
+        if problem.structured is not None:
+            post = np.repeat(b[None], len(codes), axis=0)         # (C, n, K') weights
+            for i, u in enumerate(us):
+                post[:, u] *= options[i][codes[:, i]]
+            ratio, child_q = problem.structured.evaluate(post)
+            mass = ratio / node.z
+            keep = np.flatnonzero(mass >= OUTCOME_FLOOR)
+            mass, post, child_q, child_z = mass[keep], post[keep], child_q[keep], ratio[keep]
+        elif problem.independent:
             masses = np.einsum("imk,ik->im", options, b[us])       # (n', M)
             mass = np.prod(masses[np.arange(len(us)), codes], axis=1)
             keep = np.flatnonzero(mass >= OUTCOME_FLOOR)
@@ -674,8 +293,12 @@ class LookaheadPlanner(PlannerBase):
         looked[a] += 1
         depth = node.depth - 1
         total = float(mass.sum())
-        return [(float(m) / total, _Node(a, p, f, depth, looked))
+        kids = [(float(m) / total, _Node(a, p, f, depth, looked))
                 for m, p, f in zip(mass, post, unfound)]
+        if child_q is not None and child_z is not None:
+            for (_, kid), q, z in zip(kids, child_q, child_z):
+                kid.q, kid.z = q, float(z)
+        return kids
 
     def _expand(self, problem: SearchProblem, node: _Node, relevance: np.ndarray,
                 budget: list[int], leaves: list[_Node], fortify: list[_Node],
@@ -765,7 +388,8 @@ class LookaheadPlanner(PlannerBase):
         Raises:
             PlannerRefused: kind ``"belief"``, with :func:`size_fault`'s reason.
         """
-        fault = size_fault(len(belief.sites), len(objects), belief.correlated)
+        fault = size_fault(len(belief.sites), len(objects), belief.correlated,
+                           structured=belief.correlated and belief.structured_model() is not None)
         if fault is not None:
             raise PlannerRefused(f"lookahead planner: {fault}; use a factorised model or another "
                                  "planner", "belief", self.name)
@@ -823,7 +447,8 @@ class LookaheadPlanner(PlannerBase):
             values, steps = rollout_values(problem, np.array([n.pos for n in batch]),
                                            np.stack([n.b for n in batch]),
                                            np.stack([n.unfound for n in batch]),
-                                           np.stack([n.looked for n in batch]))
+                                           np.stack([n.looked for n in batch]),
+                                           q=np.stack([_node_marginals(problem, n) for n in batch]))
             for n, v in zip(leaves, values):
                 n.value = float(v)
             for n, v in zip(fortify, values[len(leaves):]):
@@ -846,5 +471,4 @@ class LookaheadPlanner(PlannerBase):
         return Decision(chosen.object, chosen.viewpoint, chosen.total, tuple(candidates), self.name, info)
 
 
-__all__ = ["LookaheadPlanner", "LookaheadSettings", "SearchProblem", "build_problem",
-           "rollout_values", "truth_table", "size_fault", "LOOK_COST", "MAX_TRUTHS"]
+__all__ = ["LookaheadPlanner", "LookaheadSettings"]

@@ -51,7 +51,7 @@ from fg_tea.planning.base import (
     PlannerBase,
     check_inputs,
 )
-from fg_tea.planning.lookahead import (
+from fg_tea.planning.problem import (
     LOOK_COST,
     MAX_TRUTHS,
     SearchProblem,

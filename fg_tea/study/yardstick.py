@@ -27,7 +27,7 @@ from fg_tea.common.files import atomic_write_text
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.planning.limit import Limit, search_limit
-from fg_tea.planning.lookahead import LOOK_COST, build_problem
+from fg_tea.planning.problem import LOOK_COST, build_problem
 from fg_tea.study.frontier import episode_setup
 
 
