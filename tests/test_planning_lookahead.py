@@ -243,18 +243,18 @@ def test_joint_belief_beyond_the_dense_limit_is_planned_on_its_subset_program(mo
 def test_structured_and_dense_forms_agree_on_a_correlated_belief():
     """The same correlated belief held as a dense joint and as its subset program gives the same
     children (probabilities and marginals, two looks deep, close looks and glances, a site
-    excluded) and the same rollout values, to 1e-12."""
+    excluded, all objects or some) and the same rollout values, to 1e-12."""
     from dataclasses import replace as dc_replace
 
     from fg_tea.planning.lookahead import _Node
     from fg_tea.planning.problem import StructuredTruths, marginals
 
     scenario = _world("generated_small").sample(4)
-    for model_name in ("joint_close", "joint"):
+    for model_name, objects in (("joint_close", ["teabag", "mug", "kettle"]),
+                                ("joint", ["teabag", "mug", "kettle"]), ("joint", ["kettle", "mug"])):
         model = load_model(model_name)
         belief = BeliefEngine(scenario, model)
         belief.observe_site(scenario.site_names[0], {o: False for o in belief.objects})
-        objects = ["teabag", "mug", "kettle"]
         views = _views(scenario, model)
         dense = build_problem(belief, objects, _viewpoint_distances(scenario),
                               frozenset(scenario.site_names[1:2]), views, 0.144)

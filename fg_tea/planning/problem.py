@@ -355,15 +355,17 @@ def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
 
 
 def _truths(belief, objects: Sequence[str], open_sites: Sequence[int]):
-    """(joint, factors, structured) of a search problem: the dense joint for a correlated belief
-    up to :data:`MAX_TRUTHS` truths, its subset program beyond, the marginals for a factorised one.
+    """(joint, factors, structured) of a search problem: for a correlated belief whose joint (every
+    object over every site) has at most :data:`MAX_TRUTHS` states the dense joint over U, beyond
+    that its subset program (the dense joint would be built from the whole belief's); the
+    marginals for a factorised one. The form depends on the house alone, not on how many
+    objects are left, so one episode keeps one form.
 
     Raises:
         ValueError: no mass on the open sites; a correlated belief too large for a dense joint
             without a subset program.
     """
-    n = len(objects)
-    if belief.correlated and len(open_sites) ** n > MAX_TRUTHS:
+    if belief.correlated and len(belief.sites) ** len(belief.objects) > MAX_TRUTHS:
         model = belief.structured_model()
         if model is not None:
             held = StructuredTruths(model, np.array([belief.objects.index(o) for o in objects]),
