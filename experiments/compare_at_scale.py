@@ -65,7 +65,8 @@ sys.path.insert(0, str(ROOT))
 from fg_tea.study.analysis import (markdown_table, paired_differences, save_figure,
     summary_markdown, summary_table)
 from fg_tea.common.errors import run_script  # noqa: E402
-from fg_tea.common.files import out_folder, atomic_write_text  # noqa: E402
+from fg_tea.common.errors import InputError  # noqa: E402
+from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.env.camera import load_camera  # noqa: E402
 from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa: E402
@@ -134,6 +135,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cross-check every episode's final belief against gtsam, as `fg-tea run` does "
                    "(docs/design.md §4.7); off by default here: it changes no row and is most of an "
                    "episode's cost with five objects")
+    p.add_argument("--reuse", type=Path, default=None, metavar="CSV",
+                   help="another episodes CSV: rows of this run's jobs found there (equal keys are "
+                   "equal jobs and equal rows) are copied instead of run, e.g. the one-step "
+                   "planners' episodes of a larger table beside new lookahead rows")
     add_execution_arguments(p, "episodes.csv")
     p.add_argument("--out", type=out_folder, default=DEFAULT_OUT,
                    help="output folder; each table writes into OUT/TABLE (default: %(default)s)")
@@ -546,6 +551,38 @@ def replication_rows(cells: list[dict], sets: list[SeedSet], columns: tuple[str,
     return out
 
 
+def reuse_rows(source: Path, csv_path: Path, jobs: list[Job], resume: bool) -> int:
+    """Copy into `csv_path` the rows of `source` whose key is one of `jobs` and not yet there.
+
+    Equal keys are equal jobs, and a job's row is the same cells wherever it ran (same
+    scenario, model, planner and seeds), so a copied row is the row the job would write. Columns
+    the two files do not share are merged as a sweep merges them (empty where a row has none).
+
+    Raises:
+        InputError: `source` is not a sweep CSV.
+    """
+    wanted = {j.key for j in jobs}
+    with Path(source).open(newline="", encoding="utf-8") as fh:
+        reader = csv.DictReader(fh)
+        if not reader.fieldnames or "key" not in reader.fieldnames:
+            raise InputError(source, "key", "not an episodes CSV written by a sweep")
+        found = [row for row in reader if row.get("key") in wanted and None not in row.values()]
+    have: list[dict] = []
+    header: list[str] = []
+    if resume and csv_path.exists():
+        with csv_path.open(newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            header = list(reader.fieldnames or [])
+            have = [row for row in reader if None not in row.values()]
+    done = {row["key"] for row in have}
+    new = [row for row in found if row["key"] not in done]
+    if new:
+        columns = header + [c for c in new[0] if c not in header]
+        write_csv_atomic(csv_path, have + new, columns)
+    print(f"reused {len(new)} rows of {source}", file=sys.stderr)
+    return len(new)
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
     out = Path(args.out) / args.table
@@ -557,6 +594,8 @@ def main(argv=None) -> int:
             for j in plan(args if s is None else argparse.Namespace(
                 **{**vars(args), "first_seed": s.first, "worlds": s.count}), out)[0]]
     csv_path = out / "episodes.csv"
+    if args.reuse is not None:
+        reuse_rows(args.reuse, csv_path, jobs, args.resume)
     before = 0
     if args.resume and csv_path.exists():
         with csv_path.open(newline="", encoding="utf-8") as fh:

@@ -72,6 +72,27 @@ def test_houses_report_covers_cells_run_by_separate_commands(tmp_path):
     assert {t["task"] for t in times} == {"make_tea", "make_tea_milk_sugar"}  # merged, not replaced
 
 
+def test_reused_rows_are_the_rows_a_run_would_write(tmp_path):
+    """--reuse copies the rows of this run's jobs from another CSV (equal keys, equal rows) and
+    runs only the rest: the CSV equals one run of every job, byte for byte."""
+    common = ("experiments/compare_at_scale.py", "--table", "houses", "--sizes", "small",
+              "--tasks", "make_tea", "--worlds", "2", "--env", "fake", "--executor", "serial",
+              "--timing-worlds", "0")
+    _run(*common, "--planners", "factorised_efe", "nearest", "--out", str(tmp_path / "all"))
+    _run(*common, "--planners", "factorised_efe", "--out", str(tmp_path / "one"))
+    proc = _run(*common, "--planners", "factorised_efe", "nearest", "--out", str(tmp_path / "two"),
+                "--reuse", str(tmp_path / "one" / "houses" / "episodes.csv"))
+    assert "reused 4 rows" in proc.stderr
+    assert "for 4 new episodes" in (tmp_path / "two" / "houses" / "houses.md").read_text()
+    whole = (tmp_path / "all" / "houses" / "episodes.csv").read_bytes()
+    assert (tmp_path / "two" / "houses" / "episodes.csv").read_bytes() == whole
+    proc = subprocess.run([sys.executable, *common, "--planners", "nearest", "--out",
+                           str(tmp_path / "bad"), "--reuse", str(tmp_path / "one" / "houses" / "houses.md")],
+                          capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert "key" in proc.stderr
+
+
 def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
     table = tmp_path / "detectability"
     _run("experiments/compare_at_scale.py", "--table", "detectability", "--worlds", "2", "--sizes",

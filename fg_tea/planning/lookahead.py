@@ -7,8 +7,8 @@ one-step score. It is the expectimin tree of docs/design.md §6.6:
   `objects`, distributed as the current belief P(L_U) over the open sites (truths that put an
   object on an excluded site are conditioned away, as in the Bayes-optimal planner, unless that
   leaves nothing), held exactly as a :class:`~fg_tea.planning.problem.SearchProblem`: a
-  correlated belief as its dense joint over U (when the whole joint has at most
-  :data:`~fg_tea.planning.problem.MAX_TRUTHS` states) or beyond that as the engine's subset
+  correlated belief as its dense joint over U (up to
+  :data:`~fg_tea.planning.problem.MAX_TRUTHS` truths) or beyond that as the engine's subset
   program times one weight vector per object (docs/design.md §4.4; a correlated belief without
   one is refused before the episode starts); a factorised belief as its |U| per-object
   marginals, whose product *is* the joint, with no limit. Every hypothetical outcome is

@@ -27,6 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
+from fg_tea.beliefs.engine import DENSE_LIMIT
 from fg_tea.beliefs.structured import StructuredLocationModel
 from fg_tea.planning.base import DistanceModel, distance_matrix
 
@@ -355,17 +356,19 @@ def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
 
 
 def _truths(belief, objects: Sequence[str], open_sites: Sequence[int]):
-    """(joint, factors, structured) of a search problem: for a correlated belief whose joint (every
-    object over every site) has at most :data:`MAX_TRUTHS` states the dense joint over U, beyond
-    that its subset program (the dense joint would be built from the whole belief's); the
-    marginals for a factorised one. The form depends on the house alone, not on how many
-    objects are left, so one episode keeps one form.
+    """(joint, factors, structured) of a search problem: for a correlated belief the dense joint
+    over U when it has at most :data:`MAX_TRUTHS` truths and the engine can build the whole joint
+    it is summed from (at most :data:`~fg_tea.beliefs.engine.DENSE_LIMIT` states), else its
+    subset program; the marginals for a factorised one. Both correlated forms are exact, so an
+    episode may pass from one to the other as objects are found and sites excluded.
 
     Raises:
         ValueError: no mass on the open sites; a correlated belief too large for a dense joint
             without a subset program.
     """
-    if belief.correlated and len(belief.sites) ** len(belief.objects) > MAX_TRUTHS:
+    dense = (len(open_sites) ** len(objects) <= MAX_TRUTHS
+             and len(belief.sites) ** len(belief.objects) <= DENSE_LIMIT)
+    if belief.correlated and not dense:
         model = belief.structured_model()
         if model is not None:
             held = StructuredTruths(model, np.array([belief.objects.index(o) for o in objects]),
