@@ -6,6 +6,8 @@ import importlib.util
 import json
 from pathlib import Path
 
+import pytest
+
 SCRIPT = Path(__file__).resolve().parents[1] / "experiments" / "bench_planning.py"
 
 
@@ -42,3 +44,26 @@ def test_bench_planning_glance_sizes_and_json(capsys, tmp_path):
     assert efe["median_ms"] > 0
     optimal = next(r for r in records if r["planner"] == "optimal" and r["model"] == "joint")
     assert optimal["status"] in ("ok", "refused")
+
+
+def test_bench_planning_times_whole_episodes_in_generated_houses(capsys, tmp_path):
+    """--houses times every decision of whole episodes, factorised and joint, and records the
+    median and 95th percentile CPU per decision against the house-scale targets."""
+    spec = importlib.util.spec_from_file_location("bench_planning", SCRIPT)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    out_file = tmp_path / "bench.json"
+    status = bench.main(["--sites", "--sizes", "--planners", "efe", "--houses", "generated_small",
+                         "--house-worlds", "1", "--json", str(out_file)])
+    out = capsys.readouterr().out
+    assert status in (0, 1)
+    records = [r for r in json.loads(out_file.read_text()) if "house" in r]
+    assert {(r["model"], r["planner"]) for r in records} == {("factorised", "lookahead"),
+                                                            ("joint", "lookahead")}
+    for r in records:
+        assert r["status"] == "ok" and r["decisions"] > 0 and r["sites"] >= 12
+        assert 0 < r["cpu_median_ms"] <= r["cpu_p95_ms"] and r["success"] == 1.0
+    assert out.count("target: lookahead in generated_small") == 2
+    with pytest.raises(SystemExit) as bad:
+        bench.main(["--houses", "no_such_house"])
+    assert bad.value.code == 2 and "--houses" in capsys.readouterr().err
