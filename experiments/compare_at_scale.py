@@ -73,7 +73,8 @@ from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa:
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
+from fg_tea.study.sweep import (EPISODE_SEEDS, Job, add_execution_arguments,  # noqa: E402
+                               plan_sweep, run_sweep)
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}
@@ -135,6 +136,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cross-check every episode's final belief against gtsam, as `fg-tea run` does "
                    "(docs/design.md §4.7); off by default here: it changes no row and is most of an "
                    "episode's cost with five objects")
+    p.add_argument("--episode-seeds", choices=EPISODE_SEEDS, default="world",
+                   help="episode seed of world seed w: w itself (world; the committed tables), or "
+                   "its own stream per world distribution (independent; docs/design.md §11)")
     p.add_argument("--reuse", type=Path, default=None, metavar="CSV",
                    help="another episodes CSV: rows of this run's jobs found there (equal keys are "
                    "equal jobs and equal rows) are copied instead of run, e.g. the one-step "
@@ -218,7 +222,8 @@ def plan(args, out: Path) -> tuple[list[Job], list[dict]]:
             for task in args.tasks:
                 world = SIZES[size] + TASKS[task]
                 add(plan_sweep([world], args.worlds, list(models), args.planners,
-                               first_seed=args.first_seed, env=args.env, task=task),
+                               first_seed=args.first_seed, env=args.env, task=task,
+                               episode_seeds=args.episode_seeds),
                     {"size": size, "task": task})
     else:
         for size in args.sizes:
@@ -227,7 +232,7 @@ def plan(args, out: Path) -> tuple[list[Job], list[dict]]:
                 for c in args.strengths:
                     add(plan_sweep([SIZES[size]], args.worlds, [files[m] for m in models],
                                    args.planners, first_seed=args.first_seed, env=args.env,
-                                   knobs=strength_knobs(c),
+                                   knobs=strength_knobs(c), episode_seeds=args.episode_seeds,
                                    # close looks: the threshold camera, which has no curve
                                    camera=camera if args.looks == "glances" else ""),
                         {"size": size, "half_pixels": n50, "strength": c})

@@ -188,3 +188,38 @@ def test_a_replicated_run_declares_its_seed_sets_first_and_judges_every_cell(tmp
                           stdin=subprocess.DEVNULL, cwd=ROOT)
     assert proc.returncode == 2 and "overlap" in proc.stderr
     assert not (tmp_path / "b" / "houses" / "episodes.csv").exists()
+
+
+def test_independent_episode_seeds_are_their_own_stream():
+    """--episode-seeds independent: the episode seed of world seed w differs between world
+    distributions and from w, is the same for every model and planner of one world (paired),
+    and is the same number on every call; the default keeps w."""
+    from fg_tea.study.sweep import episode_seed, plan_sweep
+
+    kw = dict(models=["factorised", "joint"], planners=["efe", "nearest"])
+    worlds = ["generated_small", "generated_medium"]
+    default = plan_sweep(worlds, 3, kw["models"], kw["planners"])
+    assert all(j.seed == j.world_seed for j in default)
+    jobs = plan_sweep(worlds, 3, kw["models"], kw["planners"], episode_seeds="independent")
+    by_world = {}
+    for j in jobs:
+        by_world.setdefault((j.world, j.world_seed), set()).add(j.seed)
+    assert all(len(s) == 1 for s in by_world.values())            # paired within a world
+    seeds = {k: next(iter(v)) for k, v in by_world.items()}
+    for w in range(3):
+        assert seeds[("generated_small", w)] != seeds[("generated_medium", w)]
+        assert seeds[("generated_small", w)] == episode_seed("generated_small", w)
+        assert seeds[("generated_small", w)] != w
+    assert episode_seed("scenarios/worlds/generated_small.json", 1) == episode_seed("generated_small", 1)
+    assert len({j.key for j in jobs} & {j.key for j in default}) == 0
+    from fg_tea.common.errors import InputError
+    with pytest.raises(InputError, match="episode_seeds"):
+        plan_sweep(worlds, 1, kw["models"], kw["planners"], episode_seeds="bogus")
+
+
+def test_compare_refuses_episode_seeds_with_lifelong(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", "compare", "--lifelong", "2", "--worlds", "1",
+                           "--episode-seeds", "independent", "--out", str(tmp_path / "x")],
+                          capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert "--episode-seeds" in proc.stderr

@@ -287,17 +287,39 @@ def check_jobs(jobs: Sequence[Job]) -> None:
             load_camera(job.camera).env_config(**dict(job.env_overrides))
 
 
+EPISODE_SEEDS = ("world", "independent")
+
+
+def episode_seed(world: str, world_seed: int) -> int:
+    """An episode seed from its own stream, independent of the world seed's (docs/design.md §11).
+
+    Drawn from ``numpy.random.SeedSequence([world_seed, crc32(name)])``, where name is the world
+    distribution's name (a file's stem): the same world and seed give the same episode seed on
+    every machine, and world seed w of two distributions gives unrelated detector draws.
+    """
+    import zlib
+
+    import numpy as np
+
+    name = Path(str(world)).stem.encode("utf-8")
+    state = np.random.SeedSequence([int(world_seed), zlib.crc32(name)]).generate_state(1)
+    return int(state[0] >> 1)  # 31 bits
+
+
 def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], planners: Sequence[str], *,
                first_seed: int = 0, knobs: Mapping[str, float] | None = None,
                model_overrides: Mapping[str, Any] | None = None,
                env_overrides: Mapping[str, Any] | None = None, env: str = "pybullet",
                max_frames: int = 50_000, max_steps: int = 2_000, task: str = "make_tea",
-               camera: str = "") -> list[Job]:
+               camera: str = "", episode_seeds: str = "world") -> list[Job]:
     """The paired job list: every (world, model, planner) solves world seeds first_seed.. first_seed+n-1.
 
-    The episode seed equals the world seed, so paired configurations also share sensor noise
-    draws as far as their action sequences agree. For grids over knobs or overrides, call once per
-    grid point and concatenate (keys stay distinct).
+    Paired configurations share the episode seed, so they also share sensor noise draws as far
+    as their action sequences agree. With ``episode_seeds = "world"`` (the default, and the
+    scheme of every committed result) the episode seed equals the world seed, so world seed w
+    of two distributions draws the same detector noise; ``"independent"`` takes it from
+    :func:`episode_seed`, a stream of its own per world distribution. For grids over knobs or
+    overrides, call once per grid point and concatenate (keys stay distinct).
 
     Args:
         worlds: world distributions (names or paths).
@@ -313,13 +335,18 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
         max_steps: the sweep's step limit of each episode (see :class:`Job`).
         task: the task graph every job runs.
         camera: the camera of every job (see :class:`Job`); empty: each model's default.
+        episode_seeds: ``"world"`` or ``"independent"`` (above).
 
     Returns:
         Jobs ordered by world, world seed, model, planner.
 
     Raises:
-        InputError: n_worlds < 1, or an empty list of worlds, models or planners.
+        InputError: n_worlds < 1, an empty list of worlds, models or planners, or an unknown
+            episode-seed scheme.
     """
+    if episode_seeds not in EPISODE_SEEDS:
+        raise InputError(_CLI, "episode_seeds", f"expected one of {', '.join(EPISODE_SEEDS)}, "
+                         f"got {episode_seeds!r}")
     if n_worlds < 1:
         raise InputError(_CLI, "n_worlds", f"expected at least 1 world, got {n_worlds}")
     for name, values in (("worlds", worlds), ("models", models), ("planners", planners)):
@@ -328,7 +355,8 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
     return [Job(world=w, world_seed=s, model=m, planner=p, knobs=_pairs(knobs, "knobs"),
                 model_overrides=_pairs(model_overrides, "model_overrides"),
                 env_overrides=_pairs(env_overrides, "env_overrides"),
-                env=env, max_frames=max_frames, max_steps=max_steps, task=task, camera=camera)
+                env=env, max_frames=max_frames, max_steps=max_steps, task=task, camera=camera,
+                seed=episode_seed(w, s) if episode_seeds == "independent" else None)
             for w in worlds for s in range(first_seed, first_seed + n_worlds)
             for m in models for p in planners]
 
