@@ -424,3 +424,31 @@ def test_grouping_glance_outcomes_by_who_is_seen_loses_nothing_for_a_factorised_
 
     root = _Node(-1, problem.root(), np.ones(3, bool), 2, np.zeros(a_count))
     assert grouped(root, 2) == pytest.approx(by_site(problem.root(), [0, 1, 2], -1, 2), rel=1e-9)
+
+
+@pytest.mark.slow
+def test_ranked_root_pruning_makes_the_unpruned_choices_over_an_episode(monkeypatch):
+    """Five objects in a 13-site house: the joint gain comes from the subset program, whose
+    bounds prune the root's candidates to the `width` best; the choices of a whole episode are
+    those of ranking every candidate exactly."""
+    from fg_tea.planning import efe
+
+    scenario = _world("generated_small_milk_sugar").sample(3)
+    model = load_model("joint")
+
+    def run():
+        env = FakeHouse(scenario, env_config_for(model))
+        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=3, planner="lookahead",
+                                                                 task="make_tea_milk_sugar"))
+        runner.run()
+        env.close()
+        return [(e["object"], e["viewpoint"]) for e in runner.log.events if e["event"] == "decision"]
+
+    ranked = run()
+    unpruned = efe.EFEPlanner.__init__
+
+    def exact_everywhere(self, weights, information="auto", prune=True, rank=1):
+        unpruned(self, weights, information, prune=prune and rank == 1, rank=1)
+
+    monkeypatch.setattr(efe.EFEPlanner, "__init__", exact_everywhere)
+    assert run() == ranked and len(ranked) > 3
