@@ -22,6 +22,7 @@ of the houses table at commit 982341a (``before_grouping.csv``); "now" is the ho
 
 from __future__ import annotations
 
+import argparse
 import json
 import shlex
 import sys
@@ -41,14 +42,14 @@ from fg_tea.common.stats import t_interval  # noqa: E402
 RESULTS = ROOT / "experiments" / "results"
 DEFAULT_BEFORE = RESULTS / "lookahead_scale" / "before_grouping.csv"
 DEFAULT_NOW = RESULTS / "joint_vs_factorised" / "houses" / "episodes.csv"
-DEFAULT_OUT = ROOT / "runs" / "experiments" / "lookahead_scale"
+DEFAULT_OUT = "runs/experiments/lookahead_scale"
 METRICS = ("search_distance", "spl", "inspections", "success")
 LABEL = {"search_distance": "search travel (m)", "spl": "SPL", "inspections": "inspections",
          "success": "success"}
 SIZES = {"generated_small": 0, "generated_medium": 1, "generated_large": 2}
 
 
-def parse_args(argv=None):
+def build_parser() -> argparse.ArgumentParser:
     p = experiment_parser(__doc__, __file__, "§6.6")
     p.add_argument("--before", type=Path, default=DEFAULT_BEFORE,
                    help="episodes CSV of the lookahead before the change")
@@ -59,7 +60,7 @@ def parse_args(argv=None):
     p.add_argument("--bench-now", type=Path, default=None,
                    help="bench_planning.py --houses --json output of the code now")
     p.add_argument("--out", type=out_folder, default=DEFAULT_OUT, help="output folder")
-    return p.parse_args(argv)
+    return p
 
 
 def _value(row, metric: str) -> float:
@@ -148,7 +149,7 @@ def report(args, rows: list[dict], command: str) -> str:
 
 
 def main(argv=None) -> int:
-    args = parse_args(argv)
+    args = build_parser().parse_args(argv)
     rows = pairs(read_rows(args.before), read_rows(args.now), args.planner)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -17,6 +17,7 @@ Writes ``looks.csv`` (one row per look) and ``trace.md`` to ``--out``.
 
 from __future__ import annotations
 
+import argparse
 import shlex
 import sys
 import tempfile
@@ -33,17 +34,17 @@ from fg_tea.study.analysis import markdown_table  # noqa: E402
 from fg_tea.study.rows import read_rows, write_csv_atomic  # noqa: E402
 
 DEFAULT_CSV = ROOT / "experiments" / "results" / "joint_vs_factorised" / "houses" / "episodes.csv"
-DEFAULT_OUT = ROOT / "runs" / "experiments" / "trace_give_ups"
+DEFAULT_OUT = "runs/experiments/trace_give_ups"
 
 
-def parse_args(argv=None):
+def build_parser() -> argparse.ArgumentParser:
     p = experiment_parser(__doc__, __file__, "§7.8")
     p.add_argument("--episodes", type=Path, default=DEFAULT_CSV, help="the sweep CSV")
     p.add_argument("--world", default="generated_small_milk_sugar", help="world distribution of the cell")
     p.add_argument("--models", nargs="+", default=["factorised", "joint"], help="models of the cell")
     p.add_argument("--planner", default="factorised_efe", help="planner of the cell")
     p.add_argument("--out", type=out_folder, default=DEFAULT_OUT, help="output folder")
-    return p.parse_args(argv)
+    return p
 
 
 def job_of(row: dict):
@@ -92,7 +93,7 @@ def trace(row: dict) -> list[dict]:
 
 
 def main(argv=None) -> int:
-    args = parse_args(argv)
+    args = build_parser().parse_args(argv)
     rows = [r for r in read_rows(args.episodes) if r["world"] == args.world
             and r["model"] in args.models and r["planner"] == args.planner
             and str(r["reason"]).startswith("not_found")]
