@@ -127,8 +127,9 @@ def report(args, rows: list[dict], command: str) -> str:
     if now:
         lines += ["## Decision time in whole episodes (CPU ms per decision)", "",
                   "From `experiments/bench_planning.py --houses`: every decision of make-tea "
-                  "episodes in the fake house, the code before and now run one after the other "
-                  "on the same machine. Targets: median ≤ 5 ms, 95th percentile ≤ 50 ms.", ""]
+                  "episodes in the fake house, the code before (the package at commit 982341a) "
+                  "and now run one after the other on the same machine (commands in "
+                  "`commands.txt`). Targets: median ≤ 5 ms, 95th percentile ≤ 50 ms.", ""]
         body = []
         for key in sorted(now, key=lambda k: (SIZES.get(k[0], 9), k[1], k[2])):
             r, b = now[key], before.get(key)

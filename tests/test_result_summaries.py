@@ -27,8 +27,6 @@ def _script(name: str):
 ])
 def test_committed_summary_is_regenerated_from_the_committed_tables(tmp_path, name, folder, table, extra):
     committed = RESULTS / folder / table
-    if not committed.exists():
-        pytest.skip(f"{committed} is not committed yet")
     assert _script(name).main(["--out", str(tmp_path), *extra]) == 0
     assert (tmp_path / table).read_text() == committed.read_text()
     fresh = (tmp_path / ("summary.md")).read_text().split("\n", 3)[3]   # past the command line
@@ -43,3 +41,17 @@ def test_false_give_ups_counts_every_not_found_as_false_in_findable_worlds():
     assert counts == {("w", "make_tea_milk_sugar", "m", "efe"): [10, 50, 2]}
     row = module.rows_of("s", counts)[0]
     assert row["rate"] == pytest.approx(0.04) and row["low"] > 0.001 and row["above_declared"]
+
+
+def test_trace_rebuilds_the_job_of_a_row_or_says_it_cannot():
+    from fg_tea.common.errors import InputError
+    from fg_tea.study.sweep import Job
+
+    module = _script("trace_give_ups")
+    job = Job("generated_small_milk_sugar", 63, model="joint", planner="factorised_efe",
+              task="make_tea_milk_sugar")
+    row = {"key": job.key, "world": job.world, "world_seed": 63, "model": "joint",
+           "planner": "factorised_efe", "seed": 63, "env": "pybullet", "task": "make_tea_milk_sugar"}
+    assert module.job_of(row) == job
+    with pytest.raises(InputError, match="cannot rebuild"):
+        module.job_of({**row, "key": job.key + "|knobs=same_site=1"})
