@@ -396,11 +396,12 @@ class EpisodeRunner:
         excluded = frozenset(self.executor.excluded_sites)
         inspected = dict(agent.inspected)
         pose = self.env.agent_pose()
-        if agent.weigh_search((pose.x, pose.y), _EnvDistances(self.env, self._between, self._matrices)) is not None:
+        distances = _EnvDistances(self.env, self._between, self._matrices)
+        if agent.weigh_search((pose.x, pose.y), distances) is not None:
             self._flush_executor()  # the give_up; the next step ends the episode not_found
             return
         try:
-            decision = agent.decide(action, (pose.x, pose.y), _EnvDistances(self.env, self._between, self._matrices))
+            decision = agent.decide(action, (pose.x, pose.y), distances)
         except (Exception, SystemExit) as exc:  # a planner of the user's own, often: end, saying why
             first = (str(exc).splitlines() or [""])[0]
             what = f"failed: {type(exc).__name__}" + (f": {first}" if first else "")
