@@ -1,39 +1,51 @@
-"""Quality against cost: how close does each planner come to the Bayes-optimal search, and how fast?
+"""Quality against cost: how close does each planner come to the best possible search, and how fast?
 
-For every (model, planner) the script runs the same paired worlds (world seed s, episode seed s)
-headlessly and records, per episode, the search travel, inspections, success and the wall time of
-every planner decision. It then writes
+Two yardsticks (``--yardstick``):
 
-- ``frontier.md``: per model and planner, mean search travel, the ratio of means to the
-  Bayes-optimal planner (``optimal``, the perfect-detection limit) with a paired bootstrap 95 %
-  interval over worlds, median and 95th-percentile decision time (ms), inspections and success;
-- ``frontier.png``: ratio to optimal against median ms per decision (log scale), one point per
-  planner and model.
+- ``limit`` (the default): the search limit under imperfect detection (docs/design.md §6.9), the
+  least expected cost of finding every object when looks can miss, bracketed from both sides.
+  Search-only tasks (``find_mug``, ``find_three``) on worlds drawn from the model's own prior, one
+  factorised model with close looks; each planner's exact policy cost and its sampled episodes
+  against the limit, and ``frontier.png`` draws cost / limit against median CPU ms per decision.
+  It is the study of ``experiments/search_limit.py`` (``summary.md``, ``episodes.csv``,
+  ``gaps.md``; see there), run here with the frontier's planners.
+- ``optimal``: search travel in the make-tea episode against the perfect-detection DP
+  (``optimal``), which is not the best policy when looks can miss; kept for the correlated worlds
+  and joint beliefs the limit does not cover. It writes
+
+  - ``frontier.md``: per model and planner, mean search travel, the ratio of means to ``optimal``
+    with a paired bootstrap 95 % interval over worlds, median and 95th-percentile decision time
+    (ms), inspections and success;
+  - ``frontier.png``: ratio to optimal against median ms per decision (log scale), one point per
+    planner and model.
 
 One JSON file per episode under ``<out>/episodes/``; a re-run skips episodes already there, so an
-interrupted run resumes. Times are wall-clock on whatever else the machine is running, so they
-stay out of the episode logs (which remain deterministic) and are measured serially.
+interrupted run resumes. Times are measured serially; the episode logs stay deterministic.
 
-    python experiments/planner_frontier.py                      # every default planner (long)
-    python experiments/planner_frontier.py --worlds 20 --planners optimal efe lookahead pouct:1000
-    # the committed headline (experiments/results/planner_frontier/), about 6 minutes on 2 cores:
-    python experiments/planner_frontier.py --worlds 100 --models factorised_close joint_close \
-        --planners optimal efe lookahead lookahead:nodes=60 pouct:1000 \
+    python experiments/planner_frontier.py --worlds 50               # against the limit, a few minutes
+    # the peers' budgets against the limit in the apartment (experiments/results/search_limit/):
+    python experiments/planner_frontier.py --worlds 200 --planners efe lookahead exact \\
+        pouct:100 pouct:1000 pouct:3000 pomcp:100 pomcp:1000 pomcp:3000 \\
+        --out experiments/results/search_limit
+    # against the perfect-detection DP (experiments/results/planner_frontier/), about 6 minutes:
+    python experiments/planner_frontier.py --yardstick optimal --worlds 100 \\
+        --models factorised_close joint_close \\
+        --planners optimal efe lookahead lookahead:nodes=60 pouct:1000 \\
         --out experiments/results/planner_frontier
     # beyond the optimal planner's reach (SPL against the clairvoyant route), about 20 minutes:
-    python experiments/planner_frontier.py --world generated_medium --worlds 30 \
-        --models factorised_close joint_close --planners efe lookahead pouct:100 pouct:1000 \
+    python experiments/planner_frontier.py --yardstick optimal --world generated_medium --worlds 30 \\
+        --models factorised_close joint_close --planners efe lookahead pouct:100 pouct:1000 \\
         --out experiments/results/planner_frontier/generated_medium
 
-The default environment is the fake house (straight-line travel, oracle pixel counts) with an
-injected detector miss rate equal to the model's mu (0.05), so the detector misses as often as
-the agent assumes; search travel there is metres walked on straight lines, the same metric every
-planner is scored and plans with.
+The environment is the fake house (straight-line travel, oracle pixel counts) with an injected
+detector miss rate equal to the model's mu (0.05), so the detector misses as often as the agent
+assumes; with ``--yardstick optimal``, ``--env pybullet`` runs the PyBullet house instead.
 """
 
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 
@@ -41,13 +53,18 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from fg_tea.common.files import out_folder  # noqa: E402
-from fg_tea.common.errors import run_script  # noqa: E402
+from fg_tea.common.errors import InputError, run_script  # noqa: E402
 from fg_tea.study.frontier import (  # noqa: E402
     DEFAULT_PLANNERS,
     check_inputs,
     run_frontier,
     summarise,
 )
+
+YARDSTICKS = ("limit", "optimal")
+#: The planners run against the limit by default: one-step EFE, the lookahead, the limit's own
+#: policy and the perfect-detection DP, all deterministic, so each has an exact policy cost.
+LIMIT_PLANNERS = ("efe", "lookahead", "exact", "optimal")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -58,42 +75,90 @@ def build_parser() -> argparse.ArgumentParser:
         experiment_parser,
     )
 
-    p = experiment_parser(__doc__, __file__, "§6.5, §6.6 and §6.7")
-    p.add_argument("--worlds", type=int, default=100, help="number of paired worlds")
+    p = experiment_parser(__doc__, __file__, "§6.5, §6.6, §6.7 and §6.9")
+    p.add_argument("--yardstick", choices=YARDSTICKS, default="limit",
+                   help="limit: against the search limit under imperfect detection (search-only "
+                   "tasks, one factorised close-look model); optimal: make-tea search travel against "
+                   "the perfect-detection DP (default: %(default)s)")
+    p.add_argument("--worlds", type=int, default=None,
+                   help="number of paired worlds (default: 200 against the limit, 100 against optimal)")
     p.add_argument("--first-seed", type=int, default=0, help="first world seed (and episode seed)")
-    p.add_argument("--world", default="correlated", help=WORLD_HELP)
-    p.add_argument("--models", nargs="+", default=["factorised_close", "joint_close"], help=MODELS_HELP)
+    p.add_argument("--world", default=None,
+                   help=WORLD_HELP + " (default: independent against the limit, correlated against optimal)")
+    p.add_argument("--models", nargs="+", default=None,
+                   help=MODELS_HELP + " (default: factorised_close against the limit, which takes one; "
+                   "factorised_close joint_close against optimal)")
     p.add_argument("--planners", nargs="+", default=None,
                    help=f"planner names, with options as in lookahead:depth=3 or pouct:1000 "
-                   f"(default: {' '.join(DEFAULT_PLANNERS)})")
-    p.add_argument("--env", choices=("fake", "pybullet"), default="fake", help=ENV_HELP)
+                   f"(default: {' '.join(LIMIT_PLANNERS)} against the limit, "
+                   f"{' '.join(DEFAULT_PLANNERS)} against optimal)")
+    p.add_argument("--tasks", nargs="+", default=None,
+                   help="search-only tasks, against the limit only (default: find_mug find_three)")
+    p.add_argument("--env", choices=("fake", "pybullet"), default=None,
+                   help=ENV_HELP + " (against optimal only; the limit's episodes are in the fake house)")
     p.add_argument("--miss-rate", type=float, default=None,
-                   help="injected detector miss rate (default: the model's mu)")
+                   help="injected detector miss rate, against optimal only (default: the model's mu)")
     p.add_argument("--out", type=out_folder, default="runs/experiments/planner_frontier",
                    help="output folder (default: %(default)s)")
     p.add_argument("--summary-only", action="store_true",
-                   help="run nothing: summarise the episodes already in OUT/episodes (missing "
-                        "ones are left out, so a planner may cover fewer worlds)")
+                   help="against optimal: run nothing, summarise the episodes already in "
+                        "OUT/episodes (missing ones are left out, so a planner may cover fewer worlds)")
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     p = build_parser()
     args = p.parse_args(argv)
-    planners = args.planners or list(DEFAULT_PLANNERS)
+    if args.yardstick == "limit":
+        return _against_limit(args, argv)
+    if args.tasks is not None:
+        raise InputError("<command line>", "--tasks", "has no effect with --yardstick optimal: "
+                         "its episodes run the make-tea task")
+    planners = _installed(args.planners or list(DEFAULT_PLANNERS))
+    world, models = args.world or "correlated", args.models or ["factorised_close", "joint_close"]
+    worlds = 100 if args.worlds is None else args.worlds
+    check_inputs(world, worlds, models, planners, args.miss_rate)
+    out = Path(args.out)
+    rows = run_frontier(world, worlds, args.first_seed, models, planners, args.env or "fake",
+                        args.miss_rate, out, args.summary_only)
+    print(summarise(rows, out))
+    return 0
+
+
+def _against_limit(args: argparse.Namespace, argv: list[str] | None) -> int:
+    """The search-limit study (fg_tea.study.yardstick.study) with the frontier's planners."""
+    from fg_tea.study import yardstick
+
+    for flag, value, why in (("--env", args.env not in (None, "fake"), "the limit's episodes run in the fake house"),
+                             ("--miss-rate", args.miss_rate is not None, "the limit's detector misses "
+                              "as often as the model says, so that the ratio measures planning alone"),
+                             ("--summary-only", args.summary_only, "the limit's study resumes from "
+                              "OUT/episodes by itself")):
+        if value:
+            raise InputError("<command line>", flag, f"has no effect with --yardstick limit: {why}")
+    if args.models is not None and len(args.models) != 1:
+        raise InputError("<command line>", "--models", f"{' '.join(args.models)}: the limit takes one "
+                         "factorised model with close looks (e.g. factorised_close)")
+    planners = _installed(args.planners or list(LIMIT_PLANNERS))
+    world, model = args.world or "independent", (args.models or ["factorised_close"])[0]
+    worlds = 200 if args.worlds is None else args.worlds
+    check_inputs(world, worlds, [model], planners)
+    command = "python experiments/planner_frontier.py " + shlex.join(argv if argv is not None else sys.argv[1:])
+    print(yardstick.study(world, range(args.first_seed, args.first_seed + worlds), model,
+                          args.tasks or ["find_mug", "find_three"], planners, Path(args.out), command))
+    return 0
+
+
+def _installed(planners: list[str]) -> list[str]:
+    """The planners whose libraries are installed; the peers' are skipped with a note."""
     try:
         import pomdp_py  # noqa: F401
     except ImportError:
         skipped = [x for x in planners if x.startswith(("pouct", "pomcp"))]
         if skipped:
             print(f"pomdp-py not installed; skipping {', '.join(skipped)} (pip install -e \".[peers]\")")
-        planners = [x for x in planners if x not in skipped]
-    check_inputs(args.world, args.worlds, args.models, planners, args.miss_rate)
-    out = Path(args.out)
-    rows = run_frontier(args.world, args.worlds, args.first_seed, args.models, planners, args.env,
-                        args.miss_rate, out, args.summary_only)
-    print(summarise(rows, out))
-    return 0
+        return [x for x in planners if x not in skipped]
+    return planners
 
 
 if __name__ == "__main__":

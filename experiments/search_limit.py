@@ -16,7 +16,6 @@ mean cost to the limit measures planning alone. Writes ``summary.md`` and ``epis
 from __future__ import annotations
 
 import argparse
-import csv
 import shlex
 import sys
 from pathlib import Path
@@ -25,12 +24,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_path, atomic_write_text, out_folder  # noqa: E402
+from fg_tea.common.files import out_folder  # noqa: E402
 
 TASKS = ("find_mug", "find_three")
-#: Planners that draw random numbers: their policy is no function of the belief, so it is only
-#: sampled, never enumerated.
-RANDOMISED = ("random", "pouct", "pomcp")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,7 +50,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from fg_tea.study.rows import Progress
     from fg_tea.study import yardstick
     from fg_tea.study.frontier import check_inputs
 
@@ -62,62 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     check_inputs(args.world, args.worlds, [args.model], args.planners)
     if not (args.tolerance > 0):
         raise InputError("<command line>", "--tolerance", f"{args.tolerance}: must be above 0")
-    out = Path(args.out)
-    limits = {}
-    for task in args.tasks:
-        try:
-            limits[task] = yardstick.start_limit(args.world, args.model, task, args.tolerance)
-        except ValueError as exc:  # the limit does not fit, or the belief is correlated
-            raise InputError("<command line>", "--model", str(exc)) from None
-        lim = limits[task][0]
-        print(f"{task}: limit [{lim.lower:.4f}, {lim.upper:.4f}] m (cap {lim.cap})", flush=True)
-    rows = []
-    seeds = range(args.first_seed, args.first_seed + args.worlds)
-    for task in args.tasks:
-        bar = Progress(len(args.planners) * len(seeds), label=task)
-        rows += yardstick.run(args.world, seeds, args.model, args.planners, task, out,
-                              progress=lambda done, total: bar.update())
-    policies = {}
-    for task in args.tasks:
-        for planner in args.planners:
-            if planner.split(":")[0] not in RANDOMISED:
-                policies[(task, planner)] = yardstick.evaluate_policy(args.world, args.model, planner, task)
     command = "python experiments/search_limit.py " + shlex.join(argv if argv is not None else sys.argv[1:])
-    text = yardstick.summarise(rows, limits, args.world, args.model, command, policies)
-    atomic_write_text(out / "summary.md", text)
-    with atomic_path(out / "episodes.csv") as tmp, tmp.open("w", newline="") as fh:
-        columns = ["task", "planner", "seed", "cost", "looks", "success", "reason"]
-        w = csv.DictWriter(fh, columns, extrasaction="ignore", lineterminator="\n")
-        w.writeheader()
-        w.writerows(rows)
-    gaps = ["# Where each planner loses against the exact policy", "",
-            "At every decision the planner makes (every branch of its policy, reached with the "
-            "probability shown), the regret is the exact Q-value of its look minus the best look's "
-            "(the tables of the upper cut, docs/design.md §6.9); weighted by the chance of reaching "
-            "the decision, the regrets sum to the planner's excess cost over the exact policy.", ""]
-    summary = ["## Summary", "", "| planner | task | policy cost (m) | exact policy (m) | summed regret (m) | "
-               "at re-looks (m) | at the first decision (m) |", "|---|---|---|---|---|---|---|"]
-    details: list[str] = []
-    for planner in args.gaps:
-        for task in args.tasks:
-            g = yardstick.gap_analysis(args.world, args.model, planner, task)
-            relook = sum(r["weighted"] for r in g["rows"] if r["best"] == r["here"])
-            root = sum(r["weighted"] for r in g["rows"] if r["here"] is None)
-            summary.append(f"| {planner} | {task} | {g['policy'].cost:.4f} | {g['cut_policy']:.4f} | "
-                           f"{g['excess']:.4f} | {relook:.4f} | {root:.4f} |")
-            details += [f"## `{planner}`, task `{task}`", "",
-                     f"Policy cost {g['policy'].cost:.4f} m; the exact (cut) policy's {g['cut_policy']:.4f} m; "
-                     f"summed weighted regret {g['excess']:.4f} m, of which {relook:.4f} m where the best "
-                     f"look was a re-look from where the agent stood and {root:.4f} m at the first "
-                     f"decision. Decisions beyond the cut (not weighed): probability {g['beyond_cut']:.2g}.",
-                     "", "| weighted regret (m) | probability | stood at | looks so far | still searched | "
-                     "chose | best | regret (m) |", "|---|---|---|---|---|---|---|---|"]
-            for r in g["rows"][:12]:
-                details.append(f"| {r['weighted']:.4f} | {r['weight']:.3f} | {r['here'] or 'start'} | "
-                            f"{sum(r['looks'].values())} | {', '.join(r['pending'])} | {r['chosen']} | "
-                            f"{r['best']} | {r['regret']:.3f} |")
-            details.append("")
-    atomic_write_text(out / "gaps.md", "\n".join(gaps + summary + [""] + details))
+    text = yardstick.study(args.world, range(args.first_seed, args.first_seed + args.worlds), args.model,
+                           args.tasks, args.planners, Path(args.out), command, args.tolerance, args.gaps)
     print(text)
     return 0
 

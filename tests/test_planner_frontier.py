@@ -7,6 +7,8 @@ import importlib.util
 import json
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -19,8 +21,8 @@ def _script():
 
 def test_frontier_runs_resumes_and_summarises(tmp_path, capsys):
     frontier = _script()
-    args = ["--worlds", "2", "--models", "factorised_close", "--planners", "optimal", "efe",
-            "lookahead:nodes=5", "--out", str(tmp_path)]
+    args = ["--yardstick", "optimal", "--worlds", "2", "--models", "factorised_close", "--planners",
+            "optimal", "efe", "lookahead:nodes=5", "--out", str(tmp_path)]
     assert frontier.main(args) == 0
     episodes = sorted((tmp_path / "episodes").glob("*.json"))
     assert len(episodes) == 6
@@ -35,6 +37,28 @@ def test_frontier_runs_resumes_and_summarises(tmp_path, capsys):
     episodes[-1].unlink()
     assert frontier.main(args[:-2] + ["--out", str(tmp_path), "--summary-only"]) == 0
     assert not episodes[-1].exists()  # --summary-only runs nothing
+    capsys.readouterr()
+
+
+@pytest.mark.slow
+def test_the_frontier_against_the_limit_writes_its_study_and_resumes(tmp_path, capsys):
+    """The default yardstick: the search-limit study, with the frontier drawn against the limit;
+    the limit's own policy (``exact``) costs the limit, one-step EFE more."""
+    frontier = _script()
+    args = ["--worlds", "2", "--planners", "efe", "exact", "--tasks", "find_mug", "--out", str(tmp_path)]
+    assert frontier.main(args) == 0
+    for name in ("summary.md", "episodes.csv", "gaps.md", "frontier.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    episodes = sorted((tmp_path / "episodes").glob("*.json"))
+    assert len(episodes) == 4
+    table = (tmp_path / "summary.md").read_text()
+    assert "Regenerate: `python experiments/planner_frontier.py --worlds 2" in table
+    ratios = {line.split(" | ")[0].strip("| "): float(line.split(" | ")[2])
+              for line in table.splitlines() if line.startswith(("| efe |", "| exact |"))}
+    assert 0.99 <= ratios["exact"] <= 1.01 < ratios["efe"]
+    stamps = [p.stat().st_mtime_ns for p in episodes]
+    assert frontier.main(args) == 0  # resumes: nothing is run again
+    assert [p.stat().st_mtime_ns for p in episodes] == stamps
     capsys.readouterr()
 
 
@@ -87,7 +111,14 @@ def test_budget_rule_refuses_bad_input_with_one_line_before_any_episode(tmp_path
 def test_frontier_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
     _refuses_each("planner_frontier.py", (
         (["--world", "nowhere"], "--world"), (["--planners", "nope"], "nope"),
-        (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model")), tmp_path)
+        (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model"),
+        # settings the chosen yardstick has no use for
+        (["--env", "pybullet"], "--env"), (["--miss-rate", "0.1"], "--miss-rate"),
+        (["--summary-only"], "--summary-only"), (["--models", "factorised_close", "joint_close"], "--models"),
+        (["--yardstick", "optimal", "--tasks", "find_mug"], "--tasks"),
+        # the limit needs a factorised belief
+        (["--models", "joint_close", "--worlds", "1"], "--model"),
+        (["--yardstick", "optimal", "--world", "nowhere"], "--world")), tmp_path)
 
 
 def test_the_frontier_figure_names_planners_in_a_legend_and_its_log_ticks_do_not_collide(tmp_path, monkeypatch):

@@ -290,7 +290,8 @@ def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:
     return path
 
 
-def _figure(width: float = 7.5, height: float = 4.0, ncols: int = 1):
+def figure_row(width: float = 7.5, height: float = 4.0, ncols: int = 1):
+    """A figure (constrained layout) and its one row of `ncols` axes."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -313,7 +314,7 @@ def plot_bars(summary: Sequence[Mapping[str, Any]], path: str | Path,
     groups = list(dict.fromkeys(s[group] for s in summary))
     names = list(dict.fromkeys(s[series] for s in summary))
     panel = max(3.5, 0.3 * len(groups) * max(1, len(names)) + 1.0)
-    fig, axes = _figure(panel * len(metrics), 4.0, len(metrics))
+    fig, axes = figure_row(panel * len(metrics), 4.0, len(metrics))
     width = 0.8 / max(1, len(names))
     lookup = {(s[group], s[series]): s for s in summary}
     for ax, metric in zip(axes, metrics):
@@ -366,7 +367,7 @@ def plot_entropy(rows: Sequence[Mapping[str, Any]], path: str | Path,
     """Belief entropy over inspections: mean ± 1.96 SE per group, one panel per first `by` value."""
     curves = entropy_curves(rows, by)
     panels = _order((k[0] for k in curves), ("factorised", "joint"))
-    fig, axes = _figure(5.0 * max(1, len(panels)), 4.0, max(1, len(panels)))
+    fig, axes = figure_row(5.0 * max(1, len(panels)), 4.0, max(1, len(panels)))
     for ax, panel in zip(axes, panels):
         for key, (mean, sem) in curves.items():
             if key[0] != panel:
@@ -413,7 +414,7 @@ def plot_paired(diffs: Sequence[Mapping[str, Any]], path: str | Path, vary: str 
                 title: str = "") -> Path:
     """The answer of a comparison: paired differences (other − baseline, world by world) with
     95 % intervals and a zero line, one panel per metric, one row per planner."""
-    fig, axes = _figure(3.6 * len(metrics), 0.9 + 0.45 * max(1, len(diffs)), len(metrics))
+    fig, axes = figure_row(3.6 * len(metrics), 0.9 + 0.45 * max(1, len(diffs)), len(metrics))
     labels = [f"{d.get('planner', '')}: {d[vary]} − {d['baseline']}" for d in diffs]
     y = np.arange(len(diffs))[::-1]
     for ax, m in zip(axes, metrics):
@@ -437,7 +438,7 @@ def plot_ratios(ratios: Sequence[Mapping[str, Any]], path: str | Path, vary: str
     """Ratio to the reference per `vary` value and `by` value, with 95 % CI whiskers and a line at 1."""
     groups = list(dict.fromkeys(r[vary] for r in ratios))
     names = list(dict.fromkeys(r[by] for r in ratios))
-    fig, axes = _figure(max(6.0, 1.2 * len(groups)), 4.0)
+    fig, axes = figure_row(max(6.0, 1.2 * len(groups)), 4.0)
     ax = axes[0]
     width = 0.8 / max(1, len(names))
     lookup = {(r[vary], r[by]): r for r in ratios}
@@ -473,7 +474,7 @@ def plot_sweep(diffs: Sequence[Mapping[str, Any]], x: str, path: str | Path,
         x: the knob column.
         sign: multiplies the differences (``-1``: plot ``baseline - other``, i.e. what `other` saves).
     """
-    fig, axes = _figure(5.0 * len(metrics), 4.0, len(metrics))
+    fig, axes = figure_row(5.0 * len(metrics), 4.0, len(metrics))
     points = sorted((d for d in diffs if d[x] is not None), key=lambda d: d[x])
     for ax, metric in zip(axes, metrics):
         xs = [d[x] for d in points]

@@ -79,7 +79,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: 
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
 
 
-def _log_ticks(ax) -> None:
+def log_ticks(ax) -> None:
     """A log axis with few, plainly written ticks (1, 10, 100 ms; no crowded minor labels)."""
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
@@ -165,7 +165,7 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
                        color=f"C{models_seen.index(model)}", s=36,
                        label=f"{planner} ({model})")
     if plotted:
-        _log_ticks(ax)
+        log_ticks(ax)
         ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
     ax.axhline(1.0, color="grey", lw=0.8)
     ax.set_xlabel("median ms per decision (log)")
@@ -224,4 +224,4 @@ def run_frontier(world: str, worlds: int, first_seed: int, models: list[str], pl
     return rows
 
 
-__all__ = ["DEFAULT_PLANNERS", "run_episode", "summarise", "check_inputs", "run_frontier"]
+__all__ = ["DEFAULT_PLANNERS", "MARKERS", "log_ticks", "run_episode", "summarise", "check_inputs", "run_frontier"]

@@ -15,6 +15,7 @@ an interrupted run resumes. Times are CPU seconds per decision, measured seriall
 from __future__ import annotations
 
 import copy
+import csv
 import itertools
 import json
 import time
@@ -23,12 +24,16 @@ from pathlib import Path
 
 import numpy as np
 
-from fg_tea.common.files import atomic_write_text
+from fg_tea.common.files import atomic_path, atomic_write_text
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.planning.limit import Limit, search_limit
 from fg_tea.planning.problem import LOOK_COST, build_problem
 from fg_tea.study.frontier import episode_setup
+
+#: Planners that draw random numbers: their policy is no function of the belief, so it is only
+#: sampled, never enumerated.
+RANDOMISED = ("random", "pouct", "pomcp")
 
 
 class _StartDistances:
@@ -170,6 +175,116 @@ def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], worl
                          f"{np.percentile(cpu, 95) if cpu.size else float('nan'):.2f} |")
         lines.append("")
     return "\n".join(lines)
+
+
+def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
+                  policies: dict[tuple[str, str], "PolicyCost"], path: Path) -> Path:
+    """The quality-cost frontier against the limit: per task, each planner's cost / limit (its
+    exact policy cost where it has one, else the episodes' mean with its 95 % interval) against
+    its median CPU ms per decision (log), with the limit (1) and 3 % above it marked."""
+    from fg_tea.study.analysis import figure_row, save_figure
+    from fg_tea.study.frontier import MARKERS, log_ticks
+
+    tasks = sorted({r["task"] for r in rows})
+    planners = list(dict.fromkeys(r["planner"] for r in rows))
+    fig, axes = figure_row(width=4.2 * len(tasks) + 2.2, height=4.0, ncols=len(tasks))
+    for ax, task in zip(axes, tasks):
+        limit, objects = limits[task]
+        mid = (limit.lower + limit.upper) / 2
+        for k, planner in enumerate(planners):
+            mine = [r for r in rows if r["task"] == task and r["planner"] == planner]
+            cpu = np.array([t for r in mine for t in r["decision_cpu_seconds"]]) * 1e3
+            if not mine or not cpu.size or np.median(cpu) <= 0:
+                continue
+            style = {"marker": MARKERS[k % len(MARKERS)], "color": f"C{k % 10}", "label": planner}
+            pol = policies.get((task, planner))
+            if pol is not None:
+                ax.scatter(np.median(cpu), pol.cost / mid, s=36, **style)
+            else:  # randomised: only its sampled episodes say how it does
+                ratio = np.array([r["cost"] for r in mine]) / mid
+                lo, hi = bootstrap_interval(ratio)
+                ax.errorbar(np.median(cpu), ratio.mean(), yerr=[[ratio.mean() - lo], [hi - ratio.mean()]],
+                            ls="none", capsize=3, markersize=6, markerfacecolor="none", **style)
+        ax.axhline(1.0, color="grey", lw=0.8)
+        ax.axhline(1.03, color="grey", lw=0.8, ls=":")
+        log_ticks(ax)
+        ax.set_xlabel("median CPU ms per decision (log)")
+        ax.set_ylabel("expected cost / limit")
+        ax.set_title(f"{task} ({len(objects)} object{'s' if len(objects) != 1 else ''})", fontsize=10)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="outside right center", frameon=False)
+    fig.suptitle("Quality against cost, against the search limit (dotted: 3 % above it; filled: the "
+                 "exact policy cost, open: episodes' mean, 95 %)", fontsize=9)
+    return save_figure(fig, path)
+
+
+def study(world: str, seeds: range, model: str, tasks: list[str], planners: list[str], out: Path,
+          command: str, tolerance: float = 1e-3, gaps: tuple[str, ...] | list[str] = ()) -> str:
+    """Every planner against the limit on every task: the limits, the episodes (resumed from
+    ``out/episodes``), each deterministic planner's exact policy cost, and, for the planners in
+    `gaps`, where they lose against the exact policy. Writes ``summary.md`` (returned),
+    ``episodes.csv``, ``frontier.png`` and ``gaps.md`` to `out`.
+
+    Raises:
+        InputError: the limit does not fit, or the model's belief is correlated (``--model``).
+    """
+    from fg_tea.common.errors import InputError
+    from fg_tea.study.rows import Progress
+
+    limits = {}
+    for task in tasks:
+        try:
+            limits[task] = start_limit(world, model, task, tolerance)
+        except ValueError as exc:  # the limit does not fit, or the belief is correlated
+            raise InputError("<command line>", "--model", str(exc)) from None
+        lim = limits[task][0]
+        print(f"{task}: limit [{lim.lower:.4f}, {lim.upper:.4f}] m (cap {lim.cap})", flush=True)
+    rows = []
+    for task in tasks:
+        bar = Progress(len(planners) * len(seeds), label=task)
+        rows += run(world, seeds, model, planners, task, out, progress=lambda done, total: bar.update())
+    policies = {}
+    for task in tasks:
+        for planner in planners:
+            if planner.split(":")[0] not in RANDOMISED:
+                policies[(task, planner)] = evaluate_policy(world, model, planner, task)
+    text = summarise(rows, limits, world, model, command, policies)
+    atomic_write_text(out / "summary.md", text)
+    draw_frontier(rows, limits, policies, out / "frontier.png")
+    with atomic_path(out / "episodes.csv") as tmp, tmp.open("w", newline="") as fh:
+        columns = ["task", "planner", "seed", "cost", "looks", "success", "reason"]
+        w = csv.DictWriter(fh, columns, extrasaction="ignore", lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    intro = ["# Where each planner loses against the exact policy", "",
+            "At every decision the planner makes (every branch of its policy, reached with the "
+            "probability shown), the regret is the exact Q-value of its look minus the best look's "
+            "(the tables of the upper cut, docs/design.md §6.9); weighted by the chance of reaching "
+            "the decision, the regrets sum to the planner's excess cost over the exact policy.", ""]
+    summary = ["## Summary", "", "| planner | task | policy cost (m) | exact policy (m) | summed regret (m) | "
+               "at re-looks (m) | at the first decision (m) |", "|---|---|---|---|---|---|---|"]
+    details: list[str] = []
+    for planner in gaps:
+        for task in tasks:
+            g = gap_analysis(world, model, planner, task)
+            relook = sum(r["weighted"] for r in g["rows"] if r["best"] == r["here"])
+            root = sum(r["weighted"] for r in g["rows"] if r["here"] is None)
+            summary.append(f"| {planner} | {task} | {g['policy'].cost:.4f} | {g['cut_policy']:.4f} | "
+                           f"{g['excess']:.4f} | {relook:.4f} | {root:.4f} |")
+            details += [f"## `{planner}`, task `{task}`", "",
+                        f"Policy cost {g['policy'].cost:.4f} m; the exact (cut) policy's {g['cut_policy']:.4f} m; "
+                        f"summed weighted regret {g['excess']:.4f} m, of which {relook:.4f} m where the best "
+                        f"look was a re-look from where the agent stood and {root:.4f} m at the first "
+                        f"decision. Decisions beyond the cut (not weighed): probability {g['beyond_cut']:.2g}.",
+                        "", "| weighted regret (m) | probability | stood at | looks so far | still searched | "
+                        "chose | best | regret (m) |", "|---|---|---|---|---|---|---|---|"]
+            for r in g["rows"][:12]:
+                details.append(f"| {r['weighted']:.4f} | {r['weight']:.3f} | {r['here'] or 'start'} | "
+                               f"{sum(r['looks'].values())} | {', '.join(r['pending'])} | {r['chosen']} | "
+                               f"{r['best']} | {r['regret']:.3f} |")
+            details.append("")
+    atomic_write_text(out / "gaps.md", "\n".join(intro + summary + [""] + details))
+    return text
 
 
 class _FromViewpoint:
