@@ -253,6 +253,7 @@ def time_episodes(planner_name: str, model, world: str, worlds: int, seed: int) 
     from fg_tea.common.errors import PlannerRefused
     from fg_tea.env.fake import FakeHouse
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
+    from fg_tea.study.frontier import DecisionClock
     from fg_tea.world.distributions import load_world
 
     distribution = load_world(world_path(world))
@@ -265,18 +266,12 @@ def time_episodes(planner_name: str, model, world: str, worlds: int, seed: int) 
         env = FakeHouse(scenario, env_config_for(model))
         try:
             runner = EpisodeRunner(scenario, model, env, RunConfig(seed=w, planner=planner_name))
-            choose = runner.planner.choose
-
-            def timed(*a, _choose=choose, **k):
-                t0, c0 = time.perf_counter(), time.process_time()
-                try:
-                    return _choose(*a, **k)
-                finally:
-                    wall.append((time.perf_counter() - t0) * 1e3)
-                    cpu.append((time.process_time() - c0) * 1e3)
-
-            runner.planner.choose = timed
-            successes += bool(runner.run()["success"])
+            clock = DecisionClock(runner.planner)
+            try:
+                successes += bool(runner.run()["success"])
+            finally:
+                wall.extend(t * 1e3 for t in clock.wall)
+                cpu.extend(t * 1e3 for t in clock.cpu)
         except PlannerRefused:
             status = "refused"
             break

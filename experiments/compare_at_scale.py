@@ -261,6 +261,7 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
     """
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
     from fg_tea.study.sweep import _make_env, _model, _world
+    from fg_tea.study.frontier import DecisionClock
 
     first = min(j.world_seed for j in jobs) if jobs else 0
     picked = [j for j in jobs if j.world_seed < first + worlds]
@@ -274,22 +275,15 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
                                                                     max_frames=job.max_frames,
                                                                     task=job.task,
                                                                     gtsam_check=job.gtsam_check))
-            choose, times = runner.planner.choose, samples.setdefault(
-                (job.world, job.task, model.name, model.structure, job.planner), [])
-
-            def timed(*a, _choose=choose, _times=times, **k):
-                t0, c0 = time.perf_counter(), time.process_time()
-                try:
-                    return _choose(*a, **k)
-                finally:
-                    _times.append(((time.perf_counter() - t0) * 1e3,
-                                   (time.process_time() - c0) * 1e3))
-
-            runner.planner.choose = timed
-            for _ in range(job.max_steps):
-                runner.step()
-                if runner.done:
-                    break
+            clock = DecisionClock(runner.planner)
+            try:
+                for _ in range(job.max_steps):
+                    runner.step()
+                    if runner.done:
+                        break
+            finally:
+                samples.setdefault((job.world, job.task, model.name, model.structure, job.planner), []).extend(
+                    (wall * 1e3, cpu * 1e3) for wall, cpu in zip(clock.wall, clock.cpu))
         except ValueError:
             pass  # a refusal (dense limit, optimal size): no time to report for this cell
         finally:

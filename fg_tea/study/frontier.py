@@ -45,23 +45,33 @@ def episode_setup(world: str, seed: int, model_name: str, env_kind: str, miss_ra
     return model, scenario, _make_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate)), rate
 
 
+class DecisionClock:
+    """The wall and CPU seconds of every decision a planner makes: its ``choose`` is wrapped in
+    place, so whoever calls it (the agent, in an episode) is timed without knowing. Times stay
+    out of the episode log, which remains deterministic."""
+
+    def __init__(self, planner) -> None:
+        self.wall: list[float] = []
+        self.cpu: list[float] = []
+        choose = planner.choose
+
+        def timed(*args, **kwargs):
+            start, start_cpu = time.perf_counter(), time.process_time()
+            try:
+                return choose(*args, **kwargs)
+            finally:
+                self.wall.append(time.perf_counter() - start)
+                self.cpu.append(time.process_time() - start_cpu)
+
+        planner.choose = timed
+
+
 def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: str,
                 miss_rate: float | None) -> dict:
     """One episode; returns its metrics and the wall and CPU time of every decision (seconds)."""
     model, scenario, env, rate = episode_setup(world, seed, model_name, env_kind, miss_rate)
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
-    times: list[float] = []
-    cpu: list[float] = []
-    choose = runner.planner.choose
-
-    def timed(*args, **kwargs):
-        start, start_cpu = time.perf_counter(), time.process_time()
-        decision = choose(*args, **kwargs)
-        times.append(time.perf_counter() - start)
-        cpu.append(time.process_time() - start_cpu)
-        return decision
-
-    runner.planner.choose = timed
+    clock = DecisionClock(runner.planner)
     steps = 0
     while not runner.done and steps < 2000:
         runner.step()
@@ -72,7 +82,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: 
             "env": env_kind, "miss_rate": rate, "search_distance": m["search_distance"],
             "inspections": m["inspections"], "success": bool(m["success"]) and runner.done,
             "spl": m.get("spl"),
-            "reason": runner.reason, "decision_seconds": times, "decision_cpu_seconds": cpu}
+            "reason": runner.reason, "decision_seconds": clock.wall, "decision_cpu_seconds": clock.cpu}
 
 
 #: Marker per planner (cycled) and colour per model: a legend names them, so no label sits on a point.
@@ -224,4 +234,4 @@ def run_frontier(world: str, worlds: int, first_seed: int, models: list[str], pl
     return rows
 
 
-__all__ = ["DEFAULT_PLANNERS", "MARKERS", "log_ticks", "run_episode", "summarise", "check_inputs", "run_frontier"]
+__all__ = ["DEFAULT_PLANNERS", "DecisionClock", "MARKERS", "log_ticks", "run_episode", "summarise", "check_inputs", "run_frontier"]

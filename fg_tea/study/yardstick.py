@@ -18,7 +18,6 @@ import copy
 import csv
 import itertools
 import json
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,7 +28,7 @@ from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.planning.limit import Limit, search_limit
 from fg_tea.planning.problem import LOOK_COST, build_problem
-from fg_tea.study.frontier import episode_setup
+from fg_tea.study.frontier import DecisionClock, episode_setup
 
 #: Planners that draw random numbers: their policy is no function of the belief, so it is only
 #: sampled, never enumerated.
@@ -77,16 +76,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
     model, scenario, env, rate = episode_setup(world, seed, model_name, "fake", miss_rate)
     distances = _StartDistances(env)
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner, task=task))
-    cpu: list[float] = []
-    choose = runner.planner.choose
-
-    def timed(*args, **kwargs):
-        start = time.process_time()
-        decision = choose(*args, **kwargs)
-        cpu.append(time.process_time() - start)
-        return decision
-
-    runner.planner.choose = timed
+    clock = DecisionClock(runner.planner)
     steps = 0
     cost, here, start = 0.0, None, {}
     try:
@@ -109,7 +99,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
     return {"world": world, "seed": seed, "model": model_name, "planner": planner, "task": task,
             "miss_rate": rate, "cost": cost, "looks": sum(e["event"] == "observation" for e in runner.events),
             "success": bool(m["success"]) and runner.done, "reason": runner.reason,
-            "decision_cpu_seconds": cpu}
+            "decision_cpu_seconds": clock.cpu}
 
 
 def run(world: str, seeds: range, model: str, planners: list[str], task: str, out: Path,
