@@ -43,8 +43,8 @@ from fg_tea.common.errors import InputError
 from fg_tea.common.options import PLANNER_HELP, WORLD_HELP, experiment_parser
 from fg_tea.env.camera import camera_names
 from fg_tea.model.spec import load_model
-from fg_tea.study.sweep import (ablation_names, add_execution_arguments, model_path, plan_sweep,
-    run_sweep)
+from fg_tea.study.sweep import (ablation_names, add_episode_seed_argument, add_execution_arguments,
+    episode_seed_scheme, model_path, plan_sweep, run_sweep)
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/;
 #: the committed results (experiments/results/ablations) are written only when --out names them.
@@ -62,6 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ablations", nargs="+", default=None,
                    help="ablation models (default: every file in models/ablations)")
     p.add_argument("--planner", default="efe", help=PLANNER_HELP)
+    add_episode_seed_argument(p)
     add_execution_arguments(p, "ablations.csv")
     p.add_argument("--out", type=out_folder, default=str(DEFAULT_OUT),
                    help="output folder (default: %(default)s; committed: experiments/results/ablations)")
@@ -114,7 +115,8 @@ def main(argv: list[str] | None = None) -> int:
         ablations = args.ablations or ([a for a in ORIGINAL if a in bundled]
                                        + [a for a in bundled if a not in ORIGINAL])
         out = Path(args.out)
-        jobs = plan_sweep([args.world], args.worlds, [args.full, *ablations], [args.planner], env=args.env)
+        jobs = plan_sweep([args.world], args.worlds, [args.full, *ablations], [args.planner], env=args.env,
+                          episode_seeds=episode_seed_scheme(args))
         # An ablation of the camera's side (eq. 29's site association) is a bundled camera of the
         # ablation's name, which that ablation's episodes run with (docs/design.md §1.3, §11).
         cameras = set(camera_names())
@@ -124,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
                          address=args.address, resume=args.resume, label="ablations")
         command = shlex.join(["python", "experiments/ablations.py", "--worlds", str(args.worlds),
                               "--world", args.world, "--planner", args.planner, "--ablations", *ablations,
-                              "--out", args.out])
+                              "--episode-seeds", episode_seed_scheme(args), "--out", args.out])
         path = report(rows, load_model(model_path(args.full)).name, ablations, out, command)
     except InputError as exc:
         print(f"ablations: error: {exc}", file=sys.stderr)

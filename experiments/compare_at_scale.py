@@ -73,7 +73,7 @@ from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa:
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.study.sweep import (EPISODE_SEEDS, Job, add_execution_arguments,  # noqa: E402
+from fg_tea.study.sweep import (Job, add_episode_seed_argument, add_execution_arguments, episode_seed_scheme,  # noqa: E402
                                plan_sweep, run_sweep)
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
@@ -136,9 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cross-check every episode's final belief against gtsam, as `fg-tea run` does "
                    "(docs/design.md §4.7); off by default here: it changes no row and is most of an "
                    "episode's cost with five objects")
-    p.add_argument("--episode-seeds", choices=EPISODE_SEEDS, default="world",
-                   help="episode seed of world seed w: w itself (world; the committed tables), or "
-                   "its own stream per world distribution (independent; docs/design.md §11)")
+    add_episode_seed_argument(p)
     p.add_argument("--reuse", type=Path, default=None, metavar="CSV",
                    help="another episodes CSV: rows of this run's jobs found there (equal keys are "
                    "equal jobs and equal rows) are copied instead of run, e.g. the one-step "
@@ -223,7 +221,7 @@ def plan(args, out: Path) -> tuple[list[Job], list[dict]]:
                 world = SIZES[size] + TASKS[task]
                 add(plan_sweep([world], args.worlds, list(models), args.planners,
                                first_seed=args.first_seed, env=args.env, task=task,
-                               episode_seeds=args.episode_seeds),
+                               episode_seeds=episode_seed_scheme(args)),
                     {"size": size, "task": task})
     else:
         for size in args.sizes:
@@ -232,7 +230,7 @@ def plan(args, out: Path) -> tuple[list[Job], list[dict]]:
                 for c in args.strengths:
                     add(plan_sweep([SIZES[size]], args.worlds, [files[m] for m in models],
                                    args.planners, first_seed=args.first_seed, env=args.env,
-                                   knobs=strength_knobs(c), episode_seeds=args.episode_seeds,
+                                   knobs=strength_knobs(c), episode_seeds=episode_seed_scheme(args),
                                    # close looks: the threshold camera, which has no curve
                                    camera=camera if args.looks == "glances" else ""),
                         {"size": size, "half_pixels": n50, "strength": c})
@@ -605,8 +603,10 @@ def main(argv=None) -> int:
     seconds = time.perf_counter() - t0
     every = read_rows(csv_path)
     ran = max(len(every) - before, 0)  # rows this command added
-    command = shlex.join(["python", "experiments/compare_at_scale.py",
-                          *(sys.argv[1:] if argv is None else argv)])
+    given = list(sys.argv[1:] if argv is None else argv)
+    if args.episode_seeds is None:  # the scheme is written out, whatever the default becomes
+        given += ["--episode-seeds", episode_seed_scheme(args)]
+    command = shlex.join(["python", "experiments/compare_at_scale.py", *given])
     # One report for every cell in the CSV, whichever command ran it (see the module doc).
     models = LOOKS[args.looks]
     rows = [r for r in every if row_cell(r, args.table, models)]

@@ -42,7 +42,8 @@ from fg_tea.study.analysis import (Interval, markdown_table, paired_differences,
     step_limited)
 from fg_tea.common.errors import InputError
 from fg_tea.common.options import PLANNER_HELP, WORLD_HELP, experiment_parser
-from fg_tea.study.sweep import add_execution_arguments, plan_sweep, run_sweep
+from fg_tea.study.sweep import (add_episode_seed_argument, add_execution_arguments,
+                                episode_seed_scheme, plan_sweep, run_sweep)
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/;
 #: the committed results (experiments/results/value_of_correlation) change only when --out names them.
@@ -61,13 +62,14 @@ X_COLUMN = {"correlation": "same_site_teabag_kettle", "miss_rate": "detection_mi
             "prior_violation": "prior_violation", "room_correlation": "same_room_teabag_kettle"}
 
 
-def sweep_jobs(name: str, value: float, world: str, n: int, models: list[str], planner: str, env: str):
+def sweep_jobs(name: str, value: float, world: str, n: int, models: list[str], planner: str, env: str,
+               episode_seeds: str = "independent"):
     """The paired jobs of one sweep point."""
     if name == "correlation":
-        return plan_sweep([world], n, models, [planner], env=env,
+        return plan_sweep([world], n, models, [planner], env=env, episode_seeds=episode_seeds,
                           knobs={"same_site": value, "same_room": round(min(value / 2, 1.0 - value), 6)})
     if name == "miss_rate":
-        return plan_sweep([world], n, models, [planner], env=env,
+        return plan_sweep([world], n, models, [planner], env=env, episode_seeds=episode_seeds,
                           env_overrides={"detection_miss_rate": value},
                           # The injected misses act on the threshold detector only (docs/design.md
                           # §3.4), so this sweep's models look closely with it, as when its
@@ -75,9 +77,10 @@ def sweep_jobs(name: str, value: float, world: str, n: int, models: list[str], p
                           model_overrides={"miss_likelihood": max(0.05, value),
                                            "detector": "threshold", "room_glances": False})
     if name == "room_correlation":
-        return plan_sweep([world], n, models, [planner], env=env,
+        return plan_sweep([world], n, models, [planner], env=env, episode_seeds=episode_seeds,
                           knobs={"same_site": 0.0, "same_room": value})
-    return plan_sweep([world], n, models, [planner], env=env, knobs={"prior_violation": value})
+    return plan_sweep([world], n, models, [planner], env=env, episode_seeds=episode_seeds,
+                      knobs={"prior_violation": value})
 
 
 def saved(iv: Interval) -> Interval:
@@ -93,6 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sweeps", nargs="+", choices=tuple(FULL), default=list(FULL),
                    help="which sweeps to run (each varies one world or model parameter)")
     p.add_argument("--quick", action="store_true", help="two values per sweep (smoke test)")
+    add_episode_seed_argument(p)
     add_execution_arguments(p, "value_of_correlation.csv")
     p.add_argument("--out", type=out_folder, default=str(DEFAULT_OUT),
                    help="output folder (default: %(default)s; "
@@ -110,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     models = ["factorised", "joint"]
     out = Path(args.out)
     try:
-        plan = {(name, v): sweep_jobs(name, v, args.world, args.worlds, models, args.planner, args.env)
+        plan = {(name, v): sweep_jobs(name, v, args.world, args.worlds, models, args.planner, args.env,
+                                         episode_seed_scheme(args))
                 for name in args.sweeps for v in grid[name]}
         rows = run_sweep([j for jobs in plan.values() for j in jobs], out / "value_of_correlation.csv",
                          args.executor, workers=args.workers or None, address=args.address,
@@ -120,7 +125,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     by_key = {r["key"]: r for r in rows}
     command = shlex.join(["python", "experiments/value_of_correlation.py", "--worlds", str(args.worlds),
-                          "--world", args.world, "--planner", args.planner, "--sweeps", *args.sweeps]
+                          "--world", args.world, "--planner", args.planner, "--sweeps", *args.sweeps,
+                          "--episode-seeds", episode_seed_scheme(args)]
                          + (["--quick"] if args.quick else []) + ["--out", args.out])
     lines = ["# The value of correlation", "", "Reproduce with:", "", f"    {command}", "",
              f"Saved by the joint model = factorised − joint, world by world ({args.worlds} worlds per "

@@ -191,16 +191,18 @@ def test_a_replicated_run_declares_its_seed_sets_first_and_judges_every_cell(tmp
 
 
 def test_independent_episode_seeds_are_their_own_stream():
-    """--episode-seeds independent: the episode seed of world seed w differs between world
-    distributions and from w, is the same for every model and planner of one world (paired),
-    and is the same number on every call; the default keeps w."""
+    """The default episode seeds (independent): the episode seed of world seed w differs between
+    world distributions and from w, is the same for every model and planner of one world
+    (paired), and is the same number on every call; ``world`` keeps w."""
     from fg_tea.study.sweep import episode_seed, plan_sweep
 
     kw = dict(models=["factorised", "joint"], planners=["efe", "nearest"])
     worlds = ["generated_small", "generated_medium"]
-    default = plan_sweep(worlds, 3, kw["models"], kw["planners"])
-    assert all(j.seed == j.world_seed for j in default)
-    jobs = plan_sweep(worlds, 3, kw["models"], kw["planners"], episode_seeds="independent")
+    same = plan_sweep(worlds, 3, kw["models"], kw["planners"], episode_seeds="world")
+    assert all(j.seed == j.world_seed for j in same)
+    jobs = plan_sweep(worlds, 3, kw["models"], kw["planners"])
+    assert [j.key for j in jobs] == [j.key for j in plan_sweep(worlds, 3, kw["models"], kw["planners"],
+                                                               episode_seeds="independent")]
     by_world = {}
     for j in jobs:
         by_world.setdefault((j.world, j.world_seed), set()).add(j.seed)
@@ -211,10 +213,40 @@ def test_independent_episode_seeds_are_their_own_stream():
         assert seeds[("generated_small", w)] == episode_seed("generated_small", w)
         assert seeds[("generated_small", w)] != w
     assert episode_seed("scenarios/worlds/generated_small.json", 1) == episode_seed("generated_small", 1)
-    assert len({j.key for j in jobs} & {j.key for j in default}) == 0
+    assert len({j.key for j in jobs} & {j.key for j in same}) == 0
     from fg_tea.common.errors import InputError
     with pytest.raises(InputError, match="episode_seeds"):
         plan_sweep(worlds, 1, kw["models"], kw["planners"], episode_seeds="bogus")
+
+
+def test_a_table_run_with_one_episode_seed_scheme_refuses_the_other(tmp_path):
+    """Resuming into a CSV whose episodes ran under the other --episode-seeds scheme would mix two
+    sets of detector draws in one table: refused with one line naming the file, before any run."""
+    from fg_tea.common.errors import InputError
+    from fg_tea.study.sweep import check_episode_seeds, plan_sweep
+
+    world = plan_sweep(["correlated"], 2, ["factorised"], ["efe"], env="fake", episode_seeds="world")
+    independent = plan_sweep(["correlated"], 2, ["factorised"], ["efe"], env="fake")
+    held = [j.key for j in world]
+    check_episode_seeds(world, held, tmp_path / "episodes.csv")            # the same scheme resumes
+    check_episode_seeds(independent, [], tmp_path / "episodes.csv")        # nothing held yet
+    with pytest.raises(InputError, match=r"episodes\.csv.*world seed 0 of correlated ran here with "
+                       r"episode seed 0.*--episode-seeds"):
+        check_episode_seeds(independent, held, tmp_path / "episodes.csv")
+    # through the command: a table run with --episode-seeds world, then the default
+    common = [sys.executable, "experiments/compare_at_scale.py", "--table", "houses", "--worlds", "1",
+              "--sizes", "small", "--tasks", "make_tea", "--planners", "nearest", "--env", "fake",
+              "--workers", "1", "--timing-worlds", "0", "--out", str(tmp_path / "t")]
+    first = subprocess.run(common + ["--episode-seeds", "world"], capture_output=True, text=True,
+                           stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert first.returncode == 0, first.stderr
+    commands = (tmp_path / "t" / "houses" / "commands.txt").read_text()
+    assert "--episode-seeds world" in commands
+    rows = (tmp_path / "t" / "houses" / "episodes.csv").read_bytes()
+    second = subprocess.run(common, capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert second.returncode == 2 and len(second.stderr.strip().splitlines()) == 1, second.stderr
+    assert "--episode-seeds" in second.stderr and "episodes.csv" in second.stderr
+    assert (tmp_path / "t" / "houses" / "episodes.csv").read_bytes() == rows
 
 
 def test_compare_refuses_episode_seeds_with_lifelong(tmp_path):

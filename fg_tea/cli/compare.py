@@ -20,7 +20,7 @@ from fg_tea.cli.common import (
     safe_name,
 )
 from fg_tea.common.errors import InputError
-from fg_tea.study.sweep import EPISODE_SEEDS
+from fg_tea.study.sweep import add_episode_seed_argument, episode_seed_scheme
 from fg_tea.common.files import (
     check_outputs_in,
 )
@@ -83,7 +83,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     sets = _seed_sets(args, n_worlds)
     check_out_dir(out)
     jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
-                      env=args.env, camera=args.camera or "", episode_seeds=args.episode_seeds)
+                      env=args.env, camera=args.camera or "", episode_seeds=episode_seed_scheme(args))
     if sets:  # the confirmation set, declared in OUT before any episode (docs/design.md §11.1)
         from fg_tea.study.replication import declare_seed_sets
 
@@ -91,7 +91,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         declare_seed_sets(out, sets)
         jobs += plan_sweep([args.world], sets[1].count, args.models, planners,
                            first_seed=sets[1].first, env=args.env, camera=args.camera or "",
-                           episode_seeds=args.episode_seeds)
+                           episode_seeds=episode_seed_scheme(args))
     if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
         check_jobs(jobs)
         for ref in args.models:
@@ -113,8 +113,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
                           "--models", *args.models, "--planners", *planners, "--first-seed",
                           str(args.first_seed), "--env", args.env,
                           *(["--camera", args.camera] if args.camera else []),
-                          *(["--episode-seeds", args.episode_seeds]
-                            if args.episode_seeds != "world" else []),
+                          "--episode-seeds", episode_seed_scheme(args),
                           *(["--confirmation-first-seed", str(sets[1].first), "--confirmation-worlds",
                              str(sets[1].count)] if sets else []), "--out", shown])
     files = comparison_report(rows, out, title=f"Factorised vs joint beliefs on `{args.world}` worlds",
@@ -194,7 +193,7 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
     if args.camera:
         raise InputError("<command line>", "--camera", "does not apply with --lifelong (each "
                          "model runs with the camera of the detector it assumes)")
-    if args.episode_seeds != "world":
+    if args.episode_seeds is not None:
         raise InputError("<command line>", "--episode-seeds", "does not apply with --lifelong "
                          "(a household's episodes take their seeds from the household's)")
     k = args.lifelong
@@ -283,10 +282,7 @@ def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) ->
                    "(docs/design.md §11.1)")
     p.add_argument("--confirmation-worlds", type=integer(1, MAX_WORLDS), default=None,
                    help="worlds of the confirmation set (default: --worlds)")
-    p.add_argument("--episode-seeds", choices=EPISODE_SEEDS, default="world",
-                   help="episode seed (detector noise, injected failures) of world seed w: w itself "
-                   "(world; so w of two world distributions draws the same noise), or its own stream "
-                   "per distribution (independent; docs/design.md §11) (default: %(default)s)")
+    add_episode_seed_argument(p)
     p.add_argument("--models", nargs="+", default=["factorised", "joint"],
                    help="models: bundled names, bundled ablations or files (default: factorised joint)")
     p.add_argument("--camera", default=None, help=CAMERA_HELP.replace("the model assumes",

@@ -18,7 +18,7 @@ def compare(world: str, models: Sequence[str] = ("factorised", "joint"),
             planners: Sequence[str] = ("efe",), *, worlds: int = 10, first_seed: int = 0,
             env: str = "fake", out: str | Path = "runs/compare", executor: str = "process",
             workers: int | None = None, address: str | None = None, resume: bool = True,
-            progress: bool = True) -> dict[str, Any]:
+            progress: bool = True, episode_seeds: str = "independent") -> dict[str, Any]:
     """Run a paired comparison and write its report; return the rows and the files written.
 
     Args:
@@ -29,6 +29,8 @@ def compare(world: str, models: Sequence[str] = ("factorised", "joint"),
         env: ``"fake"`` (fast, same geometry and truth) or ``"pybullet"``.
         out: the output folder (``episodes.csv``, ``summary.md``, plots).
         executor, workers, address, resume, progress: as ``fg-tea compare``'s options.
+        episode_seeds: ``"independent"`` or ``"world"``, as ``fg-tea compare --episode-seeds``
+            (:func:`fg_tea.study.sweep.plan_sweep`).
 
     Returns:
         ``{"rows": [...], "files": {name: path}}``.
@@ -37,7 +39,8 @@ def compare(world: str, models: Sequence[str] = ("factorised", "joint"),
         InputError: an unknown world, model or planner (checked before any episode).
         SweepError: an episode failed; finished rows stay in ``episodes.csv`` for a resume.
     """
-    jobs = plan_sweep([world], worlds, list(models), list(planners), first_seed=first_seed, env=env)
+    jobs = plan_sweep([world], worlds, list(models), list(planners), first_seed=first_seed, env=env,
+                      episode_seeds=episode_seeds)
     check_jobs(jobs)
     out = Path(out)
     rows = run_sweep(jobs, out / "episodes.csv", executor, workers=workers, address=address,

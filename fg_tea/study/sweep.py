@@ -37,7 +37,9 @@ calibration error) are added as ``quality_*`` columns.
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import re
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -287,7 +289,23 @@ def check_jobs(jobs: Sequence[Job]) -> None:
             load_camera(job.camera).env_config(**dict(job.env_overrides))
 
 
-EPISODE_SEEDS = ("world", "independent")
+EPISODE_SEEDS = ("independent", "world")
+EPISODE_SEEDS_HELP = ("episode seed (detector noise, injected failures) of world seed w: its own "
+                      "stream per world distribution (independent, the default; docs/design.md "
+                      "§11), or w itself (world: the scheme of the tables committed before "
+                      "independent was the default; w then draws the same noise in every house, "
+                      "from the numbers that placed its objects)")
+
+
+def add_episode_seed_argument(parser: argparse.ArgumentParser) -> None:
+    """``--episode-seeds {independent,world}``; None when not given (:func:`episode_seed_scheme`
+    reads it), so that a mode it does not apply to can refuse it."""
+    parser.add_argument("--episode-seeds", choices=EPISODE_SEEDS, default=None, help=EPISODE_SEEDS_HELP)
+
+
+def episode_seed_scheme(args: argparse.Namespace) -> str:
+    """The ``--episode-seeds`` scheme of parsed arguments: the one given, else independent."""
+    return args.episode_seeds or "independent"
 
 
 def episode_seed(world: str, world_seed: int) -> int:
@@ -311,15 +329,16 @@ def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], plan
                model_overrides: Mapping[str, Any] | None = None,
                env_overrides: Mapping[str, Any] | None = None, env: str = "pybullet",
                max_frames: int = 50_000, max_steps: int = 2_000, task: str = "make_tea",
-               camera: str = "", episode_seeds: str = "world") -> list[Job]:
+               camera: str = "", episode_seeds: str = "independent") -> list[Job]:
     """The paired job list: every (world, model, planner) solves world seeds first_seed.. first_seed+n-1.
 
     Paired configurations share the episode seed, so they also share sensor noise draws as far
-    as their action sequences agree. With ``episode_seeds = "world"`` (the default, and the
-    scheme of every committed result) the episode seed equals the world seed, so world seed w
-    of two distributions draws the same detector noise; ``"independent"`` takes it from
-    :func:`episode_seed`, a stream of its own per world distribution. For grids over knobs or
-    overrides, call once per grid point and concatenate (keys stay distinct).
+    as their action sequences agree. With ``episode_seeds = "independent"`` (the default) the
+    episode seed comes from :func:`episode_seed`, a stream of its own per world distribution;
+    ``"world"`` (the scheme of the tables committed before it was the default) uses the world
+    seed itself, so world seed w draws the same detector noise in every distribution, from the
+    same numbers that placed its objects. For grids over knobs or overrides, call once per grid
+    point and concatenate (keys stay distinct).
 
     Args:
         worlds: world distributions (names or paths).
@@ -512,8 +531,6 @@ def add_execution_arguments(parser, csv_name: str) -> None:
     and ``--resume/--no-resume``, with `csv_name` (e.g. ``episodes.csv``) named in the resume help.
     The executor lands in ``args.executor``.
     """
-    import argparse
-
     from fg_tea.common.options import DeprecatedAlias
 
     parser.add_argument("--executor", choices=BACKENDS, default="process",
@@ -530,6 +547,28 @@ def add_execution_arguments(parser, csv_name: str) -> None:
     parser.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
                         help=f"skip episodes already in OUT/{csv_name} (default: on; --no-resume "
                         "starts afresh)")
+
+
+_SEED_PART = re.compile(r"\|seed=(\d+)")
+
+
+def check_episode_seeds(jobs: Sequence[Job], keys: Iterable[str], path: str | Path) -> None:
+    """Refuse to add a job to a CSV that holds the same episode under another episode seed
+    (another ``--episode-seeds`` scheme): the table would mix two sets of detector draws.
+
+    Raises:
+        InputError: naming the file, the world seed and both episode seeds.
+    """
+    held: dict[str, int] = {}
+    for key in keys:
+        if m := _SEED_PART.search(key):
+            held.setdefault(_SEED_PART.sub("", key, count=1), int(m.group(1)))
+    for job in jobs if held else ():
+        seed = held.get(_SEED_PART.sub("", job.key, count=1))
+        if seed is not None and seed != job.seed:
+            raise InputError(path, "seed", f"world seed {job.world_seed} of {job.world} ran here with "
+                             f"episode seed {seed}, and this run gives it {job.seed}: pass the "
+                             "--episode-seeds scheme the file was run with, or choose another --out")
 
 
 def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process", *,
@@ -562,6 +601,7 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
     unique = list({job.key: job for job in jobs}.values())
     check_jobs(unique)
     sink = CsvSink(csv_path, resume=resume)
+    check_episode_seeds(unique, sink.rows, csv_path)
     todo = [job for job in unique if not sink.done(job.key)]
     meter = Progress(len(unique), len(unique) - len(todo), label=label) if progress else None
     try:
@@ -578,7 +618,9 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
     return [r for r in read_rows(csv_path) if r["key"] in planned]
 
 
-__all__ = ["add_execution_arguments", "BACKENDS", "ENVIRONMENTS", "WORLD_KNOBS", "REFUSED",
+__all__ = ["add_episode_seed_argument", "add_execution_arguments", "check_episode_seeds",
+           "episode_seed", "episode_seed_scheme", "EPISODE_SEEDS", "BACKENDS", "ENVIRONMENTS",
+           "WORLD_KNOBS", "REFUSED",
            "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "ablation_names", "model_names", "world_names",
            "model_path", "world_path", "check_jobs", "plan_sweep", "entropy_trace",
            "flatten_metrics", "run_job", "run_sweep"]
