@@ -152,8 +152,20 @@ def parse_args(argv=None) -> argparse.Namespace:
     args = p.parse_args(argv)
     if args.worlds < 1:
         p.error("--worlds must be at least 1")
+    if args.confirmation_worlds is not None and args.confirmation_worlds < 1:
+        p.error(f"--confirmation-worlds: {args.confirmation_worlds}: must be at least 1")
     if args.confirmation_worlds is not None and args.confirmation_first_seed is None:
         p.error("--confirmation-worlds needs --confirmation-first-seed")
+    if args.timing_worlds < 0:
+        p.error(f"--timing-worlds: {args.timing_worlds}: must be 0 (none) or more")
+    if args.reuse is not None:
+        try:
+            with args.reuse.open(newline="", encoding="utf-8") as fh:
+                header = next(csv.reader(fh), [])
+        except (OSError, UnicodeDecodeError) as exc:
+            p.error(f"--reuse: {args.reuse}: {getattr(exc, 'strerror', None) or exc}")
+        if "key" not in header:
+            p.error(f"--reuse: {args.reuse}: not an episodes CSV written by a sweep (no 'key' column)")
     if args.first_seed < 0 or (args.confirmation_first_seed or 0) < 0:
         p.error("world seeds must not be negative")
     for c in args.strengths:

@@ -91,6 +91,27 @@ def test_reused_rows_are_the_rows_a_run_would_write(tmp_path):
                           capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert "key" in proc.stderr
+    assert not any((tmp_path / "bad").rglob("*"))  # refused before the table or its seed sets
+
+
+def test_every_flag_is_checked_before_anything_is_written(tmp_path):
+    """One line, exit 2, nothing written, for each bad value (a missing --reuse file used to end
+    in a traceback, and --timing-worlds -1 ran the whole table)."""
+    for bad, word in ((["--reuse", str(tmp_path / "none.csv")], "--reuse"),
+                      (["--reuse", str(tmp_path)], "--reuse"),
+                      (["--timing-worlds", "-1"], "--timing-worlds"),
+                      (["--confirmation-worlds", "0", "--confirmation-first-seed", "10000"],
+                       "--confirmation-worlds"),
+                      (["--confirmation-worlds", "5"], "--confirmation-first-seed"),
+                      (["--episode-seeds", "bogus"], "--episode-seeds"),
+                      (["--worlds", "0"], "--worlds"),
+                      (["--strengths", "1.5", "--table", "detectability"], "--strengths")):
+        proc = subprocess.run([sys.executable, "experiments/compare_at_scale.py", *bad, "--out",
+                               str(tmp_path / "out")], capture_output=True, text=True,
+                              stdin=subprocess.DEVNULL, cwd=ROOT, timeout=120)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, (bad, proc.stderr)
+        assert word in proc.stderr, (bad, proc.stderr)
+    assert not any((tmp_path / "out").rglob("*"))  # the folder is made and probed at parse time, empty
 
 
 def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
