@@ -73,8 +73,8 @@ from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa:
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.study.sweep import (Job, add_episode_seed_argument, add_execution_arguments, episode_seed_scheme,  # noqa: E402
-                               plan_sweep, run_sweep)
+from fg_tea.study.sweep import (Job, add_episode_seed_argument, add_execution_arguments,  # noqa: E402
+                               check_resumable, episode_seed_scheme, plan_sweep, run_sweep)
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}
@@ -159,10 +159,12 @@ def parse_args(argv=None) -> argparse.Namespace:
     if args.timing_worlds < 0:
         p.error(f"--timing-worlds: {args.timing_worlds}: must be 0 (none) or more")
     if args.reuse is not None:
+        if args.reuse.exists() and not args.reuse.is_file():  # a folder, FIFO or device: never opened
+            p.error(f"--reuse: {args.reuse}: not a regular file")
         try:
             with args.reuse.open(newline="", encoding="utf-8") as fh:
                 header = next(csv.reader(fh), [])
-        except (OSError, UnicodeDecodeError) as exc:
+        except (OSError, UnicodeDecodeError, csv.Error) as exc:
             p.error(f"--reuse: {args.reuse}: {getattr(exc, 'strerror', None) or exc}")
         if "key" not in header:
             p.error(f"--reuse: {args.reuse}: not an episodes CSV written by a sweep (no 'key' column)")
@@ -596,13 +598,17 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     out = Path(args.out) / args.table
     sets = seed_sets(args)
-    if sets:  # declared before any episode runs; a folder keeps its declaration
-        declare_seed_sets(out, sets)
-    out.mkdir(parents=True, exist_ok=True)
     jobs = [replace(j, gtsam_check=args.gtsam_check) for s in (sets or [None])
             for j in plan(args if s is None else argparse.Namespace(
                 **{**vars(args), "first_seed": s.first, "worlds": s.count}), out)[0]]
     csv_path = out / "episodes.csv"
+    # One episode-seed scheme per table, checked before anything is declared, copied or run.
+    check_resumable(jobs, csv_path, args.resume)
+    if args.reuse is not None:
+        check_resumable(jobs, args.reuse)
+    if sets:  # declared before any episode runs; a folder keeps its declaration
+        declare_seed_sets(out, sets)
+    out.mkdir(parents=True, exist_ok=True)
     if args.reuse is not None:
         reuse_rows(args.reuse, csv_path, jobs, args.resume)
     before = 0

@@ -21,7 +21,7 @@ This script is the same code path as ``fg-tea compare`` (it only changes the def
 folder). The committed results in ``experiments/results/compare`` change only when ``--out`` names
 that folder (their ``summary.md`` starts with the exact command that made them):
 
-    python experiments/compare_beliefs.py --out experiments/results/compare   # 200 worlds: 4 min 37 s
+    python experiments/compare_beliefs.py --episode-seeds world --out experiments/results/compare   # 200 worlds: 4 min 37 s
 
 and these write under ``runs/experiments/compare_beliefs``:
 

@@ -16,7 +16,8 @@ the trade around it. Model files for the variants are written to ``--out``/model
 
     python experiments/give_up.py --worlds 20                     # a quick look
     # the committed table (experiments/results/give_up/):
-    python experiments/give_up.py --worlds 200 --out experiments/results/give_up
+    python experiments/give_up.py --worlds 200 --workers 1 --episode-seeds world \\
+        --out experiments/results/give_up
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 
 def build_parser() -> argparse.ArgumentParser:
     from fg_tea.common.options import MODELS_HELP, WORKERS_HELP, experiment_parser
+    from fg_tea.study.sweep import add_episode_seed_argument
 
     p = experiment_parser(__doc__, __file__, "§7.8")
     p.add_argument("--worlds", type=int, default=200, help="worlds per world distribution")
@@ -47,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="values of finishing the task, in sweeps of the house")
     p.add_argument("--env", choices=("fake", "pybullet"), default="fake", help="environment")
     p.add_argument("--workers", type=int, default=2, help=WORKERS_HELP)
+    add_episode_seed_argument(p)
     p.add_argument("--out", type=out_folder, default="runs/experiments/give_up", help="output folder")
     return p
 
@@ -73,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     from fg_tea.common.stats import wilson_interval
     from fg_tea.study.analysis import markdown_table
     from fg_tea.study.rows import read_rows
-    from fg_tea.study.sweep import Job, run_sweep
+    from fg_tea.study.sweep import Job, check_resumable, episode_seed, episode_seed_scheme, run_sweep
 
     args = build_parser().parse_args(argv)
     if args.worlds < 1:
@@ -81,15 +84,23 @@ def main(argv: list[str] | None = None) -> int:
     if any(v <= 0 for v in args.values):
         raise InputError("<command line>", "--values", "every value must be above 0")
     out = Path(args.out)
+    independent = episode_seed_scheme(args) == "independent"
+
+    def seed(world: str, w: int) -> int:
+        """The episode seed of world seed w (docs/design.md §11)."""
+        return episode_seed(world, w) if independent else w
+
     arms = variants(args.models, args.values, out / "models")
     jobs = []
     for label, model, _ in arms:
         for world in args.worlds_findable:
             task = "make_tea_milk_sugar" if "milk_sugar" in world else "make_tea"
-            jobs += [Job(world, s, model, "efe", env=args.env, task=task) for s in range(args.worlds)]
-        jobs += [Job(args.unfindable_world, s, model, "efe", env=args.env,
+            jobs += [Job(world, s, model, "efe", env=args.env, task=task, seed=seed(world, s))
+                     for s in range(args.worlds)]
+        jobs += [Job(args.unfindable_world, s, model, "efe", env=args.env, seed=seed(args.unfindable_world, s),
                      env_overrides=(("unfindable", args.unfindable),)) for s in range(args.worlds)]
     csv_path = out / "episodes.csv"
+    check_resumable(jobs, csv_path)
     run_sweep(jobs, csv_path, "process", workers=args.workers, label="give_up")
     rows = read_rows(csv_path)
     body = []
@@ -107,7 +118,10 @@ def main(argv: list[str] | None = None) -> int:
         looks = sum(float(r["inspections"]) for r in mine) / max(len(mine), 1)
         body.append([label, args.unfindable_world, f"{args.unfindable} unfindable", len(mine),
                      len(gave), wilson_interval(len(gave), len(mine)).fmt(3), f"{travel:.2f}", f"{looks:.1f}"])
-    command = "python experiments/give_up.py " + shlex.join(argv if argv is not None else sys.argv[1:])
+    given = list(argv if argv is not None else sys.argv[1:])
+    if args.episode_seeds is None:  # the scheme is written out, whatever the default becomes
+        given += ["--episode-seeds", episode_seed_scheme(args)]
+    command = "python experiments/give_up.py " + shlex.join(given)
     text = "\n".join([
         "# Giving up a search: the probability rule against the cost rule", "",
         f"Regenerate: `{command}`", "",

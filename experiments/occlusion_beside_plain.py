@@ -107,6 +107,10 @@ def main(argv: list[str] | None = None) -> int:
                 theirs = [row(plain_m, *k) for k in seeds if row(plain_m, *k)]
                 diffs = [float(row(occ_m, *k)["search_distance"]) - float(row(plain_m, *k)["search_distance"])
                          for k in seeds if row(occ_m, *k) and row(plain_m, *k)]
+                if mine and not diffs:  # e.g. run with the other --episode-seeds scheme
+                    raise InputError(args.plain, "seed", f"no {plain_m} episode of {world} ({planner}, "
+                                     f"{seed_set} set) has the world and episode seeds of the {occ_m} "
+                                     "episodes: nothing to pair them with")
                 gave = sum(str(r["reason"]).startswith("not_found") for r in mine)
                 gave_plain = sum(str(r["reason"]).startswith("not_found") for r in theirs)
                 rec = {"world": world, "task": task, "planner": planner, "seed_set": seed_set,

@@ -23,10 +23,11 @@ One JSON file per episode under ``<out>/episodes/``; a re-run skips episodes alr
 interrupted run resumes. Times are measured serially; the episode logs stay deterministic.
 
     python experiments/planner_frontier.py --worlds 50               # against the limit, a few minutes
-    # the peers' budgets against the limit in the apartment (experiments/results/search_limit/):
+    # the peers' budgets against the limit, with where the lookahead loses (gaps.md):
     python experiments/planner_frontier.py --worlds 200 --planners efe lookahead exact \\
-        pouct:100 pouct:1000 pouct:3000 pomcp:100 pomcp:1000 pomcp:3000 \\
-        --out experiments/results/search_limit
+        pouct:100 pouct:1000 pouct:3000 pomcp:100 pomcp:1000 pomcp:3000 --gaps lookahead
+    # the committed tables (experiments/results/search_limit*/) are search_limit.py's, whose
+    # summary.md names its command
     # against the perfect-detection DP (experiments/results/planner_frontier/), about 6 minutes:
     python experiments/planner_frontier.py --yardstick optimal --worlds 100 \\
         --models factorised_close joint_close \\
@@ -52,8 +53,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.files import out_folder  # noqa: E402
+from fg_tea.common.files import check_out_dir, out_folder  # noqa: E402
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
+from fg_tea.study import yardstick  # noqa: E402
 from fg_tea.study.frontier import (  # noqa: E402
     DEFAULT_PLANNERS,
     check_inputs,
@@ -62,9 +64,7 @@ from fg_tea.study.frontier import (  # noqa: E402
 )
 
 YARDSTICKS = ("limit", "optimal")
-#: The planners run against the limit by default: one-step EFE, the lookahead, the limit's own
-#: policy and the perfect-detection DP, all deterministic, so each has an exact policy cost.
-LIMIT_PLANNERS = ("efe", "lookahead", "exact", "optimal")
+DEFAULT_OUT = "runs/experiments/planner_frontier"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -90,16 +90,20 @@ def build_parser() -> argparse.ArgumentParser:
                    "factorised_close joint_close against optimal)")
     p.add_argument("--planners", nargs="+", default=None,
                    help=f"planner names, with options as in lookahead:depth=3 or pouct:1000 "
-                   f"(default: {' '.join(LIMIT_PLANNERS)} against the limit, "
+                   f"(default: {' '.join(yardstick.PLANNERS)} against the limit, "
                    f"{' '.join(DEFAULT_PLANNERS)} against optimal)")
-    p.add_argument("--tasks", nargs="+", default=None,
+    p.add_argument("--tasks", nargs="+", default=None, choices=yardstick.TASKS,
                    help="search-only tasks, against the limit only (default: find_mug find_three)")
+    p.add_argument("--gaps", nargs="*", default=None,
+                   help="against the limit only: planners whose decisions are compared with the "
+                   "exact policy's (gaps.md; default: none)")
     p.add_argument("--env", choices=("fake", "pybullet"), default=None,
                    help=ENV_HELP + " (against optimal only; the limit's episodes are in the fake house)")
     p.add_argument("--miss-rate", type=float, default=None,
                    help="injected detector miss rate, against optimal only (default: the model's mu)")
-    p.add_argument("--out", type=out_folder, default="runs/experiments/planner_frontier",
-                   help="output folder (default: %(default)s)")
+    p.add_argument("--out", type=out_folder, default=None,
+                   help="output folder (default: runs/experiments/planner_frontier/limit or "
+                   "runs/experiments/planner_frontier/optimal, by yardstick)")
     p.add_argument("--summary-only", action="store_true",
                    help="against optimal: run nothing, summarise the episodes already in "
                         "OUT/episodes (missing ones are left out, so a planner may cover fewer worlds)")
@@ -111,14 +115,15 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.yardstick == "limit":
         return _against_limit(args, argv)
-    if args.tasks is not None:
-        raise InputError("<command line>", "--tasks", "has no effect with --yardstick optimal: "
-                         "its episodes run the make-tea task")
+    for flag, value in (("--tasks", args.tasks), ("--gaps", args.gaps)):
+        if value is not None:
+            raise InputError("<command line>", flag, "has no effect with --yardstick optimal: "
+                             "its episodes run the make-tea task, against the perfect-detection DP")
     planners = _installed(args.planners or list(DEFAULT_PLANNERS))
     world, models = args.world or "correlated", args.models or ["factorised_close", "joint_close"]
     worlds = 100 if args.worlds is None else args.worlds
     check_inputs(world, worlds, models, planners, args.miss_rate)
-    out = Path(args.out)
+    out = Path(args.out) if args.out else check_out_dir(Path(DEFAULT_OUT) / "optimal")
     rows = run_frontier(world, worlds, args.first_seed, models, planners, args.env or "fake",
                         args.miss_rate, out, args.summary_only)
     print(summarise(rows, out))
@@ -127,8 +132,6 @@ def main(argv: list[str] | None = None) -> int:
 
 def _against_limit(args: argparse.Namespace, argv: list[str] | None) -> int:
     """The search-limit study (fg_tea.study.yardstick.study) with the frontier's planners."""
-    from fg_tea.study import yardstick
-
     for flag, value, why in (("--env", args.env not in (None, "fake"), "the limit's episodes run in the fake house"),
                              ("--miss-rate", args.miss_rate is not None, "the limit's detector misses "
                               "as often as the model says, so that the ratio measures planning alone"),
@@ -139,13 +142,15 @@ def _against_limit(args: argparse.Namespace, argv: list[str] | None) -> int:
     if args.models is not None and len(args.models) != 1:
         raise InputError("<command line>", "--models", f"{' '.join(args.models)}: the limit takes one "
                          "factorised model with close looks (e.g. factorised_close)")
-    planners = _installed(args.planners or list(LIMIT_PLANNERS))
+    planners = _installed(args.planners or list(yardstick.PLANNERS))
     world, model = args.world or "independent", (args.models or ["factorised_close"])[0]
     worlds = 200 if args.worlds is None else args.worlds
     check_inputs(world, worlds, [model], planners)
     command = "python experiments/planner_frontier.py " + shlex.join(argv if argv is not None else sys.argv[1:])
+    out = Path(args.out) if args.out else check_out_dir(Path(DEFAULT_OUT) / "limit")
     print(yardstick.study(world, range(args.first_seed, args.first_seed + worlds), model,
-                          args.tasks or ["find_mug", "find_three"], planners, Path(args.out), command))
+                          args.tasks or list(yardstick.TASKS), planners, out, command,
+                          gaps=args.gaps or (), model_flag="--models"))
     return 0
 
 

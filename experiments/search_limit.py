@@ -25,8 +25,7 @@ sys.path.insert(0, str(ROOT))
 
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
 from fg_tea.common.files import out_folder  # noqa: E402
-
-TASKS = ("find_mug", "find_three")
+from fg_tea.study import yardstick  # noqa: E402
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -37,8 +36,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--first-seed", type=int, default=0, help="first world seed (and episode seed)")
     p.add_argument("--world", default="independent", help=WORLD_HELP)
     p.add_argument("--model", default="factorised_close", help=MODEL_HELP)
-    p.add_argument("--tasks", nargs="+", default=list(TASKS), help="search-only tasks")
-    p.add_argument("--planners", nargs="+", default=["efe", "lookahead", "exact", "optimal"],
+    p.add_argument("--tasks", nargs="+", default=list(yardstick.TASKS), choices=yardstick.TASKS,
+                   help="search-only tasks")
+    p.add_argument("--planners", nargs="+", default=list(yardstick.PLANNERS),
                    help="planner names, with options as in lookahead:nodes=60")
     p.add_argument("--tolerance", type=float, default=1e-3,
                    help="width of the limit's bracket to stop at, metres (if memory allows)")
@@ -50,7 +50,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from fg_tea.study import yardstick
     from fg_tea.study.frontier import check_inputs
 
     args = build_parser().parse_args(argv)

@@ -97,7 +97,10 @@ def test_reused_rows_are_the_rows_a_run_would_write(tmp_path):
 def test_every_flag_is_checked_before_anything_is_written(tmp_path):
     """One line, exit 2, nothing written, for each bad value (a missing --reuse file used to end
     in a traceback, and --timing-worlds -1 ran the whole table)."""
+    import os
+    os.mkfifo(tmp_path / "fifo.csv")  # opening it to read would wait for a writer forever
     for bad, word in ((["--reuse", str(tmp_path / "none.csv")], "--reuse"),
+                      (["--reuse", str(tmp_path / "fifo.csv")], "not a regular file"),
                       (["--reuse", str(tmp_path)], "--reuse"),
                       (["--timing-worlds", "-1"], "--timing-worlds"),
                       (["--confirmation-worlds", "0", "--confirmation-first-seed", "10000"],
@@ -252,7 +255,7 @@ def test_a_table_run_with_one_episode_seed_scheme_refuses_the_other(tmp_path):
     check_episode_seeds(world, held, tmp_path / "episodes.csv")            # the same scheme resumes
     check_episode_seeds(independent, [], tmp_path / "episodes.csv")        # nothing held yet
     with pytest.raises(InputError, match=r"episodes\.csv.*world seed 0 of correlated ran here with "
-                       r"episode seed 0.*--episode-seeds"):
+                       r"episode seed 0.*other --episode-seeds scheme"):
         check_episode_seeds(independent, held, tmp_path / "episodes.csv")
     # through the command: a table run with --episode-seeds world, then the default
     common = [sys.executable, "experiments/compare_at_scale.py", "--table", "houses", "--worlds", "1",
@@ -268,6 +271,27 @@ def test_a_table_run_with_one_episode_seed_scheme_refuses_the_other(tmp_path):
     assert second.returncode == 2 and len(second.stderr.strip().splitlines()) == 1, second.stderr
     assert "--episode-seeds" in second.stderr and "episodes.csv" in second.stderr
     assert (tmp_path / "t" / "houses" / "episodes.csv").read_bytes() == rows
+    # rows of the other scheme are not copied in with --reuse either
+    third = subprocess.run(common[:-1] + [str(tmp_path / "u"), "--reuse",
+                                          str(tmp_path / "t" / "houses" / "episodes.csv")],
+                           capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert third.returncode == 2 and "--episode-seeds" in third.stderr, third.stderr
+    assert not any((tmp_path / "u").rglob("*"))
+
+
+def test_fg_tea_compare_refuses_the_other_scheme_before_its_report_is_replaced(tmp_path):
+    out = tmp_path / "c"
+    common = [sys.executable, "-m", "fg_tea.cli", "compare", "--worlds", "1", "--env", "fake",
+              "--planners", "nearest", "--executor", "serial", "--pages", "0", "--out", str(out)]
+    first = subprocess.run(common + ["--episode-seeds", "world"], capture_output=True, text=True,
+                           stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert first.returncode == 0, first.stderr
+    assert "--episode-seeds world" in (out / "summary.md").read_text()
+    files = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    second = subprocess.run(common, capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert second.returncode == 2 and len(second.stderr.strip().splitlines()) == 1, second.stderr
+    assert "--episode-seeds" in second.stderr
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == files
 
 
 def test_compare_refuses_episode_seeds_with_lifelong(tmp_path):

@@ -47,8 +47,9 @@ def test_the_frontier_against_the_limit_writes_its_study_and_resumes(tmp_path, c
     frontier = _script()
     args = ["--worlds", "2", "--planners", "efe", "exact", "--tasks", "find_mug", "--out", str(tmp_path)]
     assert frontier.main(args) == 0
-    for name in ("summary.md", "episodes.csv", "gaps.md", "frontier.png"):
+    for name in ("summary.md", "episodes.csv", "frontier.png"):
         assert (tmp_path / name).stat().st_size > 0, name
+    assert not (tmp_path / "gaps.md").exists()  # only with --gaps
     episodes = sorted((tmp_path / "episodes").glob("*.json"))
     assert len(episodes) == 4
     table = (tmp_path / "summary.md").read_text()
@@ -57,9 +58,33 @@ def test_the_frontier_against_the_limit_writes_its_study_and_resumes(tmp_path, c
               for line in table.splitlines() if line.startswith(("| efe |", "| exact |"))}
     assert 0.99 <= ratios["exact"] <= 1.01 < ratios["efe"]
     stamps = [p.stat().st_mtime_ns for p in episodes]
-    assert frontier.main(args) == 0  # resumes: nothing is run again
+    assert frontier.main(args + ["--gaps", "efe"]) == 0  # resumes: nothing is run again
     assert [p.stat().st_mtime_ns for p in episodes] == stamps
+    gaps = (tmp_path / "gaps.md").read_text()
+    regret = float(next(line for line in gaps.splitlines() if line.startswith("| efe | find_mug |"))
+                   .split(" | ")[4])
+    assert regret > 0  # one-step EFE is not the exact policy: its decisions cost something
+    from fg_tea.common.errors import InputError
+    with pytest.raises(InputError, match="world 'independent', not 'correlated'"):
+        frontier.main(args + ["--world", "correlated"])  # another world's episodes are not reused
     capsys.readouterr()
+
+
+def test_the_decision_clock_times_every_decision_and_passes_results_and_errors_through():
+    from fg_tea.study.frontier import DecisionClock
+
+    class Planner:
+        def choose(self, x):
+            if x < 0:
+                raise ValueError("refused")
+            return 2 * x
+
+    planner = Planner()
+    clock = DecisionClock(planner)
+    assert planner.choose(3) == 6 and planner.choose(4) == 8
+    with pytest.raises(ValueError, match="refused"):
+        planner.choose(-1)
+    assert len(clock.wall) == len(clock.cpu) == 3 and all(t >= 0 for t in clock.wall + clock.cpu)
 
 
 def test_budget_rule_tabulates_and_picks(tmp_path, capsys):
@@ -114,10 +139,11 @@ def test_frontier_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
         (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model"),
         # settings the chosen yardstick has no use for
         (["--env", "pybullet"], "--env"), (["--miss-rate", "0.1"], "--miss-rate"),
-        (["--summary-only"], "--summary-only"), (["--models", "factorised_close", "joint_close"], "--models"),
+        (["--summary-only"], "--summary-only"), (["--models", "factorised_close", "joint_close"], "takes one"),
         (["--yardstick", "optimal", "--tasks", "find_mug"], "--tasks"),
+        (["--yardstick", "optimal", "--gaps", "lookahead"], "--gaps"), (["--tasks", "make_tea"], "--tasks"),
         # the limit needs a factorised belief
-        (["--models", "joint_close", "--worlds", "1"], "--model"),
+        (["--models", "joint_close", "--worlds", "1"], "correlated"),
         (["--yardstick", "optimal", "--world", "nowhere"], "--world")), tmp_path)
 
 

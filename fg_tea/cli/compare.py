@@ -49,7 +49,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     from fg_tea.study.report import comparison_report
     from fg_tea.study.executors import SweepError
-    from fg_tea.study.sweep import plan_sweep, run_sweep
+    from fg_tea.study.sweep import check_resumable, plan_sweep, run_sweep
 
     if args.workers < 0:
         raise InputError("<command line>", "--workers", f"expected 0 (every core) or more, got {args.workers}")
@@ -84,14 +84,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
     check_out_dir(out)
     jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
                       env=args.env, camera=args.camera or "", episode_seeds=episode_seed_scheme(args))
+    if sets:
+        jobs += plan_sweep([args.world], sets[1].count, args.models, planners,
+                           first_seed=sets[1].first, env=args.env, camera=args.camera or "",
+                           episode_seeds=episode_seed_scheme(args))
+    check_resumable(jobs, out / "episodes.csv", args.resume)  # before anything in OUT is replaced
     if sets:  # the confirmation set, declared in OUT before any episode (docs/design.md §11.1)
         from fg_tea.study.replication import declare_seed_sets
 
         check_outputs_in(out, ["seed_sets.json", "replication.md"])
         declare_seed_sets(out, sets)
-        jobs += plan_sweep([args.world], sets[1].count, args.models, planners,
-                           first_seed=sets[1].first, env=args.env, camera=args.camera or "",
-                           episode_seeds=episode_seed_scheme(args))
     if args.env == "pybullet":  # the house checks each episode would make, once, before any starts
         check_jobs(jobs)
         for ref in args.models:

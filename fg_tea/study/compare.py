@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from fg_tea.study.report import comparison_report
-from fg_tea.study.sweep import check_jobs, plan_sweep, run_sweep
+from fg_tea.study.sweep import check_jobs, check_resumable, plan_sweep, run_sweep
 
 
 def compare(world: str, models: Sequence[str] = ("factorised", "joint"),
@@ -36,15 +36,19 @@ def compare(world: str, models: Sequence[str] = ("factorised", "joint"),
         ``{"rows": [...], "files": {name: path}}``.
 
     Raises:
-        InputError: an unknown world, model or planner (checked before any episode).
+        InputError: an unknown world, model or planner, or an ``episodes.csv`` in `out` whose
+            episodes ran under the other episode-seed scheme (checked before any episode).
         SweepError: an episode failed; finished rows stay in ``episodes.csv`` for a resume.
     """
     jobs = plan_sweep([world], worlds, list(models), list(planners), first_seed=first_seed, env=env,
                       episode_seeds=episode_seeds)
     check_jobs(jobs)
     out = Path(out)
+    check_resumable(jobs, out / "episodes.csv", resume)
     rows = run_sweep(jobs, out / "episodes.csv", executor, workers=workers, address=address,
                      resume=resume, progress=progress, label="compare")
     files = comparison_report(rows, out, title=f"Factorised vs joint beliefs on `{world}` worlds",
-                              command=f"fg.compare({world!r}, worlds={worlds})")
+                              command=f"fg.compare({world!r}, {list(models)!r}, {list(planners)!r}, "
+                                      f"worlds={worlds}, first_seed={first_seed}, env={env!r}, "
+                                      f"episode_seeds={episode_seeds!r})")
     return {"rows": rows, "files": files}

@@ -567,8 +567,21 @@ def check_episode_seeds(jobs: Sequence[Job], keys: Iterable[str], path: str | Pa
         seed = held.get(_SEED_PART.sub("", job.key, count=1))
         if seed is not None and seed != job.seed:
             raise InputError(path, "seed", f"world seed {job.world_seed} of {job.world} ran here with "
-                             f"episode seed {seed}, and this run gives it {job.seed}: pass the "
-                             "--episode-seeds scheme the file was run with, or choose another --out")
+                             f"episode seed {seed}, and this run gives it {job.seed}: the file was run "
+                             "with the other --episode-seeds scheme (one scheme per table)")
+
+
+def check_resumable(jobs: Sequence[Job], csv_path: str | Path, resume: bool = True) -> None:
+    """:func:`check_episode_seeds` against the rows already in `csv_path` (nothing to check when
+    it is not a regular file or the run does not resume); a command calls it before it writes
+    anything.
+
+    Raises:
+        InputError: the CSV is not a sweep CSV, or holds these jobs under other episode seeds.
+    """
+    path = Path(csv_path)
+    if resume and path.is_file():  # a FIFO or device is never read here (refused where written)
+        check_episode_seeds(jobs, (str(r["key"]) for r in read_rows(path)), path)
 
 
 def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process", *,
@@ -619,6 +632,7 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
 
 
 __all__ = ["add_episode_seed_argument", "add_execution_arguments", "check_episode_seeds",
+           "check_resumable",
            "episode_seed", "episode_seed_scheme", "EPISODE_SEEDS", "BACKENDS", "ENVIRONMENTS",
            "WORLD_KNOBS", "REFUSED",
            "STEP_LIMIT", "CONFIG_COLUMNS", "Job", "ablation_names", "model_names", "world_names",

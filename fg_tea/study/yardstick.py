@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_path, atomic_write_text
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
@@ -33,6 +34,11 @@ from fg_tea.study.frontier import DecisionClock, episode_setup
 #: Planners that draw random numbers: their policy is no function of the belief, so it is only
 #: sampled, never enumerated.
 RANDOMISED = ("random", "pouct", "pomcp")
+#: The search-only tasks the limit prices.
+TASKS = ("find_mug", "find_three")
+#: The planners a study runs by default: one-step EFE, the lookahead, the limit's own policy and
+#: the perfect-detection DP, all deterministic, so each has an exact policy cost.
+PLANNERS = ("efe", "lookahead", "exact", "optimal")
 
 
 class _StartDistances:
@@ -113,7 +119,11 @@ def run(world: str, seeds: range, model: str, planners: list[str], task: str, ou
         name = f"{task}-{model}-{planner}-{seed:05d}".replace(":", "_").replace(",", "_").replace("=", "-")
         path = folder / f"{name}.json"
         if path.is_file():
-            rows.append(json.loads(path.read_text(encoding="utf-8")))
+            row = json.loads(path.read_text(encoding="utf-8"))
+            if row.get("world") != world:  # file names carry no world: one world per folder
+                raise InputError(path, "world", f"an episode of world {row.get('world')!r}, not "
+                                 f"{world!r}: one world per --out folder")
+            rows.append(row)
         else:
             row = run_episode(world, seed, model, planner, task)
             atomic_write_text(path, json.dumps(row) + "\n")
@@ -209,16 +219,17 @@ def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
 
 
 def study(world: str, seeds: range, model: str, tasks: list[str], planners: list[str], out: Path,
-          command: str, tolerance: float = 1e-3, gaps: tuple[str, ...] | list[str] = ()) -> str:
+          command: str, tolerance: float = 1e-3, gaps: tuple[str, ...] | list[str] = (),
+          model_flag: str = "--model") -> str:
     """Every planner against the limit on every task: the limits, the episodes (resumed from
     ``out/episodes``), each deterministic planner's exact policy cost, and, for the planners in
     `gaps`, where they lose against the exact policy. Writes ``summary.md`` (returned),
-    ``episodes.csv``, ``frontier.png`` and ``gaps.md`` to `out`.
+    ``episodes.csv``, ``frontier.png`` and, with `gaps`, ``gaps.md`` to `out`.
 
     Raises:
-        InputError: the limit does not fit, or the model's belief is correlated (``--model``).
+        InputError: the limit does not fit, or the model's belief is correlated (named by
+            `model_flag`); `out` holds episodes of another world.
     """
-    from fg_tea.common.errors import InputError
     from fg_tea.study.rows import Progress
 
     limits = {}
@@ -226,7 +237,7 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
         try:
             limits[task] = start_limit(world, model, task, tolerance)
         except ValueError as exc:  # the limit does not fit, or the belief is correlated
-            raise InputError("<command line>", "--model", str(exc)) from None
+            raise InputError("<command line>", model_flag, str(exc)) from None
         lim = limits[task][0]
         print(f"{task}: limit [{lim.lower:.4f}, {lim.upper:.4f}] m (cap {lim.cap})", flush=True)
     rows = []
@@ -246,6 +257,8 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
         w = csv.DictWriter(fh, columns, extrasaction="ignore", lineterminator="\n")
         w.writeheader()
         w.writerows(rows)
+    if not gaps:
+        return text
     intro = ["# Where each planner loses against the exact policy", "",
             "At every decision the planner makes (every branch of its policy, reached with the "
             "probability shown), the regret is the exact Q-value of its look minus the best look's "
