@@ -43,8 +43,9 @@ from fg_tea.common.errors import InputError
 from fg_tea.common.options import PLANNER_HELP, WORLD_HELP, experiment_parser
 from fg_tea.env.camera import camera_names
 from fg_tea.model.spec import load_model
-from fg_tea.study.sweep import (ablation_names, add_episode_seed_argument, add_execution_arguments,
-    episode_seed_scheme, model_path, plan_sweep, run_sweep)
+from fg_tea.study.seeds import add_episode_seed_argument, episode_seed_scheme
+from fg_tea.study.sweep import (ablation_names, add_execution_arguments, model_path, plan_sweep,
+    run_sweep)
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/;
 #: the committed results (experiments/results/ablations) are written only when --out names them.

@@ -73,8 +73,8 @@ from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa:
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.study.sweep import (Job, add_episode_seed_argument, add_execution_arguments,  # noqa: E402
-                               check_resumable, episode_seed_scheme, plan_sweep, run_sweep)
+from fg_tea.study.seeds import add_episode_seed_argument, check_resumable, episode_seed_scheme  # noqa: E402
+from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}

@@ -36,7 +36,7 @@ from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 
 def build_parser() -> argparse.ArgumentParser:
     from fg_tea.common.options import MODELS_HELP, WORKERS_HELP, experiment_parser
-    from fg_tea.study.sweep import add_episode_seed_argument
+    from fg_tea.study.seeds import add_episode_seed_argument
 
     p = experiment_parser(__doc__, __file__, "§7.8")
     p.add_argument("--worlds", type=int, default=200, help="worlds per world distribution")
@@ -76,7 +76,8 @@ def main(argv: list[str] | None = None) -> int:
     from fg_tea.common.stats import wilson_interval
     from fg_tea.study.analysis import markdown_table
     from fg_tea.study.rows import read_rows
-    from fg_tea.study.sweep import Job, check_resumable, episode_seed, episode_seed_scheme, run_sweep
+    from fg_tea.study.seeds import check_resumable, episode_seed, episode_seed_scheme
+    from fg_tea.study.sweep import Job, run_sweep
 
     args = build_parser().parse_args(argv)
     if args.worlds < 1:

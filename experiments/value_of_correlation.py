@@ -42,8 +42,8 @@ from fg_tea.study.analysis import (Interval, markdown_table, paired_differences,
     step_limited)
 from fg_tea.common.errors import InputError
 from fg_tea.common.options import PLANNER_HELP, WORLD_HELP, experiment_parser
-from fg_tea.study.sweep import (add_episode_seed_argument, add_execution_arguments,
-                                episode_seed_scheme, plan_sweep, run_sweep)
+from fg_tea.study.seeds import add_episode_seed_argument, episode_seed_scheme
+from fg_tea.study.sweep import add_execution_arguments, plan_sweep, run_sweep
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/;
 #: the committed results (experiments/results/value_of_correlation) change only when --out names them.

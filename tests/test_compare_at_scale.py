@@ -218,7 +218,8 @@ def test_independent_episode_seeds_are_their_own_stream():
     """The default episode seeds (independent): the episode seed of world seed w differs between
     world distributions and from w, is the same for every model and planner of one world
     (paired), and is the same number on every call; ``world`` keeps w."""
-    from fg_tea.study.sweep import episode_seed, plan_sweep
+    from fg_tea.study.seeds import episode_seed
+    from fg_tea.study.sweep import plan_sweep
 
     kw = dict(models=["factorised", "joint"], planners=["efe", "nearest"])
     worlds = ["generated_small", "generated_medium"]
@@ -247,7 +248,8 @@ def test_a_table_run_with_one_episode_seed_scheme_refuses_the_other(tmp_path):
     """Resuming into a CSV whose episodes ran under the other --episode-seeds scheme would mix two
     sets of detector draws in one table: refused with one line naming the file, before any run."""
     from fg_tea.common.errors import InputError
-    from fg_tea.study.sweep import check_episode_seeds, plan_sweep
+    from fg_tea.study.seeds import check_episode_seeds
+    from fg_tea.study.sweep import plan_sweep
 
     world = plan_sweep(["correlated"], 2, ["factorised"], ["efe"], env="fake", episode_seeds="world")
     independent = plan_sweep(["correlated"], 2, ["factorised"], ["efe"], env="fake")

@@ -20,7 +20,7 @@ from fg_tea.cli.common import (
     safe_name,
 )
 from fg_tea.common.errors import InputError
-from fg_tea.study.sweep import add_episode_seed_argument, episode_seed_scheme
+from fg_tea.study.seeds import add_episode_seed_argument, episode_seed_scheme
 from fg_tea.common.files import (
     check_outputs_in,
 )
@@ -49,7 +49,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     from fg_tea.study.report import comparison_report
     from fg_tea.study.executors import SweepError
-    from fg_tea.study.sweep import check_resumable, plan_sweep, run_sweep
+    from fg_tea.study.seeds import check_resumable
+    from fg_tea.study.sweep import plan_sweep, run_sweep
 
     if args.workers < 0:
         raise InputError("<command line>", "--workers", f"expected 0 (every core) or more, got {args.workers}")

@@ -11,7 +11,8 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from fg_tea.study.report import comparison_report
-from fg_tea.study.sweep import check_jobs, check_resumable, plan_sweep, run_sweep
+from fg_tea.study.seeds import check_resumable
+from fg_tea.study.sweep import check_jobs, plan_sweep, run_sweep
 
 
 def compare(world: str, models: Sequence[str] = ("factorised", "joint"),
