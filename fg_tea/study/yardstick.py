@@ -191,12 +191,17 @@ def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
     for ax, task in zip(axes, tasks):
         limit, objects = limits[task]
         mid = (limit.lower + limit.upper) / 2
-        for k, planner in enumerate(planners):
+        families = list(dict.fromkeys(p.split(":")[0] for p in planners))
+        for planner in planners:
             mine = [r for r in rows if r["task"] == task and r["planner"] == planner]
             cpu = np.array([t for r in mine for t in r["decision_cpu_seconds"]]) * 1e3
             if not mine or not cpu.size or np.median(cpu) <= 0:
                 continue
-            style = {"marker": MARKERS[k % len(MARKERS)], "color": f"C{k % 10}", "label": planner}
+            # one colour per planner family (pouct:100 and pouct:3000 alike), a marker per variant
+            family = planner.split(":")[0]
+            variant = [p for p in planners if p.split(":")[0] == family].index(planner)
+            style = {"marker": MARKERS[variant % len(MARKERS)], "label": planner,
+                     "color": f"C{families.index(family) % 10}"}
             pol = policies.get((task, planner))
             if pol is not None:
                 ax.scatter(np.median(cpu), pol.cost / mid, s=36, **style)
