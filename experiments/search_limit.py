@@ -10,7 +10,9 @@ mean cost to the limit measures planning alone. Writes ``summary.md`` and ``epis
     python experiments/search_limit.py --worlds 50                  # a quick look, about a minute
     # the committed table (experiments/results/search_limit/):
     python experiments/search_limit.py --worlds 200 --planners efe lookahead lookahead:relook=1 \\
-        lookahead:relook=1,nodes=60 exact exact:cap=2 optimal --out experiments/results/search_limit
+        lookahead:relook=1,nodes=60 exact exact:cap=2 optimal pouct:100 pouct:1000 pouct:3000 \\
+        pomcp:100 pomcp:1000 pomcp:3000 --gaps lookahead lookahead:relook=1 \\
+        --out experiments/results/search_limit   # its summary.md names the command exactly
 """
 
 from __future__ import annotations
