@@ -259,7 +259,12 @@ def test_a_table_run_with_one_episode_seed_scheme_refuses_the_other(tmp_path):
     with pytest.raises(InputError, match=r"episodes\.csv.*world seed 0 of correlated ran here with "
                        r"episode seed 0.*other --episode-seeds scheme"):
         check_episode_seeds(independent, held, tmp_path / "episodes.csv")
-    # through the command: a table run with --episode-seeds world, then the default
+
+
+@pytest.mark.slow
+def test_compare_at_scale_refuses_the_other_scheme_and_its_rows(tmp_path):
+    """Through the command: a table run with --episode-seeds world, then the default, then the
+    default again copying the first table's rows with --reuse."""
     common = [sys.executable, "experiments/compare_at_scale.py", "--table", "houses", "--worlds", "1",
               "--sizes", "small", "--tasks", "make_tea", "--planners", "nearest", "--env", "fake",
               "--workers", "1", "--timing-worlds", "0", "--out", str(tmp_path / "t")]
@@ -281,6 +286,7 @@ def test_a_table_run_with_one_episode_seed_scheme_refuses_the_other(tmp_path):
     assert not any((tmp_path / "u").rglob("*"))
 
 
+@pytest.mark.slow
 def test_fg_tea_compare_refuses_the_other_scheme_before_its_report_is_replaced(tmp_path):
     out = tmp_path / "c"
     common = [sys.executable, "-m", "fg_tea.cli", "compare", "--worlds", "1", "--env", "fake",

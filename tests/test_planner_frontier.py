@@ -136,15 +136,30 @@ def test_budget_rule_refuses_bad_input_with_one_line_before_any_episode(tmp_path
 def test_frontier_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
     _refuses_each("planner_frontier.py", (
         (["--world", "nowhere"], "--world"), (["--planners", "nope"], "nope"),
-        (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model"),
-        # settings the chosen yardstick has no use for
-        (["--env", "pybullet"], "--env"), (["--miss-rate", "0.1"], "--miss-rate"),
-        (["--summary-only"], "--summary-only"), (["--models", "factorised_close", "joint_close"], "takes one"),
-        (["--yardstick", "optimal", "--tasks", "find_mug"], "--tasks"),
-        (["--yardstick", "optimal", "--gaps", "lookahead"], "--gaps"), (["--tasks", "make_tea"], "--tasks"),
-        # the limit needs a factorised belief
-        (["--models", "joint_close", "--worlds", "1"], "correlated"),
-        (["--yardstick", "optimal", "--world", "nowhere"], "--world")), tmp_path)
+        (["--worlds", "0"], "--worlds"), (["--models", "no_such_model"], "no_such_model")), tmp_path)
+
+
+def test_settings_a_yardstick_cannot_use_are_refused_before_any_episode(tmp_path, capsys):
+    """In process (the one-line, exit-2 path is the one the test above runs as a user would)."""
+    from fg_tea.common.errors import InputError
+
+    frontier = _script()
+    for bad, fault in (
+            # settings the chosen yardstick has no use for
+            (["--env", "pybullet"], "--env"), (["--miss-rate", "0.1"], "--miss-rate"),
+            (["--summary-only"], "--summary-only"),
+            (["--models", "factorised_close", "joint_close"], "takes one"),
+            (["--yardstick", "optimal", "--tasks", "find_mug"], "--tasks"),
+            (["--yardstick", "optimal", "--gaps", "lookahead"], "--gaps"),
+            # the limit needs a factorised belief
+            (["--models", "joint_close", "--worlds", "1"], "correlated"),
+            (["--yardstick", "optimal", "--world", "nowhere"], "--world")):
+        with pytest.raises(InputError, match=fault):
+            frontier.main(bad + ["--out", str(tmp_path)])
+    with pytest.raises(SystemExit) as stop:  # not a search-only task: argparse's choices
+        frontier.main(["--tasks", "make_tea", "--out", str(tmp_path)])
+    assert stop.value.code == 2 and "--tasks" in capsys.readouterr().err
+    assert not any(tmp_path.rglob("*.json"))
 
 
 def test_the_frontier_figure_names_planners_in_a_legend_and_its_log_ticks_do_not_collide(tmp_path, monkeypatch):
