@@ -186,3 +186,31 @@ def test_the_frontier_figure_names_planners_in_a_legend_and_its_log_ticks_do_not
     assert 2 <= len(boxes) <= 6
     assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
     assert "n = 2 worlds" in ax.get_title()
+
+
+def test_the_limit_frontier_gives_every_planner_its_own_style_and_a_legend(tmp_path, monkeypatch):
+    """Thirteen planners: a colour per family and a marker per variant, so no two share a style
+    (the eleventh used to repeat the first's); every planner in the legend, the sampled ones
+    with their interval."""
+    from types import SimpleNamespace
+
+    from fg_tea.study import analysis, yardstick
+
+    planners = ["efe", "lookahead", "lookahead:relook=1", "lookahead:relook=1,nodes=60", "exact",
+                "exact:cap=2", "optimal", "pouct:100", "pouct:1000", "pouct:3000", "pomcp:100",
+                "pomcp:1000", "pomcp:3000"]
+    styles = yardstick.planner_styles(planners)
+    assert len(set(styles.values())) == len(planners)
+    assert styles["pouct:100"][0] == styles["pouct:3000"][0] != styles["pomcp:100"][0]
+    figures = []
+    monkeypatch.setattr(analysis, "save_figure", lambda fig, path, dpi=120: figures.append(fig) or path)
+    rows = [{"task": "find_mug", "planner": p, "seed": s, "cost": 10.0 + i + s,
+             "decision_cpu_seconds": [1e-4 * (i + 1)]} for i, p in enumerate(planners) for s in range(3)]
+    limits = {"find_mug": (SimpleNamespace(lower=9.9, upper=10.1), ["mug"])}
+    policies = {("find_mug", p): SimpleNamespace(cost=10.0 + i) for i, p in enumerate(planners)
+                if p.split(":")[0] not in yardstick.RANDOMISED}
+    yardstick.draw_frontier(rows, limits, policies, tmp_path / "f.png")
+    (fig,) = figures
+    (ax,) = [a for a in fig.axes if a.get_xlabel()]
+    assert ax.get_legend_handles_labels()[1] == planners
+    assert len(ax.containers) == 6  # the six sampled planners carry error bars

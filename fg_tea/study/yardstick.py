@@ -177,13 +177,27 @@ def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], worl
     return "\n".join(lines)
 
 
+def planner_styles(planners: list[str]) -> dict[str, tuple[str, str]]:
+    """(colour, marker) per planner: one colour per family (``pouct:100`` and ``pouct:3000``
+    alike), a marker per variant within it, so that no two planners look the same."""
+    from fg_tea.study.frontier import MARKERS
+
+    families = list(dict.fromkeys(p.split(":")[0] for p in planners))
+    out = {}
+    for planner in planners:
+        family = planner.split(":")[0]
+        variant = [p for p in planners if p.split(":")[0] == family].index(planner)
+        out[planner] = (f"C{families.index(family) % 10}", MARKERS[variant % len(MARKERS)])
+    return out
+
+
 def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
                   policies: dict[tuple[str, str], "PolicyCost"], path: Path) -> Path:
     """The quality-cost frontier against the limit: per task, each planner's cost / limit (its
     exact policy cost where it has one, else the episodes' mean with its 95 % interval) against
     its median CPU ms per decision (log), with the limit (1) and 3 % above it marked."""
     from fg_tea.study.analysis import figure_row, save_figure
-    from fg_tea.study.frontier import MARKERS, log_ticks
+    from fg_tea.study.frontier import log_ticks
 
     tasks = sorted({r["task"] for r in rows})
     planners = list(dict.fromkeys(r["planner"] for r in rows))
@@ -191,17 +205,14 @@ def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
     for ax, task in zip(axes, tasks):
         limit, objects = limits[task]
         mid = (limit.lower + limit.upper) / 2
-        families = list(dict.fromkeys(p.split(":")[0] for p in planners))
+        styles = planner_styles(planners)
         for planner in planners:
             mine = [r for r in rows if r["task"] == task and r["planner"] == planner]
             cpu = np.array([t for r in mine for t in r["decision_cpu_seconds"]]) * 1e3
             if not mine or not cpu.size or np.median(cpu) <= 0:
                 continue
-            # one colour per planner family (pouct:100 and pouct:3000 alike), a marker per variant
-            family = planner.split(":")[0]
-            variant = [p for p in planners if p.split(":")[0] == family].index(planner)
-            style = {"marker": MARKERS[variant % len(MARKERS)], "label": planner,
-                     "color": f"C{families.index(family) % 10}"}
+            colour, marker = styles[planner]
+            style = {"marker": marker, "label": planner, "color": colour}
             pol = policies.get((task, planner))
             if pol is not None:
                 ax.scatter(np.median(cpu), pol.cost / mid, s=36, **style)
