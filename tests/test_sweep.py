@@ -517,3 +517,16 @@ def test_quick_compare_is_the_ten_world_ci_run(tmp_path):
     assert len(resolution) == 4 and all("over 10 pairs" in line for line in resolution)
     summary = (out / "summary.md").read_text()
     assert "## Paired differences: joint − factorised" in summary and "Bayes-optimal limit" in summary
+
+
+def test_an_interrupted_experiment_script_says_so_in_one_line(capsys):
+    """Ctrl-C in an experiment script (run_script): one line and status 130, not a traceback."""
+    from fg_tea.common.errors import run_script
+
+    def main() -> int:
+        raise KeyboardInterrupt
+
+    with pytest.raises(SystemExit) as stop:
+        run_script(main, "compare_at_scale.py")
+    assert stop.value.code == 130
+    assert capsys.readouterr().err == "compare_at_scale.py: interrupted\n"

@@ -43,7 +43,9 @@ def shorten_long_words(text: str) -> str:
 
 def run_script(main: Callable[[], int], prog: str) -> None:
     """Run an experiment script's `main` and exit with its status; an :class:`InputError` (bad
-    flag, file or name) becomes one line ``prog: error: file: path: fault`` and status 2."""
+    flag, file or name) becomes one line ``prog: error: file: path: fault`` and status 2, and an
+    interrupt (Ctrl-C) one line ``prog: interrupted`` and status 130 (what was written stays:
+    sweeps resume from it)."""
     import sys
 
     try:
@@ -51,6 +53,9 @@ def run_script(main: Callable[[], int], prog: str) -> None:
     except InputError as exc:
         sys.stderr.write(f"{prog}: error: {shorten_long_words(str(exc))}\n")
         raise SystemExit(2) from None
+    except KeyboardInterrupt:
+        sys.stderr.write(f"{prog}: interrupted\n")
+        raise SystemExit(130) from None
     raise SystemExit(status)
 
 
