@@ -556,7 +556,12 @@ def replication_rows(cells: list[dict], sets: list[SeedSet], columns: tuple[str,
                         f"{s.name}_adjusted_low": e["adjusted"].low,
                         f"{s.name}_adjusted_high": e["adjusted"].high, f"{s.name}_p": e["p"],
                         f"{s.name}_p_holm": e["p_holm"], f"{s.name}_share_differ": e["share_differ"],
-                        f"{s.name}_diff_if_differ": e["if_differ"].mean})
+                        f"{s.name}_diff_if_differ": e["if_differ"].mean,
+                        # the difference in per cent of the baseline's mean on the same worlds
+                        f"{s.name}_baseline": e["baseline"],
+                        **{f"{s.name}_{k}_pct": 100.0 * v / e["baseline"] if e["baseline"] else math.nan
+                           for k, v in (("diff", e["difference"].mean), ("low", e["difference"].low),
+                                        ("high", e["difference"].high))}})
         row.update(pairs_needed=c["pairs_needed"], resolve_m=c["resolve"], verdict=c["verdict"])
         out.append(row)
     return out

@@ -200,6 +200,15 @@ def test_a_replicated_run_declares_its_seed_sets_first_and_judges_every_cell(tmp
     assert {c["planner"] for c in cells} == {"eqs. 10-11", "lookahead"}
     assert all(c["verdict"] in ("established", "not resolved", "no difference") for c in cells)
     assert all(c["discovery_pairs"] == "2" and c["confirmation_pairs"] == "2" for c in cells)
+    for c in cells:  # the difference in per cent of the factorised mean on the same worlds
+        for s in ("discovery", "confirmation"):
+            base = float(c[f"{s}_baseline"])
+            for k in ("diff", "low", "high"):
+                assert float(c[f"{s}_{k}_pct"]) == pytest.approx(100 * float(c[f"{s}_{k}"]) / base)
+    (look,) = [c for c in cells if c["planner"] == "lookahead"]
+    factorised = [r["search_distance"] for r in rows if r["planner"] == "lookahead"
+                  and r["structure"] == "factorised" and r["world_seed"] >= 10000]
+    assert float(look["confirmation_baseline"]) == pytest.approx(sum(factorised) / len(factorised))
     with (table / "decision_times.csv").open(newline="") as fh:
         times = list(csv.DictReader(fh))
     assert times and all(float(t["cpu_p95_ms"]) >= float(t["cpu_median_ms"]) for t in times)
