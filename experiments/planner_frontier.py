@@ -64,7 +64,14 @@ from fg_tea.study.frontier import (  # noqa: E402
 )
 
 YARDSTICKS = ("limit", "optimal")
-DEFAULT_OUT = "runs/experiments/planner_frontier"
+#: Default output folders: OUT_ROOT/limit and OUT_ROOT/optimal (each yardstick writes its own
+#: frontier.png and episodes/, so they never share a folder).
+OUT_ROOT = Path("runs") / "experiments" / "planner_frontier"
+
+
+def output_path(args: argparse.Namespace) -> Path:
+    """The output folder: --out, else OUT_ROOT/<yardstick>."""
+    return Path(args.out) if args.out else OUT_ROOT / args.yardstick
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -123,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     world, models = args.world or "correlated", args.models or ["factorised_close", "joint_close"]
     worlds = 100 if args.worlds is None else args.worlds
     check_inputs(world, worlds, models, planners, args.miss_rate)
-    out = Path(args.out) if args.out else check_out_dir(Path(DEFAULT_OUT) / "optimal")
+    out = check_out_dir(output_path(args))
     rows = run_frontier(world, worlds, args.first_seed, models, planners, args.env or "fake",
                         args.miss_rate, out, args.summary_only)
     print(summarise(rows, out))
@@ -147,7 +154,7 @@ def _against_limit(args: argparse.Namespace, argv: list[str] | None) -> int:
     worlds = 200 if args.worlds is None else args.worlds
     check_inputs(world, worlds, [model], planners)
     command = "python experiments/planner_frontier.py " + shlex.join(argv if argv is not None else sys.argv[1:])
-    out = Path(args.out) if args.out else check_out_dir(Path(DEFAULT_OUT) / "limit")
+    out = check_out_dir(output_path(args))
     print(yardstick.study(world, range(args.first_seed, args.first_seed + worlds), model,
                           args.tasks or list(yardstick.TASKS), planners, out, command,
                           gaps=args.gaps or (), model_flag="--models"))

@@ -58,8 +58,8 @@ def _parse(module, argv: list[str], monkeypatch) -> argparse.Namespace:
 
 def _default_output(name: str, module, argv: list[str], monkeypatch) -> Path | None:
     args = _parse(module, argv, monkeypatch)
-    if name == "bench_inference.py":
-        return module.output_path(args)          # resolved after parsing (none for --quick)
+    if name in ("bench_inference.py", "planner_frontier.py"):
+        return module.output_path(args)          # resolved after parsing (none for --quick; by yardstick)
     return None if getattr(args, "out", None) is None else Path(args.out)
 
 
