@@ -73,7 +73,8 @@ from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa:
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.study.seeds import add_episode_seed_argument, check_resumable, episode_seed_scheme  # noqa: E402
+from fg_tea.study.seeds import (add_episode_seed_argument, check_resumable,  # noqa: E402
+                               episode_seed_scheme, recorded_argv)
 from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
@@ -626,10 +627,8 @@ def main(argv=None) -> int:
     seconds = time.perf_counter() - t0
     every = read_rows(csv_path)
     ran = max(len(every) - before, 0)  # rows this command added
-    given = list(sys.argv[1:] if argv is None else argv)
-    if args.episode_seeds is None:  # the scheme is written out, whatever the default becomes
-        given += ["--episode-seeds", episode_seed_scheme(args)]
-    command = shlex.join(["python", "experiments/compare_at_scale.py", *given])
+    command = shlex.join(["python", "experiments/compare_at_scale.py",
+                          *recorded_argv(sys.argv[1:] if argv is None else argv, args)])
     # One report for every cell in the CSV, whichever command ran it (see the module doc).
     models = LOOKS[args.looks]
     rows = [r for r in every if row_cell(r, args.table, models)]

@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     from fg_tea.common.stats import wilson_interval
     from fg_tea.study.analysis import markdown_table
     from fg_tea.study.rows import read_rows
-    from fg_tea.study.seeds import check_resumable, episode_seed, episode_seed_scheme
+    from fg_tea.study.seeds import check_resumable, episode_seed, episode_seed_scheme, recorded_argv
     from fg_tea.study.sweep import Job, run_sweep
 
     args = build_parser().parse_args(argv)
@@ -119,10 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         looks = sum(float(r["inspections"]) for r in mine) / max(len(mine), 1)
         body.append([label, args.unfindable_world, f"{args.unfindable} unfindable", len(mine),
                      len(gave), wilson_interval(len(gave), len(mine)).fmt(3), f"{travel:.2f}", f"{looks:.1f}"])
-    given = list(argv if argv is not None else sys.argv[1:])
-    if args.episode_seeds is None:  # the scheme is written out, whatever the default becomes
-        given += ["--episode-seeds", episode_seed_scheme(args)]
-    command = "python experiments/give_up.py " + shlex.join(given)
+    command = "python experiments/give_up.py " + shlex.join(recorded_argv(argv if argv is not None else sys.argv[1:], args))
     text = "\n".join([
         "# Giving up a search: the probability rule against the cost rule", "",
         f"Regenerate: `{command}`", "",

@@ -52,6 +52,13 @@ def episode_seed_scheme(args: argparse.Namespace) -> str:
     return args.episode_seeds or "independent"
 
 
+def recorded_argv(argv: Sequence[str], args: argparse.Namespace) -> list[str]:
+    """A command's arguments as recorded beside its results: `argv` with the ``--episode-seeds``
+    scheme written out when it was left to the default, whatever the default becomes."""
+    given = list(argv)
+    return given if args.episode_seeds is not None else given + ["--episode-seeds", episode_seed_scheme(args)]
+
+
 def episode_seed(world: str, world_seed: int) -> int:
     """An episode seed from its own stream, independent of the world seed's (docs/design.md §11).
 
@@ -104,4 +111,4 @@ def check_resumable(jobs: Sequence[_Seeded], csv_path: str | Path, resume: bool 
 
 
 __all__ = ["EPISODE_SEEDS", "EPISODE_SEEDS_HELP", "add_episode_seed_argument", "check_episode_seeds",
-           "check_resumable", "episode_seed", "episode_seed_scheme"]
+           "check_resumable", "episode_seed", "episode_seed_scheme", "recorded_argv"]
