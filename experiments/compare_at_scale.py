@@ -69,6 +69,7 @@ from fg_tea.common.errors import InputError  # noqa: E402
 from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.env.camera import load_camera  # noqa: E402
+from fg_tea.planning import check_planner_name  # noqa: E402
 from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa: E402
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown)
@@ -76,6 +77,7 @@ from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E
 from fg_tea.study.seeds import (add_episode_seed_argument, check_resumable,  # noqa: E402
                                episode_seed_scheme, recorded_argv)
 from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
+from fg_tea.world.housegen import CATEGORIES  # noqa: E402
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}
@@ -177,6 +179,15 @@ def parse_args(argv=None) -> argparse.Namespace:
     for n in args.half_pixels:
         if not (n > 0 and math.isfinite(n)):
             p.error(f"--half-pixels: {n} is not a positive pixel count")
+    for c in args.small_categories:
+        if c not in CATEGORIES:
+            p.error(f"--small-categories: {c!r} is not an object of the generated houses "
+                    f"({', '.join(CATEGORIES)})")
+    for name in args.planners:  # before seed_sets.json is declared or any row copied
+        try:
+            check_planner_name(name)
+        except ValueError as exc:
+            p.error(f"--planners: {exc}")
     return args
 
 

@@ -108,7 +108,13 @@ def test_every_flag_is_checked_before_anything_is_written(tmp_path):
                       (["--confirmation-worlds", "5"], "--confirmation-first-seed"),
                       (["--episode-seeds", "bogus"], "--episode-seeds"),
                       (["--worlds", "0"], "--worlds"),
-                      (["--strengths", "1.5", "--table", "detectability"], "--strengths")):
+                      (["--strengths", "1.5", "--table", "detectability"], "--strengths"),
+                      (["--half-pixels", "0", "--table", "detectability"], "--half-pixels"),
+                      (["--small-categories", "spoon", "--table", "detectability"],
+                       "--small-categories"),
+                      (["--planners", "lookahaed"], "--planners"),
+                      (["--planners", "lookahead:nodes=-3"], "--planners"),
+                      (["--confirmation-first-seed", "100", "--worlds", "200"], "overlap")):
         proc = subprocess.run([sys.executable, "experiments/compare_at_scale.py", *bad, "--out",
                                str(tmp_path / "out")], capture_output=True, text=True,
                               stdin=subprocess.DEVNULL, cwd=ROOT, timeout=120)
