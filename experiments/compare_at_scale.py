@@ -72,7 +72,7 @@ from fg_tea.env.camera import load_camera  # noqa: E402
 from fg_tea.planning import check_planner_name  # noqa: E402
 from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa: E402
                                       declare_seed_sets, read_seed_sets, replication_cells,
-                                      replication_markdown)
+                                      replication_markdown, ESTABLISHED)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
 from fg_tea.study.seeds import (add_episode_seed_argument, check_resumable,  # noqa: E402
                                episode_seed_scheme, recorded_argv)
@@ -437,6 +437,17 @@ def heatmap(diffs: list[dict], row: str, col: str, panel: str | None, path: Path
     return save_figure(fig, path)
 
 
+def wall_time_line(path: Path, seconds: float, ran: int) -> str:
+    """The report's wall-time line: this command's, or, when it ran no episode (a report
+    regenerated from the rows), the line of the report it replaces."""
+    if not ran and path.is_file():
+        for line in path.read_text(encoding="utf-8").splitlines():
+            if line.startswith("Wall time: ") and " 0 new episodes" not in line:
+                return line
+    return (f"Wall time: {seconds:.0f} s for {ran} new episodes"
+            + (f" ({seconds / ran:.2f} s per episode on this machine)" if ran else "") + ".")
+
+
 def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: list[dict],
            command: str, seconds: float, ran: int) -> Path:
     columns = ("size", "task") if args.table == "houses" else ("size", "half_pixels", "strength")
@@ -473,13 +484,14 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
         key_of = {"houses": ("size", "task"), "detectability": ("half_pixels", "strength", "size")}
         verdicts = {tuple(c[k] for k in key_of[args.table]) + (c["planner"],): c["verdict"]
                     for c in cells_r}
+        resolve = resolve_commands(args, cells_r, sets)
         for c in cells_r:
             c["planner"] = GAIN_LABEL.get(c["planner"], c["planner"])
         write_csv_atomic(out / f"{args.table}_replication.csv", replication_rows(cells_r, sets, columns))
         replication = ["", "## Replication: joint − factorised search travel (m)", "",
                        "The table above pools both seed sets; here each is judged on its own.", "",
                        replication_markdown(cells_r, sets, columns + ("planner",))]
-        replication += planner_pairs(args, out, tagged, sets, columns, rank)
+        replication += planner_pairs(args, out, tagged, sets, columns, rank) + resolve
     if args.table == "houses":
         png = heatmap(diffs, "size", "task", None, out / f"{args.table}_heatmap.png",
                       "Joint − factorised search travel (m) per house size and task; "
@@ -502,8 +514,7 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
              "baselines `nearest` (distance only) and `greedy` (most probable site) read the "
              "belief's marginals. SPL = clairvoyant ÷ max(search travel, clairvoyant), 0 when an "
              "object was never found (docs/design.md §11).", "",
-             f"Wall time: {seconds:.0f} s for {ran} new episodes"
-             + (f" ({seconds / ran:.2f} s per episode on this machine)" if ran else "") + ".", "",
+             wall_time_line(out / f"{args.table}.md", seconds, ran), "",
              "## Paired differences", "", markdown_table(header, body), "",
              f"Heat map: `{png.name}`.", "",
              "## Decision time (ms per decision, in-process: wall and CPU, median and 95th "
@@ -553,6 +564,54 @@ def planner_pairs(args, out: Path, tagged: list[dict], sets: list[SeedSet], colu
             "Each cell is the paired difference of two planners' search travel on the same worlds "
             "and belief (negative: the first named searched less).", "",
             replication_markdown(cells, sets, columns + ("structure", "planner"), compared="planners")]
+
+
+#: First world seed of the confirmation sets proposed below: no committed table has used it.
+FRESH_FIRST_SEED = 30000
+
+
+def resolve_commands(args, cells: list[dict], sets: list[SeedSet]) -> list[str]:
+    """Report lines: for every cell not established whose confirmation set is smaller than the
+    discovery set says it needs (``pairs_needed``), the command that runs a confirmation set of
+    that size for that cell alone on a Ray cluster, the discovery rows copied from this table
+    (``--reuse``). The cell's raw planner name is expected (before relabelling)."""
+    table_csv = Path(args.out) / args.table / "episodes.csv"
+    lines = []
+    for c in cells:
+        need, have = c.get("pairs_needed"), c[sets[-1].name]["pairs"]
+        if c["verdict"] == ESTABLISHED or not need or need <= have:
+            continue
+        flags = ["--table", args.table] + (["--looks", args.looks] if args.looks != "glances" else [])
+        flags += ["--worlds", str(sets[0].count)] + (
+            ["--first-seed", str(sets[0].first)] if sets[0].first else [])
+        flags += ["--confirmation-first-seed", str(FRESH_FIRST_SEED), "--confirmation-worlds",
+                  str(need), "--sizes", str(c["size"])]
+        if args.table == "houses":
+            flags += ["--tasks", str(c["task"])]
+            tag = f"{c['size']}_{c['task']}_{c['planner']}"
+        else:
+            flags += ["--half-pixels", f"{float(c['half_pixels']):g}", "--strengths",
+                      f"{float(c['strength']):g}"]
+            if args.small_categories != ["teabag"]:
+                flags += ["--small-categories", *args.small_categories]
+            tag = f"{c['size']}_n50_{float(c['half_pixels']):g}_c{float(c['strength']):g}_{c['planner']}"
+        # The houses table's models are bundled, so its discovery rows are the new run's jobs;
+        # the detectability table's model files live in its folder, so it runs them again.
+        reuse = ["--reuse", str(table_csv)] if args.table == "houses" else []
+        flags += ["--planners", str(c["planner"]), "--timing-worlds", "0", *reuse,
+                  "--episode-seeds", episode_seed_scheme(args), "--executor", "ray", "--address",
+                  "auto", "--out", f"runs/resolve/{Path(args.out).name}/{tag}"]
+        lines.append(shlex.join(["python", "experiments/compare_at_scale.py", *flags]))
+    if not lines:
+        return []
+    return ["", "## To resolve the rest on a Ray cluster", "",
+            f"Each cell not established whose confirmation set is smaller than its \"pairs to "
+            f"resolve\": a confirmation set of that many worlds, seeds from {FRESH_FIRST_SEED} "
+            "(not used by any committed table; any range disjoint from the discovery set will do, "
+            "declared before the run), this table's discovery rows copied where they can be (houses). "
+            "One cell per folder, so "
+            "Holm adjusts over the cells run together (docs/design.md §11.1; Ray set-up: "
+            "docs/how-to/sweep-on-ray.md).", "", *[f"    {line}" for line in lines]]
 
 
 def replication_rows(cells: list[dict], sets: list[SeedSet], columns: tuple[str, ...]) -> list[dict]:

@@ -323,3 +323,58 @@ def test_compare_refuses_episode_seeds_with_lifelong(tmp_path):
                           capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert "--episode-seeds" in proc.stderr
+
+
+def _script():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_compare_at_scale", ROOT / "experiments" / "compare_at_scale.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("table", ["houses", "detectability"])
+def test_each_unresolved_cell_gets_a_command_that_would_resolve_it(table, monkeypatch):
+    """The report's Ray commands: one per cell not established and short of its pairs, each a
+    valid command of this script for that cell alone, sized from the discovery set, on fresh
+    seeds; established or already large enough cells get none."""
+    from fg_tea.study.replication import ESTABLISHED, NOT_RESOLVED, SeedSet
+
+    monkeypatch.chdir(ROOT)
+    cas = _script()
+    out = "experiments/results/joint_vs_factorised"
+    args = cas.parse_args(["--table", table, "--worlds", "200", "--confirmation-first-seed", "10000",
+                           "--episode-seeds", "world", "--out", out])
+    sets = [SeedSet("discovery", 0, 200), SeedSet("confirmation", 10000, 200)]
+    where = ({"size": "medium", "task": "make_tea"} if table == "houses"
+             else {"size": "small", "half_pixels": 100.0, "strength": 0.75})
+    cells = [{**where, "planner": "mi_efe", "verdict": NOT_RESOLVED, "pairs_needed": 924,
+              "confirmation": {"pairs": 200}},
+             {**where, "planner": "lookahead", "verdict": ESTABLISHED, "pairs_needed": 924,
+              "confirmation": {"pairs": 200}},
+             {**where, "planner": "factorised_efe", "verdict": NOT_RESOLVED, "pairs_needed": 150,
+              "confirmation": {"pairs": 200}}]
+    lines = [line.strip() for line in cas.resolve_commands(args, cells, sets) if line.startswith("    ")]
+    assert len(lines) == 1
+    import shlex
+    argv = shlex.split(lines[0])[2:]
+    again = cas.parse_args(argv)
+    assert again.planners == ["mi_efe"] and again.confirmation_worlds == 924
+    assert again.confirmation_first_seed == cas.FRESH_FIRST_SEED and again.executor == "ray"
+    assert again.sizes == [where["size"]] and again.episode_seeds == "world"
+    cas.check_seed_sets(cas.seed_sets(again))
+    if table == "houses":
+        assert again.tasks == ["make_tea"] and again.reuse == Path(out) / "houses" / "episodes.csv"
+    else:
+        assert again.half_pixels == [100.0] and again.strengths == [0.75] and again.reuse is None
+
+
+def test_a_report_regenerated_without_episodes_keeps_the_wall_time_of_the_run(tmp_path):
+    cas = _script()
+    report = tmp_path / "houses.md"
+    assert cas.wall_time_line(report, 3.0, 0) == "Wall time: 3 s for 0 new episodes."
+    report.write_text("# x\n\nWall time: 920 s for 800 new episodes (1.15 s per episode on this machine).\n")
+    assert cas.wall_time_line(report, 1.0, 0).startswith("Wall time: 920 s for 800")
+    assert cas.wall_time_line(report, 10.0, 4) == ("Wall time: 10 s for 4 new episodes (2.50 s per "
+                                                   "episode on this machine).")
