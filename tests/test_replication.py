@@ -130,3 +130,13 @@ def test_planner_pairs_are_judged_and_adjusted_over_every_comparison():
     assert both[0]["confirmation"]["adjusted"].low < before[1].low
     text = replication_markdown(both, SETS, ("task",), compared="planners")
     assert "two planners' searches" in text
+
+
+def test_the_table_gives_each_difference_in_per_cent_of_the_baseline():
+    from fg_tea.common.stats import t_interval
+    from fg_tea.study.replication import _percent
+
+    entry = {"pairs": 3, "difference": t_interval([-1.0, -2.0, -3.0]), "baseline": 20.0}
+    pct = _percent(entry)
+    assert pct.mean == -10.0 and pct.low == 100.0 * entry["difference"].low / 20.0
+    assert _percent({"pairs": 0, "difference": t_interval([]), "baseline": 0.0}).fmt() == "–"

@@ -32,7 +32,7 @@ import numpy as np
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_write_text
-from fg_tea.common.stats import (bonferroni_interval, holm, pairs_needed, t_interval,
+from fg_tea.common.stats import (Interval, bonferroni_interval, holm, pairs_needed, t_interval,
                                  t_test_p)
 from fg_tea.study.analysis import PAIR_ON, excluded, markdown_table
 
@@ -200,6 +200,14 @@ def verdict(discovery: Mapping[str, Any], confirmation: Mapping[str, Any], alpha
     return NOT_RESOLVED
 
 
+def _percent(entry: Mapping[str, Any]) -> Interval:
+    """A seed set's difference and interval in per cent of the baseline's mean on the same worlds."""
+    d, base = entry["difference"], entry.get("baseline")
+    if not base or not entry["pairs"]:
+        return Interval(math.nan, math.nan, math.nan, 0)
+    return Interval(100.0 * d.mean / base, 100.0 * d.low / base, 100.0 * d.high / base, d.n)
+
+
 def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[SeedSet],
                          by: Sequence[str] = ("world", "task", "planner"),
                          metric: str = "search_distance", compared: str = "beliefs") -> str:
@@ -208,6 +216,7 @@ def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[Seed
     header = [*by]
     for s in sets:
         header += [f"{s.name}: pairs", f"{s.name}: difference [95 % CI]",
+                   f"{s.name}: % of the baseline [95 % CI]",
                    f"{s.name}: adjusted [CI over {len(cells)} cells]", f"{s.name}: Holm p",
                    f"{s.name}: worlds that differ", f"{s.name}: difference where they differ"]
     header += [f"pairs to resolve {RESOLVE_SHARE:.0%}", "verdict"]
@@ -217,7 +226,7 @@ def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[Seed
         for s in sets:
             e = c[s.name]
             none = not e["pairs"]
-            line += [str(e["pairs"]), e["difference"].fmt(), e["adjusted"].fmt(),
+            line += [str(e["pairs"]), e["difference"].fmt(), _percent(e).fmt(1), e["adjusted"].fmt(),
                      "–" if none else f"{e['p_holm']:.3g}",
                      "–" if none else f"{e['share_differ']:.0%}", e["if_differ"].fmt()]
         need = c["pairs_needed"]
@@ -227,7 +236,8 @@ def replication_markdown(cells: Sequence[Mapping[str, Any]], sets: Sequence[Seed
     sets_text = "; ".join(s.label for s in sets)
     return "\n".join([
         f"Seed sets, declared before the runs: {sets_text}. Each cell is the paired difference of "
-        f"`{metric}` world by world. A claim is established only where the confirmation set's "
+        f"`{metric}` world by world (also in per cent of the baseline's mean on the same worlds). "
+        "A claim is established only where the confirmation set's "
         "Holm-adjusted p is below 0.05 with the discovery set's sign; the adjusted intervals are "
         f"Bonferroni intervals over the {len(cells)} cells. \"Worlds that differ\": the share of "
         f"paired worlds in which the two {compared}' searches differed at all; the next column is "
