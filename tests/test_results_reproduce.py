@@ -36,6 +36,9 @@ def _pairs(text) -> dict:
     for item in str(text or "").split(","):
         if "=" in item:
             name, value = item.split("=", 1)
+            if value in ("True", "False"):  # a key spells booleans as Python does
+                out[name] = value == "True"
+                continue
             try:
                 out[name] = float(value)
             except ValueError:
