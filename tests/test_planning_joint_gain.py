@@ -455,3 +455,43 @@ def test_ranked_pruning_keeps_the_best_viewpoints_exact_and_in_order(n, k, seed,
     assert bounded_any > 0
     with pytest.raises(ValueError, match="rank must be at least 1"):
         EFEPlanner(model.planning, rank=0)
+
+
+@settings(max_examples=60, derandomize=True, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_one_object_gain_needs_only_its_marginal(data):
+    """With one object reported, the closed form on its marginal is the exact gain: equal to the
+    structured program and to the dense joint (other objects correlated and unreported)."""
+    from fg_tea.planning.efe import one_object_information_gain
+
+    (unary, rooms, caps, penalty, pairs), (sites, observed, prob, fp), model = _model_and_look(data)
+    if model is None:
+        return
+    o = observed[0]
+    joint = dense_joint(unary, rooms, caps, penalty, pairs)
+    q = joint.sum(axis=tuple(a for a in range(joint.ndim) if a != o))
+    prob = np.minimum(prob[:1], 1.0 - (len(sites) - 1) * fp)   # rows of a detection model
+    got = one_object_information_gain(q, [(sites, prob[0])], fp)
+    np.testing.assert_allclose(got, view_joint_information_gain(joint, [o], sites, prob, fp),
+                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got, JointViewGain(model, [o], fp, outcome_limit=None).gain(sites, prob),
+                               rtol=0, atol=TOL)
+
+
+def test_the_planner_with_one_object_left_scores_the_structured_gain():
+    """The joint EFE planner's gains with one object left (the closed form) are the structured
+    solver's, on a belief beyond the dense-gain switch, for every viewpoint."""
+    graph, model = joint_graph(5, 10, rooms_of=5, seed=5)
+    belief = BeliefEngine(graph, model)
+    belief.observe_site("s1", {"o0": False, "o2": False})
+    belief.observe_site("s2", {"o1": True})
+    rng = np.random.default_rng(0)
+    looks = [([j], rng.uniform(0.05, 0.95, 1)) for j in range(10)] + [(list(range(5)), rng.uniform(0.05, 0.95, 5))]
+    from fg_tea.planning.efe import one_object_information_gain
+    for o in (0, 3):
+        solver = structured_gain(belief, [o])
+        assert solver is not None
+        want = solver.gains([(s, p[None]) for s, p in looks])[0]
+        got = one_object_information_gain(belief.location_matrix()[o], looks, model.false_positive_rate)
+        np.testing.assert_allclose(got, want, rtol=0, atol=TOL)

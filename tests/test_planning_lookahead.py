@@ -452,3 +452,52 @@ def test_ranked_root_pruning_makes_the_unpruned_choices_over_an_episode(monkeypa
 
     monkeypatch.setattr(efe.EFEPlanner, "__init__", exact_everywhere)
     assert run() == ranked and len(ranked) > 3
+
+
+def test_one_object_left_plans_on_its_marginal_with_the_structured_gain():
+    """With one object left on a belief beyond the dense limit, the planner's gains (the
+    one-object closed form) are the structured solver's for every viewpoint, and the search
+    problem holds the object's marginal over the open sites (not the subset program)."""
+    from fg_tea.planning import EFEPlanner
+    from fg_tea.planning.efe import structured_gain
+
+    scenario = _world("generated_large_milk_sugar").sample(1)
+    model = load_model("joint")
+    belief = BeliefEngine(scenario, model)
+    assert belief.structured_model() is not None
+    belief.observe_site(scenario.site_names[0], {o: False for o in belief.objects})
+    views, distances = _views(scenario, model), _viewpoint_distances(scenario)
+    excluded = frozenset(scenario.site_names[1:2])
+    for obj in ("teabag", "mug"):
+        decision = EFEPlanner(model.planning, information="joint").choose(
+            belief, [obj], {obj: 1.0}, distances, {}, excluded, views)
+        o = belief.objects.index(obj)
+        solver = structured_gain(belief, [o])
+        assert solver is not None
+        eligible = [v for v in views.views if v.name not in excluded]
+        want = solver.gains([(v.sites, v.probability[[o]]) for v in eligible])[0]
+        got = [c.information_gain for c in decision.candidates]
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+        problem = build_problem(belief, [obj], distances, excluded, views, 0.144)
+        q = belief.location_matrix()[o, problem.allowed]
+        np.testing.assert_allclose(problem.joint, q / q.sum(), rtol=0, atol=1e-15)
+
+
+def test_episode_distance_matrices_are_the_pairwise_lookups():
+    """The episode's distance cache gives each viewpoint subset the same numbers whether built
+    pair by pair or copied out of an earlier, larger matrix."""
+    from fg_tea.episode.runner import _EnvDistances
+
+    class Floor:
+        def distance_between_sites(self, a, b):
+            return float(abs(hash((min(a, b), max(a, b)))) % 1000) / 7.0
+
+    names = [f"v{i}" for i in range(9)]
+    cached = _EnvDistances(Floor())
+    cached.matrix_for(names)
+    fresh = _EnvDistances(Floor())
+    for subset in (names[2:], names[::2], [names[4], names[1], names[7]], names[:1]):
+        got = cached.matrix_for(subset)
+        want = np.array([[fresh.between(a, b) if a != b else 0.0 for b in subset] for a in subset])
+        assert got.tobytes() == want.tobytes() and not got.flags.writeable
+    assert cached.matrix_for(["v1", "elsewhere"])[0, 1] == fresh.between("v1", "elsewhere")

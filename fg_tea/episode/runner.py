@@ -123,7 +123,15 @@ class _EnvDistances:
         key = tuple(sites)
         found = self._matrices.get(key)
         if found is None:
-            found = np.array([[self.between(a, b) if a != b else 0.0 for b in key] for a in key])
+            # Most decisions ask for a subset of an earlier matrix (viewpoints drop out as
+            # sites are excluded): copy its entries rather than look each pair up again.
+            whole = max(self._matrices, key=len, default=())
+            index = {s: i for i, s in enumerate(whole)}
+            if key and all(s in index for s in key):
+                rows = np.array([index[s] for s in key])
+                found = self._matrices[whole][np.ix_(rows, rows)]
+            else:
+                found = np.array([[self.between(a, b) if a != b else 0.0 for b in key] for a in key])
             found.setflags(write=False)
             self._matrices[key] = found
         return found

@@ -251,6 +251,50 @@ def view_joint_information_gain(joint: np.ndarray, unresolved: Sequence[int], si
     return out
 
 
+def one_object_information_gain(q: np.ndarray, looks: Sequence[tuple[Sequence[int], np.ndarray]],
+                                fp: float) -> np.ndarray:
+    """Exact I(L_o; D_v) of :func:`view_joint_information_gain` when o is the only object whose
+    outcome the look reports, for every look at once, from o's marginal alone.
+
+    With one reported object the outcome D_v is o's own ("seen at in-view site c", c = 1..m, or
+    not seen), which depends on the other objects only through P(L_o): the exact mutual
+    information is H(D_v) - H(D_v | L_o), with P(D_v = c) = q(s_c) p_c + (1 - q(s_c)) fp and the
+    outcome rows of the detection model (docs/design.md §6.2). No joint, and no subset program,
+    is needed.
+
+    Args:
+        q: P(L_o), shape (K,), summing to 1.
+        looks: per look, (in-view site indices s_1..s_m, p_{o,c} of shape (m,)).
+        fp: P(seen at one in-view site | elsewhere), per site.
+
+    Returns:
+        I, shape (len(looks),), nats.
+    """
+    width = max(len(sites) for sites, _ in looks)
+    m = np.array([len(sites) for sites, _ in looks], dtype=float)[:, None]       # (V, 1)
+    at = np.zeros((len(looks), width), dtype=np.int64)
+    p = np.zeros((len(looks), width))
+    used = np.zeros((len(looks), width), dtype=bool)
+    for v, (sites, prob) in enumerate(looks):
+        at[v, :len(sites)], p[v, :len(sites)], used[v, :len(sites)] = sites, prob, True
+    total = float(q.sum())
+
+    def h(x):                                               # -x log x, 0 at 0
+        return -x * np.log(np.maximum(x, 1e-300))
+
+    q_in = np.where(used, q[at], 0.0)                       # P(L_o = s_c), (V, M)
+    q_out = total - q_in.sum(axis=1)                        # P(L_o out of view), (V,)
+    row_miss = np.clip(1.0 - p - (m - 1.0) * fp, 0.0, 1.0)  # P(D = 0 | L_o = s_c)
+    out_miss = np.clip(1.0 - m[:, 0] * fp, 0.0, 1.0)        # P(D = 0 | L_o out of view)
+    seen = q_in * p + (total - q_in) * fp                   # P(D = c)
+    unseen = (q_in * row_miss).sum(axis=1) + q_out * out_miss
+    h_d = np.where(used, h(seen), 0.0).sum(axis=1) + h(unseen)
+    h_in = h(p) + (m - 1.0) * h(fp) + h(row_miss)           # H(D | L_o = s_c)
+    h_out = m[:, 0] * h(fp) + h(out_miss)                   # H(D | L_o out of view)
+    h_given = np.where(used, q_in * h_in, 0.0).sum(axis=1) + q_out * h_out
+    return h_d - h_given
+
+
 def coupling_strength(belief) -> np.ndarray:
     """How strongly each pair of objects' locations interact, shape (N, N): |ln s_ab| + |ln r_ab|
     of eq. (35) (0 without a relation). Orders the outcomes kept when a look's joint outcome is
@@ -398,14 +442,19 @@ class EFEPlanner(PlannerBase):
             mode = "joint" if belief.correlated else "factorised"
         q_all = belief.location_matrix()
         q = q_all[obj_idx]
-        solver = structured_gain(belief, obj_idx) if mode == "joint" else None
-        joint = belief.location_joint() if mode == "joint" and solver is None else None
-        fp = belief.model.false_positive_rate
         n, m = len(objects), len(eligible)
+        # One object to find: its exact gain needs only its marginal (closed form).
+        one = mode == "joint" and n == 1
+        solver = structured_gain(belief, obj_idx) if mode == "joint" and not one else None
+        joint = belief.location_joint() if mode == "joint" and solver is None and not one else None
+        fp = belief.model.false_positive_rate
         find, gain = np.empty((n, m)), np.empty((n, m))
-        if solver is not None:
+        if solver is not None or one:
             prob_all = np.stack([v.probability_over_sites(k)[obj_idx] for v in eligible])
             find[:] = ((q[None] * prob_all).sum(axis=2) / views.max_probability).T
+            if one:
+                gain[0] = one_object_information_gain(
+                    q[0], [(v.sites, v.probability[obj_idx[0]]) for v in eligible], fp)
         else:
             for c, v in enumerate(eligible):
                 prob = v.probability_over_sites(k)[obj_idx]
@@ -486,4 +535,4 @@ class FactorisedEFEPlanner(EFEPlanner):
 
 __all__ = ["EFEPlanner", "FactorisedEFEPlanner", "coupling_strength", "structured_gain", "factorised_information_gain",
            "joint_information_gain", "view_factorised_information_gain",
-           "view_joint_information_gain", "entropies"]
+           "view_joint_information_gain", "one_object_information_gain", "entropies"]

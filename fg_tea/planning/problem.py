@@ -283,6 +283,13 @@ def truth_table(belief, objects: Sequence[str], allowed: Sequence[int]) -> np.nd
     """
     idx = [belief.objects.index(o) for o in objects]
     n, k = len(idx), len(allowed)
+    if belief.correlated and n == 1:
+        # One object: its joint over U is its marginal, which the engine holds (no K^N sum).
+        p_u = belief.location_matrix()[idx[0], list(allowed)]
+        total = float(p_u.sum())
+        if not total > 0:
+            raise ValueError("lookahead: the belief puts no mass on the open sites")
+        return p_u / total
     if belief.correlated:
         fault = size_fault(k, n, True)
         if fault is not None:
@@ -358,16 +365,16 @@ def build_problem(belief, objects: Sequence[str], distances: DistanceModel,
 def _truths(belief, objects: Sequence[str], open_sites: Sequence[int]):
     """(joint, factors, structured) of a search problem: for a correlated belief the dense joint
     over U when it has at most :data:`MAX_TRUTHS` truths and the engine can build the whole joint
-    it is summed from (at most :data:`~fg_tea.beliefs.engine.DENSE_LIMIT` states), else its
-    subset program; the marginals for a factorised one. Both correlated forms are exact, so an
+    it is summed from (at most :data:`~fg_tea.beliefs.engine.DENSE_LIMIT` states), or when U is
+    one object (its marginal), else its subset program; the marginals for a factorised one. Both correlated forms are exact, so an
     episode may pass from one to the other as objects are found and sites excluded.
 
     Raises:
         ValueError: no mass on the open sites; a correlated belief too large for a dense joint
             without a subset program.
     """
-    dense = (len(open_sites) ** len(objects) <= MAX_TRUTHS
-             and len(belief.sites) ** len(belief.objects) <= DENSE_LIMIT)
+    dense = len(objects) == 1 or (len(open_sites) ** len(objects) <= MAX_TRUTHS
+                                  and len(belief.sites) ** len(belief.objects) <= DENSE_LIMIT)
     if belief.correlated and not dense:
         model = belief.structured_model()
         if model is not None:
@@ -464,25 +471,35 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray,
     flat, miss = flat
     cost_table, inverse = _step_costs(problem)
     q = q.reshape(count, n * k)
-    rem = np.repeat(unfound.astype(float), k, axis=1)      # P(u unseen | L_u = k), (L, n K')
-    value = np.zeros(count)
+    # Flat views and preallocated rows keep each step to a few numpy calls (the loop runs up to
+    # 2A steps per decision; the arithmetic is the same, element for element). The start
+    # position -1 is the costs' last row, A.
+    cost_flat = cost_table.reshape(-1)
+    # P(u unseen | L_u = k) before each step, (L, n K'): every step's is kept for a correlated
+    # belief (its P(not over) comes after the loop); two buffers in turn serve a product belief.
+    rem_steps = np.empty((2 if independent else max_looks + 1, count, n * k))
+    rem = rem_steps[0]
+    rem[:] = np.repeat(unfound.astype(float), k, axis=1)
     cur = np.asarray(pos, dtype=np.int64).copy()
-    looked = np.zeros((count, a_count)) if looked is None else looked.astype(float)
-    rows = np.arange(count)
+    cur[cur < 0] = a_count
+    looked = np.zeros((count, a_count)) if looked is None else np.array(looked, dtype=float, order="C")
+    looked_flat = looked.reshape(-1)
+    row_start = np.arange(count) * a_count
     if first is not None:
         first[:] = -1
     # The policy's looks depend only on the marginals, so a correlated belief's P(not over) is
     # computed after the loop for every step at once (n batched products instead of n per step);
     # the loop ends once sum_u P(u unseen) (>= P(not over)) is at most `stop` for every node.
     history, costs, firsts, bounds = [], [], None, []
+    weighted = np.empty_like(q)
     for step in range(max_looks + 1):
-        both = (q * rem) @ flat                            # (L, A + n)
+        both = np.multiply(q, rem, out=weighted) @ flat    # (L, A + n)
         unseen = both[:, a_count:]                         # P(u unseen), (L, n)
         if independent:                                    # P(not over) = 1 - prod_u P(u seen)
             cont = 1.0 - np.multiply.reduce(1.0 - unseen, axis=1)
             going = cont > stop
         else:
-            history.append(rem.copy())
+            history.append(rem)
             going = unseen.sum(axis=1) > stop
             bounds.append(going)
         if step == max_looks or not going.any():
@@ -497,9 +514,9 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray,
         best = score.argmax(axis=1)
         if step == 0:
             firsts = best
-        costs.append(cost_table[cur, best])
-        looked[rows, best] += 1.0
-        rem *= miss[best]
+        costs.append(cost_flat[cur * a_count + best])
+        looked_flat[row_start + best] += 1.0
+        rem = np.multiply(rem, miss[best], out=rem_steps[(step + 1) % len(rem_steps)])
         cur = best
     taken = len(costs)
     if not taken:
