@@ -1,0 +1,115 @@
+"""Do the weights derived from the world's rules beat the hand-set ones? ``joint_derived`` − ``joint``.
+
+The joint model ``joint_derived`` takes its co-location weights from the house generator's
+placement rules (docs/design.md §3.7, ``experiments/derive_relations.py``); ``joint`` has the
+hand-set weights. Both were run by ``compare_at_scale.py --table houses`` on the same worlds,
+seed sets and episode seeds (``--looks derived`` and the default looks), so their episodes pair
+world by world across the two tables. This reads both tables' episodes, keeps the two joint
+models' rows, and judges ``joint_derived`` − ``joint`` search travel per cell (house size, task,
+planner) and seed set the way the tables judge joint − factorised (docs/design.md §11.1):
+paired intervals, Holm's adjustment over the cells, the pairs a 3 % difference needs, the verdict
+on the confirmation set. The seed sets are the derived table's declaration (``seed_sets.json``),
+which must equal the hand-set table's. No episode is run.
+
+Writes ``summary.md`` and ``replication.csv`` to ``--out``:
+
+    python experiments/derived_beside_hand.py --out experiments/results/joint_vs_factorised_derived/beside_hand
+"""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from fg_tea.common.errors import InputError, run_script  # noqa: E402
+from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
+
+HAND, DERIVED = "joint", "joint_derived"
+SIZES = {"generated_small": "small", "generated_medium": "medium", "generated_large": "large"}
+PLANNERS = {"factorised_efe": "eqs. 10-11", "mi_efe": "exact MI"}
+
+
+def build_parser():
+    from fg_tea.common.options import experiment_parser
+
+    p = experiment_parser(__doc__, __file__, "§11.1")
+    p.add_argument("--derived", default="experiments/results/joint_vs_factorised_derived/houses",
+                   help="the derived weights' houses table (its folder)")
+    p.add_argument("--hand", default="experiments/results/joint_vs_factorised/houses",
+                   help="the hand-set weights' houses table on the same worlds (its folder)")
+    p.add_argument("--out", type=out_folder, default="runs/experiments/derived_beside_hand",
+                   help="output folder")
+    return p
+
+
+def _table(folder: str, model: str) -> tuple[list[dict], list]:
+    """The rows of `model` in a table folder, each tagged with its cell, and the folder's sets."""
+    from fg_tea.study.replication import read_seed_sets
+    from fg_tea.study.rows import read_rows
+
+    path = Path(folder) / "episodes.csv"
+    if not path.is_file():
+        raise InputError(str(path), "file", "no such episodes CSV")
+    sets = read_seed_sets(Path(folder))
+    if not sets:
+        raise InputError(str(Path(folder) / "seed_sets.json"), "sets", "no declared seed sets")
+    rows = []
+    for r in read_rows(path):
+        if r["model"] == model and r["world"].replace("_milk_sugar", "") in SIZES:
+            rows.append({**r, "size": SIZES[r["world"].replace("_milk_sugar", "")]})
+    return rows, sets
+
+
+def main(argv: list[str] | None = None) -> int:
+    from fg_tea.study.replication import replication_cells, replication_markdown
+    from fg_tea.study.rows import write_csv_atomic
+
+    args = build_parser().parse_args(argv)
+    derived, sets = _table(args.derived, DERIVED)
+    hand, hand_sets = _table(args.hand, HAND)
+    if sets != hand_sets:
+        raise InputError(str(Path(args.hand) / "seed_sets.json"), "sets",
+                         "the two tables declared other seed sets: their worlds do not pair")
+    cells = replication_cells(derived + hand, sets, vary="model", baseline=HAND, other=DERIVED,
+                              by=("size", "task", "planner"))
+    order = {"small": 0, "medium": 1, "large": 2}
+    cells.sort(key=lambda c: (order[c["size"]], c["task"], c["planner"]))
+    cells = [c for c in cells if c[sets[0].name]["pairs"] or c[sets[-1].name]["pairs"]]
+    if not cells:
+        raise InputError(args.derived, "rows", f"no {DERIVED} episode pairs with a {HAND} one")
+    for c in cells:
+        c["planner"] = PLANNERS.get(c["planner"], c["planner"])
+    rows = []
+    for c in cells:
+        row = {k: c[k] for k in ("size", "task", "planner")}
+        for s in sets:
+            e = c[s.name]
+            row.update({f"{s.name}_pairs": e["pairs"], f"{s.name}_diff": e["difference"].mean,
+                        f"{s.name}_low": e["difference"].low, f"{s.name}_high": e["difference"].high,
+                        f"{s.name}_baseline": e["baseline"], f"{s.name}_p_holm": e.get("p_holm"),
+                        f"{s.name}_share_differ": e["share_differ"]})
+        row.update(pairs_needed=c["pairs_needed"], verdict=c["verdict"])
+        rows.append(row)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv_atomic(out / "replication.csv", rows)
+    command = shlex.join(["python", "experiments/derived_beside_hand.py",
+                          *(sys.argv[1:] if argv is None else argv)])
+    text = "\n".join([
+        "# The derived weights beside the hand-set ones: joint_derived − joint", "",
+        f"Generated by `{command}` from `{args.derived}/episodes.csv` and "
+        f"`{args.hand}/episodes.csv` (no episode run). Negative: the derived weights searched less.",
+        "", "## Replication: joint_derived − joint search travel (m)", "",
+        replication_markdown(cells, sets, ("size", "task", "planner"), compared="models"), ""])
+    atomic_write_text(out / "summary.md", text)
+    print(f"wrote {out / 'summary.md'} and {out / 'replication.csv'}")
+    return 0
+
+
+if __name__ == "__main__":
+    run_script(main, Path(__file__).name)
