@@ -57,6 +57,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--planner", default="lookahead", help="the planner compared")
     p.add_argument("--bench-before", type=Path, default=None,
                    help="bench_planning.py --houses --json output of the code before")
+    p.add_argument("--bench-previous", type=Path, default=None,
+                   help="bench_planning.py --houses --json output of the commit before the last "
+                        "speed change, measured in the same run as --bench-now")
     p.add_argument("--bench-now", type=Path, default=None,
                    help="bench_planning.py --houses --json output of the code now")
     p.add_argument("--out", type=out_folder, default=DEFAULT_OUT, help="output folder")
@@ -124,12 +127,16 @@ def report(args, rows: list[dict], command: str) -> str:
     header += [f"{LABEL[m]}: before → now; now − before [95 %]" for m in METRICS]
     lines += [markdown_table(header, body), ""]
     before, now = _bench(args.bench_before), _bench(args.bench_now)
+    previous = _bench(args.bench_previous)
     if now:
         lines += ["## Decision time in whole episodes (CPU ms per decision)", "",
                   "From `experiments/bench_planning.py --houses`: every decision of make-tea "
-                  "episodes in the fake house, the code before (the package at commit 982341a) "
-                  "and now run one after the other on the same machine (commands in "
-                  "`commands.txt`). Targets: median ≤ 5 ms, 95th percentile ≤ 50 ms.", ""]
+                  "episodes in the fake house, on the same machine (commands in `commands.txt`): "
+                  "the code before grouping (the package at commit 982341a, measured when "
+                  "grouping came in)"
+                  + (", and the commit before the last speed change and now, one after the "
+                     "other in one run" if previous else " and now")
+                  + ". Targets: median ≤ 5 ms, 95th percentile ≤ 50 ms.", ""]
         body = []
         for key in sorted(now, key=lambda k: (SIZES.get(k[0], 9), k[1], k[2])):
             r, b = now[key], before.get(key)
@@ -142,10 +149,13 @@ def report(args, rows: list[dict], command: str) -> str:
                 return f"{rec['cpu_median_ms']:.2f} / {rec['cpu_p95_ms']:.2f}"
 
             met = (r["status"] == "ok" and r["cpu_median_ms"] <= 5.0 and r["cpu_p95_ms"] <= 50.0)
-            body.append([key[0], f"{r['sites']:.1f}", key[1], key[2], r["worlds"], show(b), show(r),
-                         "met" if met else "not met"])
+            body.append([key[0], f"{r['sites']:.1f}", key[1], key[2], r["worlds"], show(b)]
+                        + ([show(previous.get(key))] if previous else [])
+                        + [show(r), "met" if met else "not met"])
         lines += [markdown_table(["house", "sites (mean)", "belief", "planner", "worlds",
-                                  "before: median / p95", "now: median / p95", "targets"], body), ""]
+                                  "before grouping: median / p95"]
+                                 + (["previous: median / p95"] if previous else [])
+                                 + ["now: median / p95", "targets"], body), ""]
     return "\n".join(lines)
 
 

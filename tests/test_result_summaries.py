@@ -23,6 +23,7 @@ def _script(name: str):
     ("false_give_ups", "false_give_ups", "summary.csv", []),
     ("lookahead_scale", "lookahead_scale", "paired.csv",
      ["--bench-before", str(RESULTS / "lookahead_scale" / "bench_before.json"),
+      "--bench-previous", str(RESULTS / "lookahead_scale" / "bench_previous.json"),
       "--bench-now", str(RESULTS / "lookahead_scale" / "bench_now.json")]),
 ])
 def test_committed_summary_is_regenerated_from_the_committed_tables(tmp_path, name, folder, table, extra):
