@@ -69,7 +69,7 @@ from fg_tea.common.errors import InputError  # noqa: E402
 from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.env.camera import load_camera  # noqa: E402
-from fg_tea.planning import check_planner_name  # noqa: E402
+from fg_tea.planning import check_planner  # noqa: E402
 from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa: E402
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown, ESTABLISHED)
@@ -185,8 +185,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                     f"({', '.join(CATEGORIES)})")
     for name in args.planners:  # before seed_sets.json is declared or any row copied
         try:
-            check_planner_name(name)
-        except ValueError as exc:
+            check_planner(name)   # built-ins, family specs and plug-ins, as the sweep checks them
+        except (ValueError, InputError) as exc:
             p.error(f"--planners: {exc}")
     return args
 
@@ -598,8 +598,10 @@ def resolve_commands(args, cells: list[dict], sets: list[SeedSet]) -> list[str]:
         # The houses table's models are bundled, so its discovery rows are the new run's jobs;
         # the detectability table's model files live in its folder, so it runs them again.
         reuse = ["--reuse", str(table_csv)] if args.table == "houses" else []
-        flags += ["--planners", str(c["planner"]), "--timing-worlds", "0", *reuse,
-                  "--episode-seeds", episode_seed_scheme(args), "--executor", "ray", "--address",
+        flags += ["--planners", str(c["planner"]), "--timing-worlds", "0", *reuse]
+        flags += ["--env", args.env] if args.env != "pybullet" else []
+        flags += ["--gtsam-check"] if args.gtsam_check else []
+        flags += ["--episode-seeds", episode_seed_scheme(args), "--executor", "ray", "--address",
                   "auto", "--out", f"runs/resolve/{Path(args.out).name}/{tag}"]
         lines.append(shlex.join(["python", "experiments/compare_at_scale.py", *flags]))
     if not lines:
@@ -609,9 +611,10 @@ def resolve_commands(args, cells: list[dict], sets: list[SeedSet]) -> list[str]:
             f"resolve\": a confirmation set of that many worlds, seeds from {FRESH_FIRST_SEED} "
             "(not used by any committed table; any range disjoint from the discovery set will do, "
             "declared before the run), this table's discovery rows copied where they can be (houses). "
-            "One cell per folder, so "
-            "Holm adjusts over the cells run together (docs/design.md §11.1; Ray set-up: "
-            "docs/how-to/sweep-on-ray.md).", "", *[f"    {line}" for line in lines]]
+            "One cell per folder: each report's Holm adjustment then covers its one cell, so "
+            "claims from several of these runs are judged on their confirmation p values "
+            "adjusted together (Holm over the cells run; docs/design.md §11.1). Ray set-up: "
+            "docs/how-to/sweep-on-ray.md.", "", *[f"    {line}" for line in lines]]
 
 
 def replication_rows(cells: list[dict], sets: list[SeedSet], columns: tuple[str, ...]) -> list[dict]:

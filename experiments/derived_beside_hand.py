@@ -66,7 +66,7 @@ def _table(folder: str, model: str) -> tuple[list[dict], list]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from fg_tea.study.replication import replication_cells, replication_markdown
+    from fg_tea.study.replication import adjust, replication_cells, replication_markdown
     from fg_tea.study.rows import write_csv_atomic
 
     args = build_parser().parse_args(argv)
@@ -79,9 +79,12 @@ def main(argv: list[str] | None = None) -> int:
                               by=("size", "task", "planner"))
     order = {"small": 0, "medium": 1, "large": 2}
     cells.sort(key=lambda c: (order[c["size"]], c["task"], c["planner"]))
-    cells = [c for c in cells if c[sets[0].name]["pairs"] or c[sets[-1].name]["pairs"]]
+    # Cells neither table ran (or a planner refused) have no pairs: out of the family, which is
+    # then adjusted over the cells that remain.
+    cells = [c for c in cells if c[sets[0].name]["pairs"] and c[sets[-1].name]["pairs"]]
     if not cells:
         raise InputError(args.derived, "rows", f"no {DERIVED} episode pairs with a {HAND} one")
+    adjust(cells, sets)
     for c in cells:
         c["planner"] = PLANNERS.get(c["planner"], c["planner"])
     rows = []

@@ -320,12 +320,9 @@ def test_compare_refuses_episode_seeds_with_lifelong(tmp_path):
 
 
 def _script():
-    import importlib.util
+    from experiment_scripts import load_experiment
 
-    spec = importlib.util.spec_from_file_location("_compare_at_scale", ROOT / "experiments" / "compare_at_scale.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_experiment("compare_at_scale")
 
 
 @pytest.mark.parametrize("table", ["houses", "detectability"])
@@ -390,8 +387,33 @@ def test_more_flags_are_refused_at_parse_time(bad, word, tmp_path, capsys):
         cas.seed_sets(cas.parse_args([*bad, "--out", str(tmp_path / "out")]))
     except SystemExit as stop:
         err = capsys.readouterr().err.strip().splitlines()
-        assert stop.code == 2 and word in err[-1], err
+        assert stop.code == 2 and len(err) == 1 and word in err[0], err
     except InputError as exc:  # run_script's one line and exit 2 (tested above for others)
         assert word in str(exc) and "\n" not in str(exc)
     else:
         pytest.fail(f"{bad} was accepted")
+
+
+def test_a_plugin_planner_passes_the_parse_time_check(tmp_path, monkeypatch):
+    """The parse-time check is the sweep's own: a planner in a module of the user's is accepted."""
+    from test_planner_plugins import _write_module
+
+    _write_module(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    args = _script().parse_args(["--planners", "mymod:MyPlanner", "--out", str(tmp_path / "out")])
+    assert args.planners == ["mymod:MyPlanner"]
+
+
+def test_resolve_commands_keep_the_table_environment(monkeypatch):
+    from fg_tea.study.replication import NOT_RESOLVED, SeedSet
+
+    monkeypatch.chdir(ROOT)
+    cas = _script()
+    args = cas.parse_args(["--table", "houses", "--env", "fake", "--gtsam-check", "--out",
+                           "experiments/results/joint_vs_factorised"])
+    sets = [SeedSet("discovery", 0, 20), SeedSet("confirmation", 10000, 20)]
+    cell = {"size": "small", "task": "make_tea", "planner": "mi_efe", "verdict": NOT_RESOLVED,
+            "pairs_needed": 300, "confirmation": {"pairs": 20}}
+    line = [x for x in cas.resolve_commands(args, [cell], sets) if x.startswith("    ")][0]
+    again = cas.parse_args(__import__("shlex").split(line)[2:])
+    assert again.env == "fake" and again.gtsam_check

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import importlib.util
 import math
 from pathlib import Path
 
@@ -13,11 +12,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("_derived_beside_hand",
-                                                  ROOT / "experiments" / "derived_beside_hand.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    from experiment_scripts import load_experiment
+
+    return load_experiment("derived_beside_hand")
 
 
 def test_each_cell_is_the_paired_difference_of_the_two_tables(tmp_path, monkeypatch):

@@ -478,6 +478,7 @@ def test_one_object_left_plans_on_its_marginal_with_the_structured_gain():
         want = solver.gains([(v.sites, v.probability[[o]]) for v in eligible])[0]
         got = [c.information_gain for c in decision.candidates]
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+        assert decision.info["gain_solver"] == "one_object"
         problem = build_problem(belief, [obj], distances, excluded, views, 0.144)
         q = belief.location_matrix()[o, problem.allowed]
         np.testing.assert_allclose(problem.joint, q / q.sum(), rtol=0, atol=1e-15)

@@ -58,6 +58,7 @@ The original factorised score on a joint belief (eqs. 10-11 applied to the margi
 
 from __future__ import annotations
 
+import math
 import string
 from typing import Mapping, Sequence
 
@@ -262,14 +263,29 @@ def one_object_information_gain(q: np.ndarray, looks: Sequence[tuple[Sequence[in
     outcome rows of the detection model (docs/design.md §6.2). No joint, and no subset program,
     is needed.
 
+    A look whose outcome rows are not distributions (p_c + (m - 1) fp > 1, or m fp > 1: the
+    dense form clips them) is left to :func:`view_joint_information_gain` itself, so the two
+    agree on every input.
+
     Args:
-        q: P(L_o), shape (K,), summing to 1.
+        q: P(L_o), shape (K,), summing to 1 (the engine's marginal; within rounding).
         looks: per look, (in-view site indices s_1..s_m, p_{o,c} of shape (m,)).
         fp: P(seen at one in-view site | elsewhere), per site.
 
     Returns:
         I, shape (len(looks),), nats.
+
+    Raises:
+        ValueError: no looks, a look whose probabilities do not match its sites, or a q whose
+            total is not positive and finite.
     """
+    if not looks:
+        raise ValueError("one_object_information_gain: no looks")
+    if any(np.shape(prob) != (len(sites),) for sites, prob in looks):
+        raise ValueError("one_object_information_gain: each look needs one probability per in-view site")
+    total = float(q.sum())
+    if not (math.isfinite(total) and total > 0):
+        raise ValueError(f"one_object_information_gain: P(L_o) sums to {total}")
     width = max(len(sites) for sites, _ in looks)
     m = np.array([len(sites) for sites, _ in looks], dtype=float)[:, None]       # (V, 1)
     at = np.zeros((len(looks), width), dtype=np.int64)
@@ -277,7 +293,6 @@ def one_object_information_gain(q: np.ndarray, looks: Sequence[tuple[Sequence[in
     used = np.zeros((len(looks), width), dtype=bool)
     for v, (sites, prob) in enumerate(looks):
         at[v, :len(sites)], p[v, :len(sites)], used[v, :len(sites)] = sites, prob, True
-    total = float(q.sum())
 
     def h(x):                                               # -x log x, 0 at 0
         return -x * np.log(np.maximum(x, 1e-300))
@@ -292,7 +307,12 @@ def one_object_information_gain(q: np.ndarray, looks: Sequence[tuple[Sequence[in
     h_in = h(p) + (m - 1.0) * h(fp) + h(row_miss)           # H(D | L_o = s_c)
     h_out = m[:, 0] * h(fp) + h(out_miss)                   # H(D | L_o out of view)
     h_given = np.where(used, q_in * h_in, 0.0).sum(axis=1) + q_out * h_out
-    return h_d - h_given
+    gain = h_d - h_given
+    clipped = ((used & (p + (m - 1.0) * fp > 1.0)).any(axis=1)) | (m[:, 0] * fp > 1.0)
+    for v in np.flatnonzero(clipped):
+        sites, prob = looks[v]
+        gain[v] = view_joint_information_gain(q, [0], sites, np.asarray(prob)[None], fp)[0]
+    return gain
 
 
 def coupling_strength(belief) -> np.ndarray:
@@ -421,8 +441,10 @@ class EFEPlanner(PlannerBase):
 
         find(o, v) = sum_{j in view} q(L_o = j) p_{o,j} / p_max; I from
         :func:`view_factorised_information_gain` (factorised mode) or the exact mutual
-        information of :func:`view_joint_information_gain` (joint mode); n_v counts earlier
-        looks from v that left an object unseen.
+        information of :func:`view_joint_information_gain` (joint mode: on the dense joint, by
+        the structured solver beyond it, and, with one object to find, in closed form from its
+        marginal, :func:`one_object_information_gain`, logged ``gain_solver = "one_object"``);
+        n_v counts earlier looks from v that left an object unseen.
 
         With the structured joint gain and ``prune`` (docs/design.md §6.2, eq. 56), a candidate
         whose score with its gain's upper bound is above the smallest score with a lower bound
@@ -515,6 +537,8 @@ class EFEPlanner(PlannerBase):
         info: dict[str, float | str] = {"information": mode, "w_d": w.distance_weight, "w_p": w.probability_weight,
                 "w_e": w.information_weight, "w_a": w.repeat_penalty, "lambda": w.relevance_weight,
                 "distance": str(getattr(distances, "kind", w.distance)), "viewpoints": m}
+        if one:
+            info["gain_solver"] = "one_object"
         if solver is not None:
             info["gain_solver"] = "structured"
             info["restricted_gains"] = solver.restricted

@@ -491,7 +491,7 @@ def rollout_values(problem: SearchProblem, pos: np.ndarray, beliefs: np.ndarray,
     # computed after the loop for every step at once (n batched products instead of n per step);
     # the loop ends once sum_u P(u unseen) (>= P(not over)) is at most `stop` for every node.
     history, costs, firsts, bounds = [], [], None, []
-    weighted = np.empty_like(q)
+    weighted = np.empty(q.shape)
     for step in range(max_looks + 1):
         both = np.multiply(q, rem, out=weighted) @ flat    # (L, A + n)
         unseen = both[:, a_count:]                         # P(u unseen), (L, n)
