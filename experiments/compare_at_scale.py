@@ -437,13 +437,17 @@ def heatmap(diffs: list[dict], row: str, col: str, panel: str | None, path: Path
     return save_figure(fig, path)
 
 
+REGENERATED = " Regenerated since from the rows: 0 new episodes."
+
+
 def wall_time_line(path: Path, seconds: float, ran: int) -> str:
     """The report's wall-time line: this command's, or, when it ran no episode (a report
     regenerated from the rows), the line of the report it replaces."""
     if not ran and path.is_file():
         for line in path.read_text(encoding="utf-8").splitlines():
-            if line.startswith("Wall time: ") and " 0 new episodes" not in line:
-                return line
+            first = line.split(REGENERATED)[0].rstrip()
+            if line.startswith("Wall time: ") and "for 0 new episodes" not in first:
+                return f"{first}{REGENERATED}"
     return (f"Wall time: {seconds:.0f} s for {ran} new episodes"
             + (f" ({seconds / ran:.2f} s per episode on this machine)" if ran else "") + ".")
 

@@ -18,6 +18,7 @@ Writes ``summary.md`` and ``replication.csv`` to ``--out``:
 
 from __future__ import annotations
 
+import argparse
 import shlex
 import sys
 from pathlib import Path
@@ -34,7 +35,7 @@ SIZES = {"generated_small": "small", "generated_medium": "medium", "generated_la
 PLANNERS = {"factorised_efe": "eqs. 10-11", "mi_efe": "exact MI"}
 
 
-def build_parser():
+def build_parser() -> argparse.ArgumentParser:
     from fg_tea.common.options import experiment_parser
 
     p = experiment_parser(__doc__, __file__, "§11.1")

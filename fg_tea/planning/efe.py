@@ -309,9 +309,9 @@ def one_object_information_gain(q: np.ndarray, looks: Sequence[tuple[Sequence[in
     h_given = np.where(used, q_in * h_in, 0.0).sum(axis=1) + q_out * h_out
     gain = h_d - h_given
     clipped = ((used & (p + (m - 1.0) * fp > 1.0)).any(axis=1)) | (m[:, 0] * fp > 1.0)
-    for v in np.flatnonzero(clipped):
-        sites, prob = looks[v]
-        gain[v] = view_joint_information_gain(q, [0], sites, np.asarray(prob)[None], fp)[0]
+    for bad in map(int, np.flatnonzero(clipped)):
+        sites, prob = looks[bad]
+        gain[bad] = view_joint_information_gain(q, [0], sites, np.asarray(prob)[None], fp)[0]
     return gain
 
 
