@@ -119,3 +119,18 @@ def test_prior_fit_tells_a_world_drawn_from_the_prior_from_one_that_is_not(tmp_p
         assert float(r["low"]) <= float(r["expected"]) <= float(r["high"])
     r = rows[("contrary_household", 0.03)]
     assert float(r["low"]) > 5 * float(r["expected"])
+
+
+def test_the_cost_rule_finds_the_mug_the_probability_rule_gave_up_in_world_170(tmp_path):
+    """World 170 of the correlated worlds (docs/guide/recovery.md): two close looks and a glance
+    missed the mug on its site, its remaining probability fell to 0.00097 and the probability
+    rule gave it up. The cost rule, at the declared value (3 sweeps), looks on and makes the tea."""
+    from fg_tea.study.sweep import Job, run_job
+
+    model = tmp_path / "joint_cost_3.toml"
+    model.write_text('extends = "joint"\nname = "joint_cost_3"\n\n[planning]\ngive_up = "cost"\n'
+                     '\n[planning.task_value]\ndefault = 3.0\n')
+    rows = {m: run_job(Job(world="correlated", world_seed=170, model=m, planner="efe", seed=170,
+                           gtsam_check=False)) for m in ("joint", str(model))}
+    assert rows["joint"]["reason"].startswith("not_found: mug")
+    assert rows[str(model)]["success"] and rows[str(model)]["reason"] == "complete"
