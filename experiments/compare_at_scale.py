@@ -23,6 +23,14 @@ already in its CSV):
   written as model files under OUT/TABLE/models/ and camera files under OUT/TABLE/cameras/) × correlation strength c (the probability that the
   teabag is placed by the kettle: 2c/3 on its site, c/3 elsewhere in its room, so c = 0.75 is the
   bundled worlds' 0.5 / 0.25) × house size.
+- ``--table related``: the number of related objects (``--related``, 0-4) × house size, in the
+  five-object houses of the milk-and-sugar task: the first n of teabag, sugar, milk and mug are
+  placed by the kettle (0.5 on its site, 0.25 elsewhere in its room, as the bundled worlds place
+  the teabag), the rest from their priors (world files written under OUT/related/worlds/). The
+  joint model of each n relates exactly those objects to the kettle, with weights derived from
+  the placement rules by eq. (55) over ``--derive-worlds`` small houses
+  (``fg_tea.study.relations``, model files under OUT/related/models/), so no weight is tuned to
+  an episode; the factorised belief is the same in every cell.
 
 Each writes under ``runs/experiments/compare_at_scale/<table>/`` by default: ``episodes.csv`` (one row per
 episode, the sweep CSV of :mod:`fg_tea.study.sweep`), ``<table>.md`` (markdown tables of every cell),
@@ -70,6 +78,7 @@ from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.env.camera import load_camera  # noqa: E402
 from fg_tea.planning import check_planner  # noqa: E402
+from fg_tea.study.relations import RELATED_ORDER, derive, model_text, related_world  # noqa: E402
 from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa: E402
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown, ESTABLISHED)
@@ -92,13 +101,15 @@ GAIN_LABEL = {"factorised_efe": "eqs. 10-11", "mi_efe": "exact MI", "nearest": "
               "greedy": "most probable", "lookahead": "lookahead"}
 DEFAULT_HALF_PIXELS = (25.0, 50.0, 100.0)
 DEFAULT_STRENGTHS = (0.0, 0.75, 1.0)
+DEFAULT_RELATED = (0, 1, 2, 3, 4)
+DEFAULT_DERIVE_WORLDS = 1000
 
 
 DEFAULT_OUT = "runs/experiments/compare_at_scale"
 
 def build_parser() -> argparse.ArgumentParser:
     p = experiment_parser(__doc__, __file__, "§11 (the information gains: §6.2)")
-    p.add_argument("--table", choices=("houses", "detectability"), default="houses",
+    p.add_argument("--table", choices=("houses", "detectability", "related"), default="houses",
                    help="which table to run (default: %(default)s)")
     p.add_argument("--worlds", type=int, default=200, help="worlds per cell (default: %(default)s)")
     p.add_argument("--first-seed", type=int, default=0,
@@ -131,6 +142,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--strengths", nargs="+", type=float, default=list(DEFAULT_STRENGTHS),
                    help="detectability table: correlation strengths c in [0, 1] "
                    f"(default: {' '.join(map(str, DEFAULT_STRENGTHS))})")
+    p.add_argument("--related", nargs="+", type=int, default=list(DEFAULT_RELATED),
+                   help="related table: how many objects are placed by the kettle, 0 to "
+                   f"{len(RELATED_ORDER)} (the first of {', '.join(RELATED_ORDER)}; default: "
+                   f"{' '.join(map(str, DEFAULT_RELATED))})")
+    p.add_argument("--derive-worlds", type=int, default=1000,
+                   help="related table: small houses drawn to derive each joint model's weights "
+                   "(eq. 55; default: %(default)s)")
     p.add_argument("--small-categories", nargs="+", default=["teabag"],
                    help="object categories whose detection curve the detectability table changes")
     p.add_argument("--timing-worlds", type=int, default=2,
@@ -179,6 +197,14 @@ def parse_args(argv=None) -> argparse.Namespace:
     for n in args.half_pixels:
         if not (n > 0 and math.isfinite(n)):
             p.error(f"--half-pixels: {n} is not a positive pixel count")
+    for n in args.related:
+        if not 0 <= n <= len(RELATED_ORDER):
+            p.error(f"--related: {n} is outside 0..{len(RELATED_ORDER)}")
+    if args.derive_worlds < 1:
+        p.error(f"--derive-worlds: {args.derive_worlds}: must be at least 1")
+    if args.table == "related" and args.looks != "glances":
+        p.error(f"--looks: {args.looks}: the related table derives its joint models from the "
+                "placement rules beside the factorised model with room glances (--looks glances)")
     for c in args.small_categories:
         if c not in CATEGORIES:
             p.error(f"--small-categories: {c!r} is not an object of the generated houses "
@@ -226,6 +252,44 @@ def detectability_models(out: Path, models: tuple[str, str], half_pixels: float,
     return paths, write(out / "cameras" / f"{tag}.toml", head, "camera")
 
 
+RELATED_TASK = "make_tea_milk_sugar"
+
+
+def related_files(out: Path, size: str, count: int, derive_worlds: int) -> tuple[str, str]:
+    """(world file, joint model file) of the related table's cell (size, count): the size's
+    milk-and-sugar worlds with `count` objects placed by the kettle, and the joint model whose
+    relations are derived from that rule in small houses (eq. 55). Written once; a file that is
+    already there with the same content is left alone."""
+    import json
+
+    from fg_tea.common.resources import resolve_world
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.distributions import load_world
+
+    def world_file(base_size: str) -> Path:
+        base = json.loads(resolve_world(SIZES[base_size] + TASKS[RELATED_TASK]).read_text())
+        name = f"{SIZES[base_size]}{TASKS[RELATED_TASK]}_related_{count}"
+        path = out / "worlds" / f"{name}.json"
+        text = json.dumps(related_world(base, count, name), indent=2) + "\n"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if not path.exists() or path.read_text() != text:
+            atomic_write_text(path, text)
+        return path
+
+    world, small = world_file(size), world_file("small")
+    model = out / "models" / f"joint_related_{count}.toml"
+    source = f"{derive_worlds} worlds of `{small.stem}`"
+    if not model.is_file() or source not in model.read_text(encoding="utf-8"):
+        joint = load_model("joint")
+        capacity = next(r.penalty for r in joint.relations if r.kind == "capacity")
+        weights = derive(load_world(small), derive_worlds, joint.prior_floor)
+        atomic_write_text(model, model_text(
+            small.stem, derive_worlds, weights, capacity, "experiments/compare_at_scale.py "
+            f"--table related (the joint model of {count} related objects)",
+            name=f"joint_related_{count}") + "\n")
+    return str(world), str(model)
+
+
 def strength_knobs(c: float) -> dict[str, float]:
     """World knobs of correlation strength c: 2c/3 on the anchor's site, c/3 in its room."""
     return {"same_site": round(2 * c / 3, 12), "same_room": round(c / 3, 12)}
@@ -249,6 +313,14 @@ def plan(args, out: Path) -> tuple[list[Job], list[dict]]:
                                first_seed=args.first_seed, env=args.env, task=task,
                                episode_seeds=episode_seed_scheme(args)),
                     {"size": size, "task": task})
+    elif args.table == "related":
+        for size in args.sizes:
+            for count in args.related:
+                world, joint = related_files(out, size, count, args.derive_worlds)
+                add(plan_sweep([world], args.worlds, [models[0], joint], args.planners,
+                               first_seed=args.first_seed, env=args.env, task=RELATED_TASK,
+                               episode_seeds=episode_seed_scheme(args)),
+                    {"size": size, "related": count})
     else:
         for size in args.sizes:
             for n50 in args.half_pixels:
@@ -349,6 +421,13 @@ def row_cell(row: dict, table: str, models: tuple[str, ...]) -> dict | None:
     """
     if table == "houses":
         return house_cell(str(row["world"])) if row["model"] in models else None
+    if table == "related":
+        base, sep, count = str(row["world"]).rpartition("_related_")
+        cell = house_cell(base) if sep and count.isdigit() else None
+        if cell is None or cell["task"] != RELATED_TASK or \
+                row["model"] not in (models[0], f"joint_related_{count}"):
+            return None
+        return {"size": cell["size"], "related": int(count)}
     base, sep, n50 = str(row["model"]).partition("_n50_")
     size = next((k for k, v in SIZES.items() if v == row["world"]), None)
     if not sep or base not in models or size is None:
@@ -454,7 +533,8 @@ def wall_time_line(path: Path, seconds: float, ran: int) -> str:
 
 def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: list[dict],
            command: str, seconds: float, ran: int) -> Path:
-    columns = ("size", "task") if args.table == "houses" else ("size", "half_pixels", "strength")
+    columns = {"houses": ("size", "task"), "related": ("size", "related")}.get(
+        args.table, ("size", "half_pixels", "strength"))
     tagged = cell_of(rows, cells, columns)
     diffs = paired(tagged, columns)
     order = {p: i for i, p in enumerate(args.planners)}
@@ -485,7 +565,8 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
                                     by=columns + ("planner",))
         cells_r.sort(key=lambda c: tuple(rank[k].get(c[k], 99) for k in columns)
                      + (order.get(c["planner"], 99),))
-        key_of = {"houses": ("size", "task"), "detectability": ("half_pixels", "strength", "size")}
+        key_of = {"houses": ("size", "task"), "detectability": ("half_pixels", "strength", "size"),
+                  "related": ("related", "size")}
         verdicts = {tuple(c[k] for k in key_of[args.table]) + (c["planner"],): c["verdict"]
                     for c in cells_r}
         resolve = resolve_commands(args, cells_r, sets)
@@ -501,6 +582,11 @@ def report(args, out: Path, rows: list[dict], cells: dict[str, dict], times: lis
                       "Joint − factorised search travel (m) per house size and task; "
                       + ("replication verdicts (docs/design.md §11.1)" if verdicts
                          else "* 95 % CI excludes 0"), verdicts)
+    elif args.table == "related":
+        png = heatmap(diffs, "related", "size", None, out / f"{args.table}_heatmap.png",
+                      "Joint − factorised search travel (m): objects placed by the kettle "
+                      "× house size; " + ("replication verdicts" if verdicts
+                                          else "* 95 % CI excludes 0"), verdicts)
     else:
         png = heatmap(diffs, "half_pixels", "strength", "size", out / f"{args.table}_heatmap.png",
                       "Joint − factorised search travel (m): n_50 of the small objects × correlation; "
@@ -593,6 +679,10 @@ def resolve_commands(args, cells: list[dict], sets: list[SeedSet]) -> list[str]:
         if args.table == "houses":
             flags += ["--tasks", str(c["task"])]
             tag = f"{c['size']}_{c['task']}_{c['planner']}"
+        elif args.table == "related":
+            flags += ["--related", str(c["related"])] + (
+                ["--derive-worlds", str(args.derive_worlds)] if args.derive_worlds != DEFAULT_DERIVE_WORLDS else [])
+            tag = f"{c['size']}_related_{c['related']}_{c['planner']}"
         else:
             flags += ["--half-pixels", f"{float(c['half_pixels']):g}", "--strengths",
                       f"{float(c['strength']):g}"]
@@ -600,7 +690,7 @@ def resolve_commands(args, cells: list[dict], sets: list[SeedSet]) -> list[str]:
                 flags += ["--small-categories", *args.small_categories]
             tag = f"{c['size']}_n50_{float(c['half_pixels']):g}_c{float(c['strength']):g}_{c['planner']}"
         # The houses table's models are bundled, so its discovery rows are the new run's jobs;
-        # the detectability table's model files live in its folder, so it runs them again.
+        # the detectability and related tables' files live in their folder, so they run them again.
         reuse = ["--reuse", str(table_csv)] if args.table == "houses" else []
         flags += ["--planners", str(c["planner"]), "--timing-worlds", "0", *reuse]
         flags += ["--env", args.env] if args.env != "pybullet" else []

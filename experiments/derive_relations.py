@@ -25,7 +25,6 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
@@ -34,8 +33,8 @@ from fg_tea.common.errors import run_script  # noqa: E402
 from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
 from fg_tea.common.options import WORLD_HELP, experiment_parser  # noqa: E402
 from fg_tea.common.resources import resolve_world  # noqa: E402
-from fg_tea.model.learning import relation_base_rates  # noqa: E402
 from fg_tea.model.spec import load_model  # noqa: E402
+from fg_tea.study.relations import derive, model_text  # noqa: E402
 from fg_tea.world.distributions import load_world  # noqa: E402
 
 DEFAULT_OUT = Path("runs") / "experiments" / "derive_relations" / "joint_derived.toml"
@@ -49,58 +48,6 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def related_pairs(world) -> list[tuple[str, str]]:
-    """(object, anchor) of every co-location rule of the distribution."""
-    return [(rule.object, rule.anchor) for rule in world.co_location]
-
-
-def derive(world, worlds: int, floor: float) -> dict[tuple[str, str], tuple[float, float, list]]:
-    """(s, r, [n_S, n_R, n_A]) per related pair, from `worlds` drawn worlds (eq. 55, pooled)."""
-    from fg_tea.beliefs.factors import location_prior
-    from fg_tea.beliefs.graph import prior_weights
-
-    pairs = related_pairs(world)
-    counts = {p: np.zeros(3) for p in pairs}
-    base = {p: np.zeros(3) for p in pairs}
-    for seed in range(worlds):
-        scenario = world.sample(seed)
-        rooms = [s.room for s in scenario.sites]
-        room_of = {s.name: s.room for s in scenario.sites}
-        truth = {o.name: o.true_site for o in scenario.objects}
-        prior = {o.name: location_prior(o.name, prior_weights(scenario, o.category), floor).table
-                 for o in scenario.objects}
-        for a, b in pairs:
-            if a not in truth or b not in truth:
-                continue
-            cls = 0 if truth[a] == truth[b] else 1 if room_of[truth[a]] == room_of[truth[b]] else 2
-            counts[(a, b)][cls] += 1
-            base[(a, b)] += relation_base_rates(prior[a], prior[b], rooms)
-    out = {}
-    for pair in pairs:
-        n, p = counts[pair], base[pair] / max(counts[pair].sum(), 1)
-        pi = n / n.sum()
-        out[pair] = (float(pi[0] / pi[2] * p[2] / p[0]), float(pi[1] / pi[2] * p[2] / p[1]),
-                     [int(x) for x in n])
-    return out
-
-
-def model_text(world_name: str, worlds: int, weights, capacity: float, command: str) -> str:
-    lines = [f"# Written by experiments/derive_relations.py ({command}).",
-             f"# Co-location weights derived from {worlds} worlds of `{world_name}` by eq. (55):",
-             "# the world's relation frequencies against those of independent objects under the",
-             "# agent's priors (docs/design.md §12.1). Counts (same site, same room, apart) per pair",
-             "# are in the comments; nothing here was tuned to an episode or a result.",
-             'extends = "factorised"', 'name = "joint_derived"',
-             f'description = "Joint belief with co-location weights derived from the {world_name} '
-             'placement rules (eq. 55)"', "", "[beliefs]", 'structure = "joint"', "",
-             "[[relations]]", 'kind = "capacity"', f"penalty = {capacity!r}", ""]
-    for (a, b), (s, r, n) in weights.items():
-        lines += [f"# {a} ~ {b}: counts {n}", "[[relations]]", 'kind = "co_location"',
-                  f'categories = ["{a}", "{b}"]', f"same_site = {round(s, 6)!r}",
-                  f"same_room = {round(r, 6)!r}", ""]
-    return "\n".join(lines)
-
-
 def main(argv: list[str] | None = None) -> int:
     import shlex
 
@@ -112,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     shown = ["python", "experiments/derive_relations.py", "--world", args.world, "--worlds",
              str(args.worlds), "--out", str(args.out)]
     atomic_write_text(args.out, model_text(world.name, args.worlds, weights, capacity,
-                                           shlex.join(shown)))
+                                           f"experiments/derive_relations.py ({shlex.join(shown)})"))
     for (a, b), (s, r, n) in weights.items():
         print(f"{a} ~ {b}: same_site {s:.3f}, same_room {r:.3f} (counts {n})")
     print(f"model: {args.out}")

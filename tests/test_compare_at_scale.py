@@ -325,7 +325,7 @@ def _script():
     return load_experiment("compare_at_scale")
 
 
-@pytest.mark.parametrize("table", ["houses", "detectability"])
+@pytest.mark.parametrize("table", ["houses", "detectability", "related"])
 def test_each_unresolved_cell_gets_a_command_that_would_resolve_it(table, monkeypatch):
     """The report's Ray commands: one per cell not established and short of its pairs, each a
     valid command of this script for that cell alone, sized from the discovery set, on fresh
@@ -338,8 +338,9 @@ def test_each_unresolved_cell_gets_a_command_that_would_resolve_it(table, monkey
     args = cas.parse_args(["--table", table, "--worlds", "200", "--confirmation-first-seed", "10000",
                            "--episode-seeds", "world", "--out", out])
     sets = [SeedSet("discovery", 0, 200), SeedSet("confirmation", 10000, 200)]
-    where = ({"size": "medium", "task": "make_tea"} if table == "houses"
-             else {"size": "small", "half_pixels": 100.0, "strength": 0.75})
+    where = {"houses": {"size": "medium", "task": "make_tea"},
+             "related": {"size": "small", "related": 3}}.get(
+        table, {"size": "small", "half_pixels": 100.0, "strength": 0.75})
     cells = [{**where, "planner": "mi_efe", "verdict": NOT_RESOLVED, "pairs_needed": 924,
               "confirmation": {"pairs": 200}},
              {**where, "planner": "lookahead", "verdict": ESTABLISHED, "pairs_needed": 924,
@@ -357,6 +358,8 @@ def test_each_unresolved_cell_gets_a_command_that_would_resolve_it(table, monkey
     cas.check_seed_sets(cas.seed_sets(again))
     if table == "houses":
         assert again.tasks == ["make_tea"] and again.reuse == Path(out) / "houses" / "episodes.csv"
+    elif table == "related":
+        assert again.table == "related" and again.related == [3] and again.reuse is None
     else:
         assert again.half_pixels == [100.0] and again.strengths == [0.75] and again.reuse is None
 
@@ -379,7 +382,11 @@ def test_a_report_regenerated_without_episodes_keeps_the_wall_time_of_the_run(tm
     (["--small-categories", "spoon", "--table", "detectability"], "--small-categories"),
     (["--planners", "lookahaed"], "did you mean 'lookahead'"),
     (["--planners", "lookahead:nodes=-3"], "--planners"),
-    (["--confirmation-first-seed", "100", "--worlds", "200"], "overlap")])
+    (["--confirmation-first-seed", "100", "--worlds", "200"], "overlap"),
+    (["--table", "related", "--related", "5"], "--related"),
+    (["--table", "related", "--related", "-1"], "--related"),
+    (["--table", "related", "--derive-worlds", "0"], "--derive-worlds"),
+    (["--table", "related", "--looks", "close"], "--looks")])
 def test_more_flags_are_refused_at_parse_time(bad, word, tmp_path, capsys):
     """Refused while parsing, before seed_sets.json is declared or a --reuse row copied (a
     misspelt planner used to be caught only by the sweep, after both): one line, exit 2."""
@@ -420,3 +427,53 @@ def test_resolve_commands_keep_the_table_environment(monkeypatch):
     line = [x for x in cas.resolve_commands(args, [cell], sets) if x.startswith("    ")][0]
     again = cas.parse_args(__import__("shlex").split(line)[2:])
     assert again.env == "fake" and again.gtsam_check
+
+
+def test_related_table_relates_exactly_the_first_n_objects_and_pairs_each_cell(tmp_path):
+    """The number-of-related-objects axis: world n places exactly the first n of teabag, sugar,
+    milk and mug by the kettle; its joint model relates exactly those to the kettle, with weights
+    derived from the rule (eq. 55); every cell pairs the same worlds under both beliefs."""
+    table = tmp_path / "related"
+    _run("experiments/compare_at_scale.py", "--table", "related", "--worlds", "2", "--sizes",
+         "small", "--related", "0", "3", "--derive-worlds", "60", "--planners", "nearest",
+         "--env", "fake", "--executor", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.distributions import load_world
+
+    for n, related in ((0, set()), (3, {"teabag", "sugar", "milk"})):
+        world = load_world(table / "worlds" / f"generated_small_milk_sugar_related_{n}.json")
+        assert {r.object for r in world.co_location} == related
+        assert all(r.anchor == "kettle" and (r.same_site, r.same_room) == (0.5, 0.25)
+                   for r in world.co_location)
+        model = load_model(table / "models" / f"joint_related_{n}.toml")
+        pairs = {r.categories for r in model.relations if r.kind == "co_location"}
+        assert pairs == {(o, "kettle") for o in related} and model.structure == "joint"
+        assert all(r.same_site > 1 for r in model.relations if r.kind == "co_location")
+    rows = read_rows(table / "episodes.csv")
+    assert len(rows) == 2 * 2 * 2 and {r["task"] for r in rows} == {"make_tea_milk_sugar"}
+    with (table / "related_paired.csv").open(newline="") as fh:
+        cells = {(r["size"], r["related"]): r["pairs"] for r in csv.DictReader(fh)}
+    assert cells == {("small", "0"): "2", ("small", "3"): "2"}
+    assert (table / "related_heatmap.png").stat().st_size > 0
+    # the files are written once: a second command derives nothing again and runs nothing
+    stamp = (table / "models" / "joint_related_3.toml").stat().st_mtime_ns
+    _run("experiments/compare_at_scale.py", "--table", "related", "--worlds", "2", "--sizes",
+         "small", "--related", "3", "--derive-worlds", "60", "--planners", "nearest",
+         "--env", "fake", "--executor", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
+    assert (table / "models" / "joint_related_3.toml").stat().st_mtime_ns == stamp
+    assert " 0 new episodes" in (table / "related.md").read_text()
+
+
+def test_related_world_refuses_what_it_cannot_build():
+    import json
+
+    from fg_tea.common.resources import resolve_world
+    from fg_tea.study.relations import related_world
+
+    base = json.loads(resolve_world("generated_small_milk_sugar").read_text())
+    four = related_world(base, 4, "x")
+    assert four["placement"]["order"][:5] == ["kettle", "teabag", "sugar", "milk", "mug"]
+    assert base["placement"]["co_location"] != four["placement"]["co_location"]  # base untouched
+    for bad, count in ((base, 5), (json.loads(resolve_world("generated_small").read_text()), 1)):
+        with pytest.raises(ValueError, match="related objects"):
+            related_world(bad, count, "x")

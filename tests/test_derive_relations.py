@@ -36,3 +36,10 @@ def test_the_bundled_derived_model_is_what_the_script_writes(tmp_path):
     bundled = (ROOT / "models" / "joint_derived.toml").read_text().splitlines()
     written = out.read_text().splitlines()
     assert written[1:] == bundled[1:]  # the first line names the --out it was written to
+
+
+def test_too_few_worlds_to_see_every_relation_is_one_line_not_an_infinite_weight(tmp_path):
+    """A pair never seen apart (or never in one room) would get an infinite (or zero) weight."""
+    done = _run("--worlds", "3", "--out", str(tmp_path / "jd.toml"))
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert "draw more worlds" in done.stderr and not (tmp_path / "jd.toml").exists()
