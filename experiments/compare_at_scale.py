@@ -27,10 +27,11 @@ already in its CSV):
   five-object houses of the milk-and-sugar task: the first n of teabag, sugar, milk and mug are
   placed by the kettle (0.5 on its site, 0.25 elsewhere in its room, as the bundled worlds place
   the teabag), the rest from their priors (world files written under OUT/related/worlds/). The
-  joint model of each n relates exactly those objects to the kettle, with weights derived from
-  the placement rules by eq. (55) over ``--derive-worlds`` small houses
-  (``fg_tea.study.relations``, model files under OUT/related/models/), so no weight is tuned to
-  an episode; the factorised belief is the same in every cell.
+  joint model of each n and house size relates exactly those objects to the kettle, with weights
+  derived from the placement rule by eq. (55) over ``--derive-worlds`` houses of that size drawn
+  from seeds no cell evaluates (``fg_tea.study.relations``; model files under
+  OUT/related/models/, the folder's number of worlds declared in OUT/related/derivation.json), so
+  no weight is tuned to an episode; the factorised belief is the same in every cell.
 
 Each writes under ``runs/experiments/compare_at_scale/<table>/`` by default: ``episodes.csv`` (one row per
 episode, the sweep CSV of :mod:`fg_tea.study.sweep`), ``<table>.md`` (markdown tables of every cell),
@@ -43,7 +44,8 @@ Long sweeps: ``--executor ray --address auto`` (or ``ray://head:10001``) runs th
 tasks on a cluster with fg_tea installed on every node; the CSV is the same bytes as on the
 process pool.
 
-Each report covers every row of its CSV whose model is one of ``--looks``' pair, not only
+Each report covers every row of its CSV whose model is one of ``--looks``' pair (the related
+table: ``factorised`` and ``joint_related_<n>``), not only
 the episodes the last command planned: cells run by separate commands (for example fewer worlds
 for the 45-site houses) share one report, each with its own number of pairs, and
 ``commands.txt`` in the table's folder lists every command that added rows. Decision times merge
@@ -78,7 +80,8 @@ from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.env.camera import load_camera  # noqa: E402
 from fg_tea.planning import check_planner  # noqa: E402
-from fg_tea.study.relations import RELATED_ORDER, derive, model_text, related_world  # noqa: E402
+from fg_tea.study.relations import (DERIVE_FIRST_SEED, RELATED_ORDER, derive,  # noqa: E402
+                                    model_text, related_world)
 from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa: E402
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown, ESTABLISHED)
@@ -147,8 +150,8 @@ def build_parser() -> argparse.ArgumentParser:
                    f"{len(RELATED_ORDER)} (the first of {', '.join(RELATED_ORDER)}; default: "
                    f"{' '.join(map(str, DEFAULT_RELATED))})")
     p.add_argument("--derive-worlds", type=int, default=1000,
-                   help="related table: small houses drawn to derive each joint model's weights "
-                   "(eq. 55; default: %(default)s)")
+                   help="related table: houses of each size drawn to derive each joint model's "
+                   "weights (eq. 55; world seeds from 1,000,000; default: %(default)s)")
     p.add_argument("--small-categories", nargs="+", default=["teabag"],
                    help="object categories whose detection curve the detectability table changes")
     p.add_argument("--timing-worlds", type=int, default=2,
@@ -258,36 +261,75 @@ RELATED_TASK = "make_tea_milk_sugar"
 def related_files(out: Path, size: str, count: int, derive_worlds: int) -> tuple[str, str]:
     """(world file, joint model file) of the related table's cell (size, count): the size's
     milk-and-sugar worlds with `count` objects placed by the kettle, and the joint model whose
-    relations are derived from that rule in small houses (eq. 55). Written once; a file that is
-    already there with the same content is left alone."""
+    relations are derived from that rule by eq. (55) over `derive_worlds` worlds of the same
+    size, seeds from :data:`~fg_tea.study.relations.DERIVE_FIRST_SEED` (disjoint from every
+    discovery and confirmation set). The model's second line names what it was derived from
+    (the world file's digest, the worlds drawn, the seeds, the capacity penalty and the prior
+    floor); it is derived again only when that line differs, and the world file is rewritten
+    only when its text differs.
+
+    Raises:
+        InputError: (``--derive-worlds``) too few worlds to see every relation class of a pair.
+    """
+    import hashlib
     import json
+    import tempfile
 
     from fg_tea.common.resources import resolve_world
     from fg_tea.model.spec import load_model
     from fg_tea.world.distributions import load_world
 
-    def world_file(base_size: str) -> Path:
-        base = json.loads(resolve_world(SIZES[base_size] + TASKS[RELATED_TASK]).read_text())
-        name = f"{SIZES[base_size]}{TASKS[RELATED_TASK]}_related_{count}"
-        path = out / "worlds" / f"{name}.json"
-        text = json.dumps(related_world(base, count, name), indent=2) + "\n"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if not path.exists() or path.read_text() != text:
-            atomic_write_text(path, text)
-        return path
-
-    world, small = world_file(size), world_file("small")
-    model = out / "models" / f"joint_related_{count}.toml"
-    source = f"{derive_worlds} worlds of `{small.stem}`"
-    if not model.is_file() or source not in model.read_text(encoding="utf-8"):
-        joint = load_model("joint")
-        capacity = next(r.penalty for r in joint.relations if r.kind == "capacity")
-        weights = derive(load_world(small), derive_worlds, joint.prior_floor)
-        atomic_write_text(model, model_text(
-            small.stem, derive_worlds, weights, capacity, "experiments/compare_at_scale.py "
-            f"--table related (the joint model of {count} related objects)",
-            name=f"joint_related_{count}") + "\n")
+    base = json.loads(resolve_world(SIZES[size] + TASKS[RELATED_TASK]).read_text(encoding="utf-8"))
+    name = f"{SIZES[size]}{TASKS[RELATED_TASK]}_related_{count}"
+    text = json.dumps(related_world(base, count, name), indent=2) + "\n"
+    world, model = out / "worlds" / f"{name}.json", out / "models" / f"joint_related_{count}_{size}.toml"
+    joint = load_model("joint")
+    capacity = next(r.penalty for r in joint.relations if r.kind == "capacity")
+    source = (f"# Source: world sha256 {hashlib.sha256(text.encode()).hexdigest()[:16]}, "
+              f"{derive_worlds} worlds from seed {DERIVE_FIRST_SEED}, capacity {capacity!r}, "
+              f"prior floor {joint.prior_floor!r}.")
+    lines = model.read_text(encoding="utf-8").splitlines() if model.is_file() else []
+    if len(lines) < 2 or lines[1] != source:
+        with tempfile.TemporaryDirectory() as tmp:   # derived before anything is written
+            draft = Path(tmp) / world.name
+            draft.write_text(text, encoding="utf-8")
+            try:
+                weights = derive(load_world(draft), derive_worlds, joint.prior_floor,
+                                 first_seed=DERIVE_FIRST_SEED)
+            except InputError as exc:
+                raise InputError("compare_at_scale.py", "--derive-worlds",
+                                 f"{derive_worlds}: {name}: {exc.fault}") from None
+        body = model_text(name, derive_worlds, weights, capacity,
+                          f"experiments/compare_at_scale.py --table related ({count} related "
+                          f"objects, {size} houses)", name=f"joint_related_{count}").splitlines()
+        atomic_write_text(model, "\n".join(body[:1] + [source] + body[1:]) + "\n")
+    if not world.is_file() or world.read_text(encoding="utf-8") != text:
+        atomic_write_text(world, text)
     return str(world), str(model)
+
+
+def check_derivation(out: Path, derive_worlds: int, declare: bool = False) -> None:
+    """Refuse a related-table folder whose models were derived from another number of worlds:
+    its rows' keys name the model files, not their weights, so mixing the two would pair rows of
+    different models under one cell. With `declare`, write ``derivation.json`` if the folder has
+    none (before any episode).
+
+    Raises:
+        InputError: the folder declares another ``--derive-worlds``.
+    """
+    import json
+
+    path = out / "derivation.json"
+    if path.is_file():
+        declared = json.loads(path.read_text(encoding="utf-8")).get("derive_worlds")
+        if declared != derive_worlds:
+            raise InputError(path, "derive_worlds", f"this folder's models were derived from "
+                             f"{declared} worlds, not {derive_worlds}: use that --derive-worlds "
+                             "or another --out")
+    elif declare:
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(path, json.dumps({"derive_worlds": derive_worlds,
+                                            "first_seed": DERIVE_FIRST_SEED}, indent=2) + "\n")
 
 
 def strength_knobs(c: float) -> dict[str, float]:
@@ -771,6 +813,8 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     out = Path(args.out) / args.table
     sets = seed_sets(args)
+    if args.table == "related":  # before any model is derived again
+        check_derivation(out, args.derive_worlds)
     jobs = [replace(j, gtsam_check=args.gtsam_check) for s in (sets or [None])
             for j in plan(args if s is None else argparse.Namespace(
                 **{**vars(args), "first_seed": s.first, "worlds": s.count}), out)[0]]
@@ -781,6 +825,8 @@ def main(argv=None) -> int:
         check_resumable(jobs, args.reuse)
     if sets:  # declared before any episode runs; a folder keeps its declaration
         declare_seed_sets(out, sets)
+    if args.table == "related":
+        check_derivation(out, args.derive_worlds, declare=True)
     out.mkdir(parents=True, exist_ok=True)
     if args.reuse is not None:
         reuse_rows(args.reuse, csv_path, jobs, args.resume)

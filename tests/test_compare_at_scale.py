@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from fg_tea.common.errors import InputError
 from fg_tea.study.rows import read_rows
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -336,7 +337,8 @@ def test_each_unresolved_cell_gets_a_command_that_would_resolve_it(table, monkey
     cas = _script()
     out = "experiments/results/joint_vs_factorised"
     args = cas.parse_args(["--table", table, "--worlds", "200", "--confirmation-first-seed", "10000",
-                           "--episode-seeds", "world", "--out", out])
+                           "--episode-seeds", "world", "--out", out]
+                          + (["--derive-worlds", "500"] if table == "related" else []))
     sets = [SeedSet("discovery", 0, 200), SeedSet("confirmation", 10000, 200)]
     where = {"houses": {"size": "medium", "task": "make_tea"},
              "related": {"size": "small", "related": 3}}.get(
@@ -360,6 +362,7 @@ def test_each_unresolved_cell_gets_a_command_that_would_resolve_it(table, monkey
         assert again.tasks == ["make_tea"] and again.reuse == Path(out) / "houses" / "episodes.csv"
     elif table == "related":
         assert again.table == "related" and again.related == [3] and again.reuse is None
+        assert again.derive_worlds == 500
     else:
         assert again.half_pixels == [100.0] and again.strengths == [0.75] and again.reuse is None
 
@@ -429,14 +432,16 @@ def test_resolve_commands_keep_the_table_environment(monkeypatch):
     assert again.env == "fake" and again.gtsam_check
 
 
+@pytest.mark.slow  # two whole sweeps: the full suite (CI) runs it
 def test_related_table_relates_exactly_the_first_n_objects_and_pairs_each_cell(tmp_path):
     """The number-of-related-objects axis: world n places exactly the first n of teabag, sugar,
     milk and mug by the kettle; its joint model relates exactly those to the kettle, with weights
     derived from the rule (eq. 55); every cell pairs the same worlds under both beliefs."""
     table = tmp_path / "related"
-    _run("experiments/compare_at_scale.py", "--table", "related", "--worlds", "2", "--sizes",
-         "small", "--related", "0", "3", "--derive-worlds", "60", "--planners", "nearest",
-         "--env", "fake", "--executor", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
+    command = ("experiments/compare_at_scale.py", "--table", "related", "--worlds", "2", "--sizes",
+               "small", "--derive-worlds", "60", "--planners", "nearest", "--env", "fake",
+               "--executor", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
+    _run(*command, "--related", "0", "3")
     from fg_tea.model.spec import load_model
     from fg_tea.world.distributions import load_world
 
@@ -445,7 +450,7 @@ def test_related_table_relates_exactly_the_first_n_objects_and_pairs_each_cell(t
         assert {r.object for r in world.co_location} == related
         assert all(r.anchor == "kettle" and (r.same_site, r.same_room) == (0.5, 0.25)
                    for r in world.co_location)
-        model = load_model(table / "models" / f"joint_related_{n}.toml")
+        model = load_model(table / "models" / f"joint_related_{n}_small.toml")
         pairs = {r.categories for r in model.relations if r.kind == "co_location"}
         assert pairs == {(o, "kettle") for o in related} and model.structure == "joint"
         assert all(r.same_site > 1 for r in model.relations if r.kind == "co_location")
@@ -456,12 +461,35 @@ def test_related_table_relates_exactly_the_first_n_objects_and_pairs_each_cell(t
     assert cells == {("small", "0"): "2", ("small", "3"): "2"}
     assert (table / "related_heatmap.png").stat().st_size > 0
     # the files are written once: a second command derives nothing again and runs nothing
-    stamp = (table / "models" / "joint_related_3.toml").stat().st_mtime_ns
-    _run("experiments/compare_at_scale.py", "--table", "related", "--worlds", "2", "--sizes",
-         "small", "--related", "3", "--derive-worlds", "60", "--planners", "nearest",
-         "--env", "fake", "--executor", "serial", "--timing-worlds", "0", "--out", str(tmp_path))
-    assert (table / "models" / "joint_related_3.toml").stat().st_mtime_ns == stamp
+    stamp = (table / "models" / "joint_related_3_small.toml").stat().st_mtime_ns
+    _run(*command, "--related", "3")
+    assert (table / "models" / "joint_related_3_small.toml").stat().st_mtime_ns == stamp
     assert " 0 new episodes" in (table / "related.md").read_text()
+    # another number of derivation worlds in the same folder would pair rows of two models
+    proc = subprocess.run([sys.executable, *command[:8], "600", *command[9:], "--related", "3"],
+                          capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT)
+    assert proc.returncode == 2 and "derived from 60 worlds, not 600" in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert (table / "models" / "joint_related_3_small.toml").stat().st_mtime_ns == stamp
+
+
+def test_related_models_are_derived_again_only_when_their_source_changes(tmp_path):
+    """The model's second line names its source exactly; "60 worlds" is not "160 worlds"."""
+    cas = _script()
+    world, model = cas.related_files(tmp_path, "small", 1, 160)
+    path = Path(model)
+    first = path.read_text()
+    assert "160 worlds from seed 1000000" in first.splitlines()[1]
+    stamp = path.stat().st_mtime_ns
+    assert cas.related_files(tmp_path, "small", 1, 160) == (world, model)
+    assert path.stat().st_mtime_ns == stamp                      # same source: left alone
+    cas.related_files(tmp_path, "small", 1, 60)
+    again = path.read_text()
+    assert "60 worlds from seed" in again.splitlines()[1] and again != first
+    assert not again.endswith("\n\n") and again.endswith("\n")
+    with pytest.raises(InputError, match="--derive-worlds: 3: .*draw more worlds"):
+        cas.related_files(tmp_path / "few", "small", 4, 3)
+    assert not (tmp_path / "few").exists()                        # refused before writing
 
 
 def test_related_world_refuses_what_it_cannot_build():
