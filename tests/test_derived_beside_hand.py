@@ -47,3 +47,24 @@ def test_tables_of_other_seed_sets_are_refused(tmp_path, monkeypatch):
                         "--out", str(tmp_path)])
     with pytest.raises(InputError, match="no such episodes CSV"):
         _script().main(["--hand", str(tmp_path / "none"), "--out", str(tmp_path)])
+
+
+def test_any_two_models_pair_and_a_related_tables_worlds_pair_with_the_houses_tables(tmp_path, monkeypatch):
+    """The per-size derived model of the related table against joint_derived: its worlds
+    (``..._related_2``) pair with the derived table's by world seed, world by world."""
+    from fg_tea.common.errors import InputError
+
+    monkeypatch.chdir(ROOT)
+    related = "experiments/results/joint_vs_factorised_related_world_seeds/related"
+    assert _script().main(["--derived", related, "--derived-model", "joint_related_2",
+                           "--hand", "experiments/results/joint_vs_factorised_derived/houses",
+                           "--hand-model", "joint_derived", "--out", str(tmp_path)]) == 0
+    rows = list(csv.DictReader((tmp_path / "replication.csv").open()))
+    assert {(r["size"], r["task"], r["planner"]) for r in rows} == {
+        ("small", "make_tea_milk_sugar", "eqs. 10-11"), ("medium", "make_tea_milk_sugar", "eqs. 10-11")}
+    assert all(r["discovery_pairs"] == r["confirmation_pairs"] == "200" for r in rows)
+    committed = list(csv.DictReader(open(
+        "experiments/results/joint_vs_factorised_related_world_seeds/beside_derived/replication.csv")))
+    assert [r["confirmation_diff"] for r in rows] == [r["confirmation_diff"] for r in committed]
+    with pytest.raises(InputError, match="name two models"):
+        _script().main(["--derived-model", "joint", "--out", str(tmp_path)])
