@@ -53,6 +53,7 @@ def test_compare_at_scale_tiny_fake_run_writes_every_table_and_resumes(tmp_path)
     assert (table / "episodes.csv").read_bytes() == before
 
 
+@pytest.mark.slow  # whole sweeps or derivations: the full suite (CI) runs it
 def test_houses_report_covers_cells_run_by_separate_commands(tmp_path):
     """A second command with another task and fewer worlds joins the first one's report."""
     table = tmp_path / "houses"
@@ -73,6 +74,7 @@ def test_houses_report_covers_cells_run_by_separate_commands(tmp_path):
     assert {t["task"] for t in times} == {"make_tea", "make_tea_milk_sugar"}  # merged, not replaced
 
 
+@pytest.mark.slow  # whole sweeps or derivations: the full suite (CI) runs it
 def test_reused_rows_are_the_rows_a_run_would_write(tmp_path):
     """--reuse copies the rows of this run's jobs from another CSV (equal keys, equal rows) and
     runs only the rest: the CSV equals one run of every job, byte for byte."""
@@ -473,6 +475,7 @@ def test_related_table_relates_exactly_the_first_n_objects_and_pairs_each_cell(t
     assert (table / "models" / "joint_related_3_small.toml").stat().st_mtime_ns == stamp
 
 
+@pytest.mark.slow  # whole sweeps or derivations: the full suite (CI) runs it
 def test_related_models_are_derived_again_only_when_their_source_changes(tmp_path):
     """The model's second line names its source exactly; "60 worlds" is not "160 worlds"."""
     cas = _script()

@@ -49,6 +49,7 @@ def test_tables_of_other_seed_sets_are_refused(tmp_path, monkeypatch):
         _script().main(["--hand", str(tmp_path / "none"), "--out", str(tmp_path)])
 
 
+@pytest.mark.slow  # reads three large committed tables: the full suite (CI) runs it
 def test_any_two_models_pair_and_a_related_tables_worlds_pair_with_the_houses_tables(tmp_path, monkeypatch):
     """The per-size derived model of the related table against joint_derived: its worlds
     (``..._related_2``) pair with the derived table's by world seed, world by world."""
