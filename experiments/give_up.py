@@ -1,8 +1,9 @@
 """When should a search be given up? The probability rule against the rule that weighs the cost.
 
-Runs the same worlds under the probability give-up (the default) and under ``give_up = "cost"``
-with the value of finishing the task at each of ``--values`` sweeps of the house (docs/design.md
-§7.8), and reports both sides of the trade:
+Runs the same worlds under the probability give-up (the earlier default), under ``give_up = "cost"``
+(the default: the cost is weighed once the misses are improbable) and under the cost rule weighed
+from the first look (``weigh_early``), with the value of finishing the task at each of ``--values``
+sweeps of the house (docs/design.md §7.8), and reports both sides of the trade:
 
 - *false give-ups*: searches given up although every object was there to be found (worlds of
   ``--worlds-findable``), with the search travel of all episodes;
@@ -55,7 +56,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def variants(models: list[str], values: list[float], folder: Path) -> list[tuple[str, str, str]]:
-    """(label, model, rule) per model: the model as it is, and one file per value with the cost rule."""
+    """(label, model, rule) per model: a model file per arm, each naming its rule, so that an arm
+    means the same whatever the default becomes: the probability rule; the cost rule (the default)
+    at each value; and the cost rule weighed from the first look (``weigh_early``) at each value."""
     from fg_tea.study.sweep import model_path
 
     out = []
@@ -63,12 +66,21 @@ def variants(models: list[str], values: list[float], folder: Path) -> list[tuple
     for model in models:
         model_path(model, "--models")  # a bundled name or a file, checked before any episode
         parent = model if not Path(model).suffix else str(Path(model).resolve())
-        out.append((f"{model}, probability", model, "probability"))
-        for v in values:
-            path = folder / f"{Path(model).stem}_cost_{v:g}.toml"
-            atomic_write_text(path, f'extends = "{parent}"\nname = "{Path(model).stem}_cost_{v:g}"\n\n'
-                              f'[planning]\ngive_up = "cost"\n\n[planning.task_value]\ndefault = {v!r}\n')
-            out.append((f"{model}, cost, {v:g} sweeps", str(path), f"cost {v:g}"))
+        stem = Path(model).stem
+
+        def arm(name: str, planning: str, label: str, rule: str) -> tuple[str, str, str]:
+            path = folder / f"{name}.toml"
+            atomic_write_text(path, f'extends = "{parent}"\nname = "{name}"\n\n[planning]\n{planning}')
+            return (label, str(path), rule)
+
+        out.append(arm(f"{stem}_probability", 'give_up = "probability"\n', f"{model}, probability", "probability"))
+        for early in (False, True):
+            for v in values:
+                name = f"{stem}_cost{'_early' if early else ''}_{v:g}"
+                weigh = "weigh_early = true\n" if early else ""
+                out.append(arm(name, f'give_up = "cost"\n{weigh}\n[planning.task_value]\ndefault = {v!r}\n',
+                               f"{model}, cost{' from the first look' if early else ''}, {v:g} sweeps",
+                               f"cost{' early' if early else ''} {v:g}"))
     return out
 
 

@@ -51,12 +51,7 @@ def job_of(row: dict):
     """The sweep job that wrote `row` (its key names every field that is not a default)."""
     from fg_tea.study.sweep import Job
 
-    job = Job(world=row["world"], world_seed=int(row["world_seed"]), model=row["model"],
-              planner=row["planner"], seed=int(row["seed"]), env=row["env"], task=row["task"])
-    if job.key != row["key"]:
-        raise InputError("<episodes>", "key", f"cannot rebuild the job of {row['key']!r} "
-                         f"(got {job.key!r}); trace cells without knobs or overrides")
-    return job
+    return Job.from_key(row["key"])
 
 
 def trace(row: dict) -> list[dict]:

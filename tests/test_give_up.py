@@ -10,10 +10,14 @@ import fg_tea as fg
 from fg_tea.agent.give_up import findable, sweep_length
 
 
-def _cost_rule(model, value=3.0, absent=1e-3):
+def _cost_rule(model, value=3.0, absent=1e-3, early=False):
     planning = dataclasses.replace(model.planning, give_up="cost", absent_probability=absent,
-                                   task_values=(("default", value),))
+                                   task_values=(("default", value),), weigh_early=early)
     return dataclasses.replace(model, planning=planning)
+
+
+def _probability_rule(model):
+    return dataclasses.replace(model, planning=dataclasses.replace(model.planning, give_up="probability"))
 
 
 def test_the_chance_an_object_can_still_be_found():
@@ -29,9 +33,15 @@ def test_model_files_declare_the_rule_and_its_values(tmp_path):
     planning = fg.load_model(good).planning
     assert planning.give_up == "cost" and planning.absent_probability == 0.01
     assert planning.task_value("make_tea") == 2.0 and planning.task_value("heat_water") == 4.0
-    assert fg.load_model("factorised").planning.give_up == "probability"
+    default = fg.load_model("factorised").planning
+    assert default.give_up == "cost" and not default.weigh_early and default.task_value("make_tea") == 3.0
     for body, field in (('give_up = "never"', "give_up"), ("absent_probability = 0.0", "absent_probability"),
-                        ("[planning.task_value]\nmake_tea = -1.0", "make_tea")):
+                        ("[planning.task_value]\nmake_tea = -1.0", "make_tea"),
+                        ("weigh_early = 1", "weigh_early"),
+                        # settings only the cost rule reads are refused under the probability rule
+                        ('give_up = "probability"\nweigh_early = true', "weigh_early"),
+                        ('give_up = "probability"\nabsent_probability = 0.01', "absent_probability"),
+                        ('give_up = "probability"\n[planning.task_value]\ndefault = 2.0', "task_value")):
         bad = tmp_path / "bad.toml"
         bad.write_text(f'extends = "factorised"\nname = "b"\n[planning]\n{body}\n')
         with pytest.raises(fg.InputError, match=field):
@@ -57,9 +67,9 @@ def test_improbable_misses_end_the_probability_rule_but_not_the_cost_rule():
     rule finds one more look cheap against the task's value (the object is still findable with
     probability about one half)."""
     base = fg.load_model("factorised_close")
-    scenario, agent, _ = _misses_until_improbable(base)
+    scenario, agent, _ = _misses_until_improbable(_probability_rule(base))
     assert agent.next_action() is None and agent.stuck_reason.startswith("not_found: mug")
-    scenario, agent, action = _misses_until_improbable(_cost_rule(base))
+    scenario, agent, action = _misses_until_improbable(base)  # the default: the cost rule
     assert agent.next_action() is not None
     assert agent.weigh_search(scenario.start_position) is None
     # valued at almost nothing, the same look is not worth it
@@ -81,8 +91,9 @@ def test_an_unfindable_object_is_given_up_in_an_episode_by_the_cost_rule():
     assert runner.metrics()["reason"].startswith("not_found: mug") and len(give_up) == 1
     assert "per chance of finding it" in give_up[0]["why"]
     # the same object under the probability rule: a search of about the same length
-    env = fg.make_env(scenario, fg.load_model("factorised_close"), "fake", unfindable="mug")
-    base = fg.run_episode(scenario, fg.load_model("factorised_close"), env=env, task="find_mug")
+    plain = _probability_rule(fg.load_model("factorised_close"))
+    env = fg.make_env(scenario, plain, "fake", unfindable="mug")
+    base = fg.run_episode(scenario, plain, env=env, task="find_mug")
     env.close()
     assert base.metrics()["reason"].startswith("not_found: mug")
 
@@ -121,16 +132,58 @@ def test_prior_fit_tells_a_world_drawn_from_the_prior_from_one_that_is_not(tmp_p
     assert float(r["low"]) > 5 * float(r["expected"])
 
 
-def test_the_cost_rule_finds_the_mug_the_probability_rule_gave_up_in_world_170(tmp_path):
+def test_the_default_rule_weighs_only_improbable_misses_and_weigh_early_from_the_first_look():
+    """Valued at almost nothing, a search is still not given up while its misses are plausible
+    (R >= give_up_probability): the default keeps the declared false give-up bound. With
+    ``weigh_early`` the same value ends it before the first look."""
+    scenario = fg.load_scenario("default_apartment")
+    base = fg.load_model("factorised_close")
+    for early, ends in ((False, False), (True, True)):
+        agent = fg.Agent(scenario, _cost_rule(base, value=0.01, early=early), "efe", task="find_mug")
+        agent.next_action()
+        assert agent.executor.search_outlook("mug")["remaining_probability"] > 0.5
+        reason = agent.weigh_search(scenario.start_position)
+        assert (reason is not None) == ends
+        assert ends == any(e["event"] == "give_up" for e in agent.executor.events)
+
+
+def test_episodes_the_probability_rule_does_not_give_up_are_the_same_under_the_default(monkeypatch):
+    """The rerun of the committed tables rests on this (docs/design.md §7.8): the default rule
+    can end a search only where the probability rule would have, so an episode the probability
+    rule finishes is the same episode, row for row, under the default."""
+    import fg_tea.study.sweep as sweep
+
+    made = sweep._model
+    rule = {"give_up": "cost"}
+
+    def model(ref, overrides):
+        m = made(ref, overrides)
+        return dataclasses.replace(m, planning=dataclasses.replace(m.planning, give_up=rule["give_up"]))
+
+    monkeypatch.setattr(sweep, "_model", model)
+    finished = 0
+    for seed in range(6):
+        job = sweep.Job(world="generated_small_milk_sugar", world_seed=seed, model="factorised",
+                        planner="efe", seed=seed, env="fake", task="make_tea_milk_sugar", gtsam_check=False)
+        rows = {}
+        for rule["give_up"] in ("probability", "cost"):
+            rows[rule["give_up"]] = sweep.run_job(job)
+        if not rows["probability"]["reason"].startswith("not_found"):
+            finished += 1
+            assert rows["probability"] == rows["cost"], seed
+    assert finished >= 4
+
+
+def test_the_default_finds_the_mug_the_probability_rule_gave_up_in_world_170(tmp_path):
     """World 170 of the correlated worlds (docs/guide/recovery.md): two close looks and a glance
     missed the mug on its site, its remaining probability fell to 0.00097 and the probability
-    rule gave it up. The cost rule, at the declared value (3 sweeps), looks on and makes the tea."""
+    rule gave it up. The default cost rule, at its declared value (3 sweeps), looks on and makes
+    the tea."""
     from fg_tea.study.sweep import Job, run_job
 
-    model = tmp_path / "joint_cost_3.toml"
-    model.write_text('extends = "joint"\nname = "joint_cost_3"\n\n[planning]\ngive_up = "cost"\n'
-                     '\n[planning.task_value]\ndefault = 3.0\n')
+    model = tmp_path / "joint_probability.toml"
+    model.write_text('extends = "joint"\nname = "joint_probability"\n\n[planning]\ngive_up = "probability"\n')
     rows = {m: run_job(Job(world="correlated", world_seed=170, model=m, planner="efe", seed=170,
                            gtsam_check=False)) for m in ("joint", str(model))}
-    assert rows["joint"]["reason"].startswith("not_found: mug")
-    assert rows[str(model)]["success"] and rows[str(model)]["reason"] == "complete"
+    assert rows[str(model)]["reason"].startswith("not_found: mug")
+    assert rows["joint"]["success"] and rows["joint"]["reason"] == "complete"

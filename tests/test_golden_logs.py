@@ -7,7 +7,8 @@ checkout (``versions``, ``git``, ``inputs``, whose sha256 of the bundled model c
 text); what was renamed on purpose (CHANGELOG.md) is read under its new name: ``positive_update``
 ``"blueprint"`` is ``"collapse"``, a decision's, a candidate's and an observation's duplicate
 ``"site"`` key (the same value as ``"viewpoint"``) is gone, and settings added since, logged at
-their defaults (the give-up rule's, ``unfindable``), are left out, as is a decision's
+their defaults (the give-up rule's, whose default is now the cost rule, and ``unfindable``),
+are left out, as is a decision's
 ``gain_solver = "one_object"`` (the closed form of docs/design.md eq. (45a), logged since).
 Everything else must be the same.
 """
@@ -35,9 +36,11 @@ def normalised_digest(path: Path) -> str:
         detection["positive_update"] = "collapse"
     # Settings added later, logged at their defaults (CHANGELOG.md): the behaviour they leave alone.
     planning, env = first["parameters"]["planning"], first["parameters"]["env"]
-    for key, default in (("give_up", "probability"), ("absent_probability", 0.001),
-                         ("task_values", [["default", 3.0]])):
-        if planning.get(key) == default:
+    # The give-up rule became "cost" (CHANGELOG.md); where it gives nothing up, as in every golden
+    # episode, its events are the probability rule's, which the digests then check.
+    for key, default in (("give_up", "probability"), ("give_up", "cost"), ("absent_probability", 0.001),
+                         ("task_values", [["default", 3.0]]), ("weigh_early", False)):
+        if key in planning and planning[key] == default:
             planning.pop(key)
     if env.get("unfindable") == "":
         env.pop("unfindable")

@@ -45,6 +45,7 @@ def test_false_give_ups_counts_every_not_found_as_false_in_findable_worlds():
 
 
 def test_trace_rebuilds_the_job_of_a_row_or_says_it_cannot():
+    """Job.from_key, through the trace's job_of: any key a sweep writes names its job back."""
     from fg_tea.common.errors import InputError
     from fg_tea.study.sweep import Job
 
@@ -54,5 +55,10 @@ def test_trace_rebuilds_the_job_of_a_row_or_says_it_cannot():
     row = {"key": job.key, "world": job.world, "world_seed": 63, "model": "joint",
            "planner": "factorised_efe", "seed": 63, "env": "pybullet", "task": "make_tea_milk_sugar"}
     assert module.job_of(row) == job
-    with pytest.raises(InputError, match="cannot rebuild"):
-        module.job_of({**row, "key": job.key + "|knobs=same_site=1"})
+    knobbed = Job("generated_small", 3, model="factorised", planner="efe", env="fake",
+                  knobs={"same_site": 1.0}, model_overrides={"miss_likelihood": 0.2})
+    assert module.job_of({"key": knobbed.key}) == knobbed
+    with pytest.raises(InputError, match="not itself"):  # parts out of the order keys are written in
+        module.job_of({**row, "key": job.key + "|knobs=same_site=1.0"})
+    with pytest.raises(InputError, match="does not name a job"):
+        module.job_of({"key": "world=x|ws=zero"})

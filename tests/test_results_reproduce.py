@@ -31,32 +31,9 @@ SWEEPS = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "experiments" / "resul
 SPELLING = {"key", "knobs", "model_overrides", "env_overrides", "model_ref"}
 
 
-def _pairs(text) -> dict:
-    out = {}
-    for item in str(text or "").split(","):
-        if "=" in item:
-            name, value = item.split("=", 1)
-            if value in ("True", "False"):  # a key spells booleans as Python does
-                out[name] = value == "True"
-                continue
-            try:
-                out[name] = float(value)
-            except ValueError:
-                out[name] = value
-    return out
-
-
 def job_of(row: dict) -> Job:
     """The job a committed row names (its key must come out the same)."""
-    parts = dict(p.split("=", 1) for p in row["key"].split("|"))
-    job = Job(world=parts["world"], world_seed=int(parts["ws"]), model=parts["model"],
-              planner=parts["planner"], seed=int(parts["seed"]), knobs=_pairs(parts.get("knobs")),
-              model_overrides=_pairs(parts.get("mo")), env_overrides=_pairs(parts.get("eo")),
-              env=parts.get("env", "pybullet"), camera=parts.get("camera", ""),
-              max_frames=int(parts.get("frames", 50_000)), max_steps=int(parts.get("steps", 2_000)),
-              task=parts.get("task", "make_tea"), gtsam_check=False)
-    assert job.key == row["key"], (job.key, row["key"])
-    return job
+    return Job.from_key(row["key"], gtsam_check=False)
 
 
 def _same(a, b) -> bool:

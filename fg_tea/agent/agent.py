@@ -208,9 +208,11 @@ class Agent:
         """Under ``[planning] give_up = "cost"``, give up a search whose best next look costs more
         per chance of finding its object than finishing the task is worth (docs/design.md §7.8).
 
-        Call it before :meth:`decide`. Returns the episode's end reason (``not_found: ...``) when a
-        search was given up (the executor is then stuck, with a ``give_up`` event saying why), else
-        None. Under the default probability rule it does nothing.
+        A search is weighed only once its remaining probability R_o is below
+        ``give_up_probability`` (from the first look with ``weigh_early``). Call it before
+        :meth:`decide`. Returns the episode's end reason (``not_found: ...``) when a search was
+        given up (the executor is then stuck, with a ``give_up`` event saying why), else None.
+        Under ``give_up = "probability"`` it does nothing.
         """
         planning = self.model.planning
         if planning.give_up != "cost":
@@ -218,17 +220,21 @@ class Agent:
         if self.views is None:
             raise ValueError(f"model {self.model.name!r} needs the view geometry before weighing a "
                              f"search: call {self._geometry_call()}")
+        outlooks = [self.executor.search_outlook(obj) for obj in self.executor.pending_search_objects()]
+        outlooks = [o for o in outlooks if o["remaining_probability"] is not None and
+                    (planning.weigh_early or o["remaining_probability"] < planning.give_up_probability)]
+        if self._sweep is not None and not outlooks:
+            return None
         distances = distances_for(self.model, self.scenario, position,
                                   geodesic=distances or self._grid_distances(position))
         excluded = frozenset(self.executor.excluded_sites)
-        self._reweigh()
         if self._sweep is None:  # fixed at the first weighing, from where the search starts
             self._sweep = sweep_length([v for v in self.views.names if v not in excluded], distances)
         value = planning.task_value(self.graph.name) * self._sweep
-        for obj in self.executor.pending_search_objects():
-            outlook = self.executor.search_outlook(obj)
-            if outlook["remaining_probability"] is None:
-                continue
+        if outlooks:
+            self._reweigh()
+        for outlook in outlooks:
+            obj = outlook["object"]
             weighed = weigh(self.belief, obj, self.views, distances, excluded,
                             outlook["remaining_probability"], planning.absent_probability, value)
             if weighed["give_up"]:

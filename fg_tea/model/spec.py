@@ -83,30 +83,22 @@ class Relation:
 class PlanningWeights:
     """Weights of the EFE-style score G(o, j), eqs. 12-16 (lower is better), and when to give up.
 
-    Giving up on a search (``docs/design.md`` §7.8): the search for object o stops,
-    and the episode ends with ``not_found: o``, when either
+    Giving up a search (docs/design.md §7.8) looks at the *remaining probability* R_o: the
+    probability, under the object's prior (eq. 2) and the detection model (eqs. 5-6), that o
+    stands at a reachable site and would still be unseen after the looks so far. A present
+    object gives a run of misses that unlikely with probability R_o, so a rule that gives up
+    only when R_o < ``give_up_probability`` gives up on a findable object in at most that
+    fraction of searches when the model is right. ``max_inspections_per_object`` caps the looks
+    that missed o (0: automatic, K x (ceil(log p / log mu) + 1) for K sites).
 
-    - the *remaining probability* R_o = sum over reachable sites j of q0(L_o = j) x
-      P(every look so far missed o | L_o = j) falls below ``give_up_probability``. R_o is the
-      probability, under the object's prior (eq. 2) and the detection model (eqs. 5-6), that o
-      stands at a site the agent can reach and would still be unseen after the looks so far.
-      Because the looks are all misses, an object that is truly present produces a run of misses
-      this unlikely with probability R_o exactly, so the rule gives up on a findable object in
-      at most a fraction ``give_up_probability`` of episodes (per object) when the model is
-      right, in any house. 1e-3 is a false give-up rate of one in a thousand; or
-    - the number of looks that missed o reaches ``max_inspections_per_object`` (a budget for when
-      the model is wrong, e.g. the camera misses more often than mu says). 0 means automatic:
-      K x (ceil(log(give_up_probability) / log(mu)) + 1) for K sites, i.e. one round of looks
-      per site more than the probability rule needs if the model were right (each site's share
-      of R_o shrinks by mu per look); 32 looks for the default 8 sites and mu = 0.05.
-
-    ``give_up = "cost"`` weighs the cost instead (docs/design.md §7.8): with ``absent_probability``
-    the prior chance that an object a task needs cannot be found at all, the chance it can still
-    be found after the misses is F_o = R_o (1 - a) / (R_o (1 - a) + a), and the search stops when
-    the best next look's cost divided by its chance of finding o exceeds the value of finishing
-    the task, ``task_values[task]`` (or ``task_values["default"]``) sweeps of the house, a sweep
-    being the nearest-neighbour walk through every viewpoint from the start. The probability
-    rule is then a safety net on F_o < ``give_up_probability``.
+    ``give_up = "cost"`` (the default) then weighs the cost: with a = ``absent_probability`` the
+    chance o can still be found is F_o = R_o (1 - a) / (R_o (1 - a) + a) (eq. 58), and a search
+    whose R_o is below ``give_up_probability`` stops only when the best next look's cost per
+    chance of finding o exceeds the value of finishing the task, ``task_values[task]`` (or
+    ``["default"]``) sweeps of the house. ``weigh_early = true`` weighs from the first look, so a
+    cheap task may be given up sooner; the search also ends, whatever the cost, when F_o <
+    ``give_up_probability``. ``give_up = "probability"`` gives up as soon as R_o is below the
+    threshold, without weighing (the earlier default).
     """
 
     distance_weight: float = 0.20
@@ -117,8 +109,9 @@ class PlanningWeights:
     distance: str = "geodesic"
     give_up_probability: float = 1e-3
     max_inspections_per_object: int = 0
-    give_up: str = "probability"
+    give_up: str = "cost"
     absent_probability: float = 1e-3
+    weigh_early: bool = False
     task_values: tuple[tuple[str, float], ...] = (("default", 3.0),)
 
     def task_value(self, task: str) -> float:
@@ -384,7 +377,13 @@ def parse_model(data: dict, file: str | Path = "<model>",
         give_up=planning_r.choice("give_up", ("probability", "cost"), d.give_up),
         absent_probability=planning_r.probability("absent_probability", d.absent_probability),
         task_values=_task_values(planning_r, d.task_values),
+        weigh_early=planning_r.opt("weigh_early", bool, d.weigh_early),
     )
+    if planning.give_up == "probability":  # settings the probability rule never reads
+        for name in ("weigh_early", "absent_probability", "task_value"):
+            if planning_r.has(name):
+                raise planning_r.fail('has no effect with give_up = "probability" (only the cost '
+                                      'rule weighs; docs/design.md §7.8)', name)
     if not 0.0 < planning.absent_probability < 1.0:
         raise planning_r.fail("must lie strictly between 0 and 1 (the chance an object cannot be "
                               "found at all)", "absent_probability")

@@ -383,7 +383,9 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
                 return 0.0, (0.0 if agent.done else 1.0)
             key = (here, tuple(sorted(agent.inspected.items())),
                    tuple(sorted(agent.executor.pending_search_objects())))
-            if key in memo and trace is None:
+            # A state met again is reused only if it was expanded at least as deep: branches are
+            # cut at an absolute probability, so a visit with less weight cut more of its subtree.
+            if key in memo and trace is None and memo[key][2] >= weight:
                 return memo[key][:2]
             if weight < floor:
                 totals["unexpanded"] += weight
