@@ -35,13 +35,15 @@ if str(ROOT) not in sys.path:
 from fg_tea.common.errors import InputError, run_script  # noqa: E402
 from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
-from fg_tea.study.analysis import excluded, markdown_table  # noqa: E402
+from fg_tea.study.analysis import excluded, given_up_by_probability, markdown_table  # noqa: E402
 from fg_tea.study.rows import read_rows, write_csv_atomic  # noqa: E402
 from fg_tea.common.stats import t_interval  # noqa: E402
 
 RESULTS = ROOT / "experiments" / "results"
 DEFAULT_BEFORE = RESULTS / "lookahead_scale" / "before_grouping.csv"
 DEFAULT_NOW = RESULTS / "joint_vs_factorised" / "houses" / "episodes.csv"
+#: Rows the switch of the default give-up rule ran again (experiments/rerun_given_up.py).
+DEFAULT_REPLACED = RESULTS / "give_up_default" / "replaced.csv"
 DEFAULT_OUT = "runs/experiments/lookahead_scale"
 METRICS = ("search_distance", "spl", "inspections", "success")
 LABEL = {"search_distance": "search travel (m)", "spl": "SPL", "inspections": "inspections",
@@ -55,6 +57,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="episodes CSV of the lookahead before the change")
     p.add_argument("--now", type=Path, default=DEFAULT_NOW, help="episodes CSV of the lookahead now")
     p.add_argument("--planner", default="lookahead", help="the planner compared")
+    p.add_argument("--replaced", type=Path, default=DEFAULT_REPLACED,
+                   help="rows run again when the default give-up became the cost rule: pairs whose "
+                        "search the probability rule gave up, before or now, are left out")
     p.add_argument("--bench-before", type=Path, default=None,
                    help="bench_planning.py --houses --json output of the code before")
     p.add_argument("--bench-previous", type=Path, default=None,
@@ -73,12 +78,17 @@ def _value(row, metric: str) -> float:
     return float(v)
 
 
-def pairs(before: list[dict], now: list[dict], planner: str) -> list[dict]:
-    """Per (world, task, model): the paired now − before differences of every metric."""
-    old = {r["key"]: r for r in before if r["planner"] == planner and not excluded(r)}
+def pairs(before: list[dict], now: list[dict], planner: str, rule_changed: frozenset[str] = frozenset()
+          ) -> list[dict]:
+    """Per (world, task, model): the paired now − before differences of every metric. Keys in
+    `rule_changed` (and before rows the probability rule gave up) are left out: the rows before
+    ran under the probability give-up, the rows now under the cost rule, and only in those
+    episodes do the rules differ (docs/design.md §7.8), so the rest compare the planners alone."""
+    old = {r["key"]: r for r in before if r["planner"] == planner and not excluded(r)
+           and not given_up_by_probability(r)}
     cells: dict[tuple, list[tuple[dict, dict]]] = {}
     for r in now:
-        if r["planner"] != planner or excluded(r) or r["key"] not in old:
+        if r["planner"] != planner or excluded(r) or r["key"] not in old or r["key"] in rule_changed:
             continue
         cells.setdefault((r["world"], r["task"], r["model"]), []).append((old[r["key"]], r))
     out = []
@@ -115,7 +125,11 @@ def report(args, rows: list[dict], command: str) -> str:
              "on the same worlds and seeds (equal sweep keys): now − before, mean over worlds with a "
              "95 % Student-t interval; positive SPL and negative travel favour now. \"Differ\": the "
              "share of worlds whose searches differ in travel or inspections. Joint beliefs beyond "
-             "the dense table were refused before, so they have no pairs.", ""]
+             "the dense table were refused before, so they have no pairs. "
+             f"{args.left_out} pairs are left out: the probability rule gave a search up in the episode "
+             "before, or in the episode now before the default became the cost rule "
+             "(docs/design.md §7.8); the rules differ only there, so the pairs left compare the "
+             "planners alone.", ""]
     header = ["house", "task", "belief", "pairs", "differ"]
     body = []
     for r in rows:
@@ -161,7 +175,13 @@ def report(args, rows: list[dict], command: str) -> str:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
-    rows = pairs(read_rows(args.before), read_rows(args.now), args.planner)
+    now_table = Path(args.now).resolve().relative_to(RESULTS).as_posix() if RESULTS in Path(args.now).resolve().parents else ""
+    changed = frozenset(r["key"] for r in (read_rows(args.replaced) if args.replaced.is_file() else [])
+                        if r["table"] == now_table)
+    before = read_rows(args.before)
+    rows = pairs(before, read_rows(args.now), args.planner, changed)
+    args.left_out = sum(1 for r in before if r["planner"] == args.planner and (
+        r["key"] in changed or given_up_by_probability(r)))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     command = shlex.join(["python", "experiments/lookahead_scale.py",

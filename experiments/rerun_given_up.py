@@ -25,7 +25,6 @@ before and after; a re-run leaves these rows alone) to ``--out``.
 from __future__ import annotations
 
 import argparse
-import re
 import shlex
 import sys
 from pathlib import Path
@@ -39,8 +38,6 @@ from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 #: Tables this script leaves as they are, and why.
 KEPT = {"lookahead_scale/before_grouping.csv": "rows of an earlier planner, kept as they ran",
         "give_up/episodes.csv": "compares the rules themselves; run experiments/give_up.py"}
-#: The reason the probability rule writes when it gives a search up.
-PROBABILITY_GIVE_UP = re.compile(r"^not_found: .*; remaining probability [^;]* < [^;]*\)$")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -70,7 +67,9 @@ def sweep_tables(results: Path) -> list[Path]:
 
 def given_up(rows: list[dict]) -> list[dict]:
     """The rows whose search the probability rule gave up."""
-    return [r for r in rows if PROBABILITY_GIVE_UP.match(str(r.get("reason") or ""))]
+    from fg_tea.study.analysis import given_up_by_probability
+
+    return [r for r in rows if given_up_by_probability(r)]
 
 
 def splice(path: Path, fresh: dict[str, dict[str, str]]) -> int:

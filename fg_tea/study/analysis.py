@@ -29,6 +29,7 @@ Every file is written atomically: to a temporary file in the same folder, then r
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
@@ -66,6 +67,16 @@ def refused(row: Mapping[str, Any]) -> bool:
 def step_limited(row: Mapping[str, Any]) -> bool:
     """Whether the sweep stopped this episode at its step limit."""
     return str(row.get("reason") or "").startswith(STEP_LIMIT)
+
+
+#: The reason the probability give-up writes (docs/design.md §7.8): ``not_found: o (...;
+#: remaining probability x < p)``; the cost rule's reasons say what the best look costs instead.
+PROBABILITY_GIVE_UP = re.compile(r"^not_found: .*; remaining probability [^;]* < [^;]*\)$")
+
+
+def given_up_by_probability(row: Mapping[str, Any]) -> bool:
+    """The episode ended because the probability rule gave a search up."""
+    return bool(PROBABILITY_GIVE_UP.match(str(row.get("reason") or "")))
 
 
 def excluded(row: Mapping[str, Any]) -> bool:
