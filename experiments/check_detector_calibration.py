@@ -317,6 +317,16 @@ def holm_outside(rows: list[dict], level: float = 1.0 - LEVEL) -> int:
     return sum(p < level for p in holm([r["p_value"] for r in rows]))
 
 
+def chance_outside(rows: list[dict], level: float = 1.0 - LEVEL) -> tuple[float, float]:
+    """(groups expected outside their interval by chance, probability of at least as many as are
+    outside) if the model were exact: each group falls outside with probability at most `level`,
+    independently (the groups hold disjoint looks), so Binomial(groups, level) bounds the count."""
+    from scipy.stats import binom
+
+    outside = sum(not r["ok"] for r in rows)
+    return level * len(rows), float(binom.sf(outside - 1, len(rows), level)) if outside else 1.0
+
+
 def model_gap(rows: list[dict]) -> float:
     """Mean |expected p - camera p at the rendered pixels| over groups, weighted by their looks:
     what the model gets wrong about the camera, free of the detection draws' noise."""
@@ -440,6 +450,8 @@ def main(argv: list[str] | None = None) -> int:
               "groups_band": len(rows), "within_band": len(rows) - len(bad),
               "groups_setup": len(setup_rows), "within_setup": len(setup_rows) - len(bad_setup),
               "holm_outside_band": holm_outside(rows), "holm_outside_setup": holm_outside(setup_rows),
+              "chance_outside_setup": f"{chance_outside(setup_rows)[0]:.2f}",
+              "p_as_many_outside_setup": f"{chance_outside(setup_rows)[1]:.3f}",
               "shared_below": sum(r["observed"] < r["lo"] for r in shared),
               "model_gap_setup": f"{model_gap(setup_rows):.6f}", "model_gap_shared": f"{model_gap(shared):.6f}"}
     atomic_write_text(csv_path.with_name(csv_path.stem + "_summary.csv"),
@@ -466,7 +478,9 @@ def main(argv: list[str] | None = None) -> int:
                f"distance band and {len(setup_rows) - len(bad_setup)}/{len(setup_rows)} by set-up "
                f"within their {LEVEL:.0%} interval ({holm_outside(rows)} and "
                f"{holm_outside(setup_rows)} outside at 5 % after Holm's adjustment for the number "
-               f"of groups); the model's expected p is {model_gap(setup_rows):.4f} from the camera's "
+               f"of groups; an exact model leaves about {chance_outside(setup_rows)[0]:.1f} set-up groups "
+               f"outside by chance, and {len(bad_setup)} or more with probability "
+               f"{chance_outside(setup_rows)[1]:.2f}); the model's expected p is {model_gap(setup_rows):.4f} from the camera's "
                "p at the rendered pixels on average over the set-up groups (weighted by looks)")
     md = "\n".join([
         "# Detector calibration: the model's expected P(seen) against the camera's detections",
