@@ -190,19 +190,14 @@ class Job:
         return job
 
 
-def _key_pairs(text: str | None) -> dict[str, Any]:
-    """``name=value,...`` of a key back to values (booleans and numbers as the key spells them)."""
+def _key_pairs(text: str | None) -> Any:
+    """``name=value,...`` of a key back to a mapping (booleans and numbers as keys spell them)."""
     out: dict[str, Any] = {}
-    for item in str(text or "").split(","):
-        if "=" in item:
-            name, value = item.split("=", 1)
-            if value in ("True", "False"):
-                out[name] = value == "True"
-                continue
-            try:
-                out[name] = float(value)
-            except ValueError:
-                out[name] = value
+    for name, _, value in (item.partition("=") for item in str(text or "").split(",") if "=" in item):
+        try:
+            out[name] = value == "True" if value in ("True", "False") else float(value)
+        except ValueError:
+            out[name] = value
     return out
 
 
