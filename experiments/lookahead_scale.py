@@ -180,8 +180,9 @@ def main(argv=None) -> int:
                         if r["table"] == now_table)
     before = read_rows(args.before)
     rows = pairs(before, read_rows(args.now), args.planner, changed)
-    args.left_out = sum(1 for r in before if r["planner"] == args.planner and (
-        r["key"] in changed or given_up_by_probability(r)))
+    paired = {r["key"]: r for r in before if r["planner"] == args.planner and not excluded(r)}
+    args.left_out = sum(1 for r in read_rows(args.now) if r["planner"] == args.planner and not excluded(r)
+                        and r["key"] in paired and (r["key"] in changed or given_up_by_probability(paired[r["key"]])))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     command = shlex.join(["python", "experiments/lookahead_scale.py",

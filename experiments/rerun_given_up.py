@@ -32,7 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.errors import run_script  # noqa: E402
+from fg_tea.common.errors import InputError, run_script  # noqa: E402
 from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
 
 #: Tables this script leaves as they are, and why.
@@ -76,9 +76,19 @@ def splice(path: Path, fresh: dict[str, dict[str, str]]) -> int:
     """Put `fresh` rows (cells as strings, by key) in place of the rows of `path` with their keys,
     order and columns kept (a column added to sweep rows since the table was made is left out,
     as it is for every other row of the table), atomically. Returns rows replaced."""
-    from fg_tea.study.rows import _read_good_lines, write_csv_atomic
+    import csv
 
-    header, lines, _ = _read_good_lines(path)
+    from fg_tea.study.rows import write_csv_atomic
+
+    with path.open(newline="", encoding="utf-8") as fh:
+        header, *lines = list(csv.reader(fh))
+    if not path.read_bytes().endswith(b"\n") or any(len(line) != len(header) for line in lines):
+        raise InputError(path, "rows", "a line does not parse as a row of the header; the table "
+                         "would lose it: mend it first")
+    missing = {c for row in fresh.values() for c in header if c not in row}
+    if missing:
+        raise InputError(path, "header", f"the fresh rows lack {', '.join(sorted(missing))}; "
+                         "putting them in would blank those cells")
     rows = [dict(zip(header, line)) for line in lines]
     replaced = 0
     for i, row in enumerate(rows):
@@ -90,7 +100,8 @@ def splice(path: Path, fresh: dict[str, dict[str, str]]) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     from fg_tea.study.rows import _read_good_lines, read_rows, write_csv_atomic
-    from fg_tea.study.sweep import Job, run_sweep
+    from fg_tea.study.keys import job_from_key
+    from fg_tea.study.sweep import run_sweep
 
     args = build_parser().parse_args(argv)
     results, out = args.results.resolve(), Path(args.out)
@@ -106,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
             done = sum(t == name for t, _ in record)
             print(f"{name}: {len(pending)} of {len(rows)} rows gave a search up under the probability rule"
                   + (f" ({done} run again before)" if done else ""), flush=True)
-    jobs = {r["key"]: Job.from_key(r["key"], gtsam_check=False) for _, _, _, rows in tables for r in rows}
+    jobs = {r["key"]: job_from_key(r["key"], gtsam_check=False) for _, _, _, rows in tables for r in rows}
     print(f"{len(jobs)} distinct jobs to run again", flush=True)
     if not args.write:
         return 0
@@ -143,14 +154,15 @@ def check_others(tables: list, replaced: dict[str, set[str]], n: int, out: Path,
     import math
     import random
 
+    from fg_tea.study.keys import job_from_key
     from fg_tea.study.rows import read_rows
-    from fg_tea.study.sweep import Job, run_sweep
+    from fg_tea.study.sweep import run_sweep
 
     others = []
     for name, path, _, _ in tables:
         others += [(name, r) for r in read_rows(path) if r["key"] not in replaced[name]]
     drawn = random.Random(0).sample(others, min(n, len(others)))
-    fresh = {r["key"]: r for r in run_sweep([Job.from_key(r["key"], gtsam_check=False) for _, r in drawn],
+    fresh = {r["key"]: r for r in run_sweep([job_from_key(r["key"], gtsam_check=False) for _, r in drawn],
                                               out / "check.csv", "process", workers=workers,
                                               label="check")}
 

@@ -49,9 +49,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def job_of(row: dict):
     """The sweep job that wrote `row` (its key names every field that is not a default)."""
-    from fg_tea.study.sweep import Job
+    from fg_tea.study.keys import job_from_key
 
-    return Job.from_key(row["key"])
+    return job_from_key(row["key"])
 
 
 def trace(row: dict) -> list[dict]:

@@ -35,6 +35,14 @@ def test_model_files_declare_the_rule_and_its_values(tmp_path):
     assert planning.task_value("make_tea") == 2.0 and planning.task_value("heat_water") == 4.0
     default = fg.load_model("factorised").planning
     assert default.give_up == "cost" and not default.weigh_early and default.task_value("make_tea") == 3.0
+    # inherited from a parent that weighs, or set to its no-op value, they are not refused
+    parent = tmp_path / "parent.toml"
+    parent.write_text('extends = "factorised"\nname = "parent"\n[planning]\ngive_up = "cost"\n'
+                      '[planning.task_value]\ndefault = 2.0\n')
+    for body in ('give_up = "probability"', 'give_up = "probability"\nweigh_early = false'):
+        child = tmp_path / "child.toml"
+        child.write_text(f'extends = "{parent}"\nname = "child"\n[planning]\n{body}\n')
+        assert fg.load_model(child).planning.give_up == "probability"
     for body, field in (('give_up = "never"', "give_up"), ("absent_probability = 0.0", "absent_probability"),
                         ("[planning.task_value]\nmake_tea = -1.0", "make_tea"),
                         ("weigh_early = 1", "weigh_early"),
@@ -72,7 +80,10 @@ def test_improbable_misses_end_the_probability_rule_but_not_the_cost_rule():
     scenario, agent, action = _misses_until_improbable(base)  # the default: the cost rule
     assert agent.next_action() is not None
     assert agent.weigh_search(scenario.start_position) is None
-    # valued at almost nothing, the same look is not worth it
+    # valued at almost nothing, the same look is not worth it: next_action weighs it (a loop of
+    # one's own gets the rule without calling weigh_search)
+    scenario, agent, action = _misses_until_improbable(_cost_rule(base, value=0.01))
+    assert agent.next_action() is None and "per chance of finding it" in agent.stuck_reason
     scenario, agent, action = _misses_until_improbable(_cost_rule(base, value=0.01))
     reason = agent.weigh_search(scenario.start_position)
     assert reason is not None and reason.startswith("not_found: mug")
@@ -187,3 +198,16 @@ def test_the_default_finds_the_mug_the_probability_rule_gave_up_in_world_170(tmp
                            gtsam_check=False)) for m in ("joint", str(model))}
     assert rows[str(model)]["reason"].startswith("not_found: mug")
     assert rows["joint"]["success"] and rows["joint"]["reason"] == "complete"
+
+
+def test_the_safety_net_is_not_read_as_the_probability_rule():
+    """The rerun of committed tables looks for the probability rule's reason only."""
+    from fg_tea.study.analysis import given_up_by_probability
+
+    old = "not_found: mug (remaining probability 0.000973 after 20 looks; remaining probability 0.000973 < 0.001)"
+    net = ("not_found: mug (remaining probability 5e-07 after 40 looks; remaining probability 5e-07 < 1e-06 "
+           "(the safety net of the cost rule))")
+    cost = ("not_found: mug (remaining probability 7e-05 after 50 looks; the best look (hall) costs 1.2e+03 m "
+            "per chance of finding it, more than the task's value of 268 m (chance it can still be found 0.07))")
+    assert given_up_by_probability({"reason": old})
+    assert not given_up_by_probability({"reason": net}) and not given_up_by_probability({"reason": cost})

@@ -82,3 +82,18 @@ def test_a_given_up_row_is_run_again_in_place_and_the_rest_left_alone(tmp_path, 
     assert script.main(args) == 0  # nothing left to run: the same table and record
     assert table.read_text().splitlines() == after
     assert read_rows(out / "replaced.csv") == replaced
+
+
+def test_a_table_that_would_lose_a_line_is_refused(tmp_path):
+    """A line that does not parse as a row of the header, or a column the fresh rows lack, is one
+    line naming the table, and the table is left as it was."""
+    from fg_tea.common.errors import InputError
+
+    splice = _script().splice
+    table = tmp_path / "episodes.csv"
+    for text, field in (("key,reason\nk1,complete\nk2,complete,extra\n", "rows"),
+                        ("key,reason,other\nk1,complete,1\n", "header")):
+        table.write_text(text)
+        with pytest.raises(InputError, match=field):
+            splice(table, {"k1": {"key": "k1", "reason": "complete"}})
+        assert table.read_text() == text

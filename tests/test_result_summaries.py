@@ -45,7 +45,7 @@ def test_false_give_ups_counts_every_not_found_as_false_in_findable_worlds():
 
 
 def test_trace_rebuilds_the_job_of_a_row_or_says_it_cannot():
-    """Job.from_key, through the trace's job_of: any key a sweep writes names its job back."""
+    """fg_tea.study.keys.job_from_key, through the trace's job_of: a key names its job back."""
     from fg_tea.common.errors import InputError
     from fg_tea.study.sweep import Job
 
@@ -62,3 +62,7 @@ def test_trace_rebuilds_the_job_of_a_row_or_says_it_cannot():
         module.job_of({**row, "key": job.key + "|knobs=same_site=1.0"})
     with pytest.raises(InputError, match="does not name a job"):
         module.job_of({"key": "world=x|ws=zero"})
+    # integers stay integers; a value may hold commas
+    odd = Job("correlated", 0, model="factorised", planner="efe", env="fake",
+              model_overrides={"miss_likelihood": 0.2}, env_overrides={"unfindable": "mug,teabag", "look_frames": 12})
+    assert module.job_of({"key": odd.key}) == odd

@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from fg_tea.study.rows import read_rows
+from fg_tea.study.keys import job_from_key
 from fg_tea.study.sweep import Job, run_job
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -33,7 +34,7 @@ SPELLING = {"key", "knobs", "model_overrides", "env_overrides", "model_ref"}
 
 def job_of(row: dict) -> Job:
     """The job a committed row names (its key must come out the same)."""
-    return Job.from_key(row["key"], gtsam_check=False)
+    return job_from_key(row["key"], gtsam_check=False)
 
 
 def _same(a, b) -> bool:

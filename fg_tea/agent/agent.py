@@ -113,6 +113,7 @@ class Agent:
         self.views: ViewModel | None = None
         self._navigator: Navigator | None = None
         self._sweep: float | None = None  # metres of one sweep of the house (the give-up's unit)
+        self._looked_from: tuple[float, float] | None = None  # the last look's vantage
         if expected_pixels is not None or model.close_looks_only:
             self.set_view_geometry(expected_pixels, company)
 
@@ -159,9 +160,23 @@ class Agent:
         """Why no action is ready although the task is not done (None otherwise)."""
         return self.executor.stuck_reason
 
-    def next_action(self) -> TaskAction | None:
-        """The next ready task action (skipping what the belief says is done), or None."""
-        return self.executor.next_action()
+    def next_action(self, position: Sequence[float] | None = None,
+                    distances: DistanceModel | None = None) -> TaskAction | None:
+        """The next ready task action (skipping what the belief says is done), or None: the task
+        is done, or stuck (:attr:`stuck_reason` says why, e.g. a search given up).
+
+        Under the cost give-up (docs/design.md §7.8) a SEARCH action is weighed first
+        (:meth:`weigh_search`) from `position` (default: where the agent last looked from, else
+        the scenario's start) with `distances` (None: on the floor plan); a search given up there
+        makes this None.
+        """
+        action = self.executor.next_action()
+        if action is None or action.verb != "SEARCH" or self.model.planning.give_up != "cost" \
+                or self.views is None:
+            return action
+        if position is None:
+            position = self._looked_from or self.scenario.start_position
+        return None if self.weigh_search(position, distances) is not None else action
 
     def decide(self, action: TaskAction, position: Sequence[float],
                distances: DistanceModel | None = None) -> Decision:
@@ -209,8 +224,8 @@ class Agent:
         per chance of finding its object than finishing the task is worth (docs/design.md §7.8).
 
         A search is weighed only once its remaining probability R_o is below
-        ``give_up_probability`` (from the first look with ``weigh_early``). Call it before
-        :meth:`decide`. Returns the episode's end reason (``not_found: ...``) when a search was
+        ``give_up_probability`` (from the first look with ``weigh_early``). :meth:`next_action`
+        calls it for a SEARCH action. Returns the episode's end reason (``not_found: ...``) when a search was
         given up (the executor is then stuck, with a ``give_up`` event saying why), else None.
         Under ``give_up = "probability"`` it does nothing.
         """
@@ -273,6 +288,7 @@ class Agent:
         update = self.belief.observe_viewpoint(self.views.view(viewpoint), found)
         if any(v is None for v in found.values()):
             self.inspected[viewpoint] = self.inspected.get(viewpoint, 0) + 1
+        self._looked_from = self.scenario.viewpoint(viewpoint).position
         for obj in update.detected:
             self.executor.confirm_search(obj, found[obj] or viewpoint)
         return update

@@ -362,7 +362,8 @@ class EpisodeRunner:
         if self.state.frame >= self.config.max_frames:
             self._end(REASON_FRAME_LIMIT, truncated=True)
             return self.log.events[first:]
-        action = self.agent.next_action()
+        pose = self.env.agent_pose()  # where a search is weighed from (give-up, design §7.8)
+        action = self.agent.next_action((pose.x, pose.y), _EnvDistances(self.env, self._between, self._matrices))
         self._flush_executor()
         if action is None:
             if self.executor.done:
@@ -405,9 +406,6 @@ class EpisodeRunner:
         inspected = dict(agent.inspected)
         pose = self.env.agent_pose()
         distances = _EnvDistances(self.env, self._between, self._matrices)
-        if agent.weigh_search((pose.x, pose.y), distances) is not None:
-            self._flush_executor()  # the give_up; the next step ends the episode not_found
-            return
         try:
             decision = agent.decide(action, (pose.x, pose.y), distances)
         except (Exception, SystemExit) as exc:  # a planner of the user's own, often: end, saying why

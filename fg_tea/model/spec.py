@@ -379,9 +379,11 @@ def parse_model(data: dict, file: str | Path = "<model>",
         task_values=_task_values(planning_r, d.task_values),
         weigh_early=planning_r.opt("weigh_early", bool, d.weigh_early),
     )
-    if planning.give_up == "probability":  # settings the probability rule never reads
-        for name in ("weigh_early", "absent_probability", "task_value"):
-            if planning_r.has(name):
+    if planning.give_up == "probability":  # settings the probability rule never reads, if set
+        for name in ("weigh_early", "absent_probability", "task_value"):  # here (not by a parent)
+            here = origins is None or any(f == str(file) and (k == f"$.planning.{name}" or k.startswith(
+                f"$.planning.{name}.")) for k, f in origins.items())
+            if planning_r.has(name) and here and (name != "weigh_early" or planning.weigh_early):
                 raise planning_r.fail('has no effect with give_up = "probability" (only the cost '
                                       'rule weighs; docs/design.md §7.8)', name)
     if not 0.0 < planning.absent_probability < 1.0:

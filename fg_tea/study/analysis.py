@@ -70,8 +70,9 @@ def step_limited(row: Mapping[str, Any]) -> bool:
 
 
 #: The reason the probability give-up writes (docs/design.md §7.8): ``not_found: o (...;
-#: remaining probability x < p)``; the cost rule's reasons say what the best look costs instead.
-PROBABILITY_GIVE_UP = re.compile(r"^not_found: .*; remaining probability [^;]* < [^;]*\)$")
+#: remaining probability x < p)``; the cost rule's reasons say what the best look costs, or name
+#: its safety net.
+PROBABILITY_GIVE_UP = re.compile(r"^not_found: .*; remaining probability [^;()]* < [^;()]*\)$")
 
 
 def given_up_by_probability(row: Mapping[str, Any]) -> bool:

@@ -168,38 +168,6 @@ class Job:
             parts.append(f"task={self.task}")
         return "|".join(parts)
 
-    @classmethod
-    def from_key(cls, key: str, **fields: Any) -> "Job":
-        """The job a row's `key` names (`fields`, e.g. ``gtsam_check``, are not in keys).
-
-        Raises:
-            InputError: the key does not spell a job, or the job's key would not be `key`.
-        """
-        try:
-            parts = dict(p.split("=", 1) for p in key.split("|"))
-            job = cls(world=parts["world"], world_seed=int(parts["ws"]), model=parts["model"],
-                      planner=parts["planner"], seed=int(parts["seed"]), knobs=_key_pairs(parts.get("knobs")),
-                      model_overrides=_key_pairs(parts.get("mo")), env_overrides=_key_pairs(parts.get("eo")),
-                      env=parts.get("env", "pybullet"), camera=parts.get("camera", ""),
-                      max_frames=int(parts.get("frames", 50_000)), max_steps=int(parts.get("steps", 2_000)),
-                      task=parts.get("task", "make_tea"), **fields)
-        except (ValueError, KeyError) as exc:
-            raise InputError("<episodes>", "key", f"{key!r} does not name a job ({exc})") from None
-        if job.key != key:
-            raise InputError("<episodes>", "key", f"{key!r} names the job {job.key!r}, not itself")
-        return job
-
-
-def _key_pairs(text: str | None) -> Any:
-    """``name=value,...`` of a key back to a mapping (booleans and numbers as keys spell them)."""
-    out: dict[str, Any] = {}
-    for name, _, value in (item.partition("=") for item in str(text or "").split(",") if "=" in item):
-        try:
-            out[name] = value == "True" if value in ("True", "False") else float(value)
-        except ValueError:
-            out[name] = value
-    return out
-
 
 # ---------------------------------------------------------------------------------- resolving
 def ablation_names() -> tuple[str, ...]:

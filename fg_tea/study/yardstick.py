@@ -378,7 +378,7 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
 
         def value(agent: Agent, here: str | None, weight: float) -> tuple[float, float]:
             """(expected cost to go, probability of giving up) from this state."""
-            action = agent.next_action()
+            action = agent.next_action((0.0, 0.0), _FromViewpoint(start, between, here))
             if action is None:
                 return 0.0, (0.0 if agent.done else 1.0)
             key = (here, tuple(sorted(agent.inspected.items())),

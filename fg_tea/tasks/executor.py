@@ -386,8 +386,9 @@ class TaskExecutor:
             remaining = outlook["remaining_probability"]
             low = remaining is not None and remaining < outlook["threshold"]
             if low or (budget is not None and outlook["looks"] >= budget):
+                net = " (the safety net of the cost rule)" if self.model.planning.give_up == "cost" else ""
                 return self._given_up(obj, outlook, f"remaining probability {remaining:.3g} < "
-                                      f"{outlook['threshold']:.3g}" if low else f"search budget of {budget} looks spent")
+                                      f"{outlook['threshold']:.3g}{net}" if low else f"search budget of {budget} looks spent")
         return None
 
     def _stuck(self, reason: str) -> None:
