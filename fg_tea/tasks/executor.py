@@ -357,9 +357,8 @@ class TaskExecutor:
         return len(self.scenario.sites) * (math.ceil(math.log(p) / math.log(mu)) + 1) if ok else None
 
     def search_outlook(self, obj: str) -> dict:
-        """R_o (the remaining probability of finding `obj` at a reachable site), its looks, and the
-        R_o to give up below (under ``give_up = "cost"``, where F_o of eq. 58 falls to
-        ``give_up_probability``: the safety net, docs/design.md §7.8)."""
+        """R_o (the remaining probability of `obj` at a reachable site), its looks, and the R_o to give
+        up below (under the cost rule the safety net, F_o of eq. 58 below give_up_probability, §7.8)."""
         remaining, looks = self.belief.unseen_probability(obj, self.excluded_sites)
         pl = self.model.planning
         p, a = pl.give_up_probability, pl.absent_probability
@@ -386,9 +385,9 @@ class TaskExecutor:
             remaining = outlook["remaining_probability"]
             low = remaining is not None and remaining < outlook["threshold"]
             if low or (budget is not None and outlook["looks"] >= budget):
-                net = " (the safety net of the cost rule)" if self.model.planning.give_up == "cost" else ""
-                return self._given_up(obj, outlook, f"remaining probability {remaining:.3g} < "
-                                      f"{outlook['threshold']:.3g}{net}" if low else f"search budget of {budget} looks spent")
+                net = " (the safety net of the cost rule)" * (self.model.planning.give_up == "cost")
+                return self._given_up(obj, outlook, f"remaining probability {remaining:.3g} < {outlook['threshold']:.3g}{net}"
+                                      if low else f"search budget of {budget} looks spent")
         return None
 
     def _stuck(self, reason: str) -> None:
