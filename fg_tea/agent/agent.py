@@ -225,9 +225,9 @@ class Agent:
 
         A search is weighed only once its remaining probability R_o is below
         ``give_up_probability`` (from the first look with ``weigh_early``). :meth:`next_action`
-        calls it for a SEARCH action. Returns the episode's end reason (``not_found: ...``) when a search was
-        given up (the executor is then stuck, with a ``give_up`` event saying why), else None.
-        Under ``give_up = "probability"`` it does nothing.
+        calls it for a SEARCH action. Returns the episode's end reason (``not_found: ...``) when a
+        search was given up (the executor is then stuck, with a ``give_up`` event saying why),
+        else None. Under ``give_up = "probability"`` it does nothing.
         """
         planning = self.model.planning
         if planning.give_up != "cost":

@@ -363,7 +363,8 @@ class EpisodeRunner:
             self._end(REASON_FRAME_LIMIT, truncated=True)
             return self.log.events[first:]
         pose = self.env.agent_pose()  # where a search is weighed from (give-up, design §7.8)
-        action = self.agent.next_action((pose.x, pose.y), _EnvDistances(self.env, self._between, self._matrices))
+        action = self.agent.next_action((pose.x, pose.y),
+                                        _EnvDistances(self.env, self._between, self._matrices))
         self._flush_executor()
         if action is None:
             if self.executor.done:

@@ -34,9 +34,9 @@ def job_from_key(key: str, **fields: Any) -> Job:
 def _pairs(text: str | None) -> tuple[tuple[str, Any], ...]:
     """``name=value,...`` of a key back to pairs: booleans and numbers as keys spell them, and a
     value may hold commas (``unfindable=mug,teabag``): a new pair starts only at ``,name=``."""
+    items = (item.partition("=") for item in re.split(r",(?=[A-Za-z_]\w*=)", text or "") if "=" in item)
     return tuple((name, value == "True" if value in ("True", "False") else _number(value))
-                 for name, _, value in (item.partition("=") for item in re.split(r",(?=[A-Za-z_]\w*=)", text or "")
-                                        if "=" in item))
+                 for name, _, value in items)
 
 
 def _number(text: str) -> Any:
