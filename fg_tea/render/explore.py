@@ -16,7 +16,6 @@ page (``lacks``), never guessed.
 
 from __future__ import annotations
 
-import json
 import math
 from importlib import resources
 from pathlib import Path
@@ -25,6 +24,7 @@ from typing import Any, Mapping, Sequence
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_write_text
 from fg_tea.episode.log import LOG_MAX_BYTES, read_log
+from fg_tea.render.page import content_security_policy, fill, html_text, json_script
 from fg_tea.world.interface import logged_viewpoint
 
 #: Key :func:`read_episode` sets on the start event (in memory only) when the log's last line
@@ -522,27 +522,29 @@ def page_data(logs: Sequence[tuple[str, list[dict]]], video: str | None = None,
 
 
 def write_page(out: str | Path, data: Mapping[str, Any], title: str) -> Path:
-    """Write the page (data, script and styles inlined) atomically; returns its path."""
-    payload = (json.dumps(_finite(data), separators=(",", ":"), allow_nan=False)
-               .replace("</", "<\\/").replace("<!--", "<\\u0021--"))
-    html = (_asset("page.html")
-            .replace("/*STYLE*/", _asset("explorer.css"))
-            .replace("/*SCRIPT*/", _asset("explorer.js"))
-            .replace("{{TITLE}}", _escape(title))
-            .replace("/*DATA*/", payload))
+    """Write the page (data, script and styles inlined) atomically; returns its path.
+
+    The template is filled once, each slot escaped for its context (:mod:`fg_tea.render.page`):
+    whatever the names in `data` and `title` hold, they reach the page as text.
+    """
+    script = _asset("explorer.js")
+    html = fill(_asset("page.html"), {
+        "CSP": html_text(content_security_policy(script, media=bool(data.get("video")))),
+        "TITLE": html_text(title),
+        "STYLE": _asset("explorer.css"),
+        "SCRIPT": script,
+        "DATA": json_script(_finite(data)),
+    })
     return atomic_write_text(out, html)
 
 
 def _finite(value: Any) -> Any:
-    """`value` with every infinite float (an unreachable site's distance) as the string "inf"."""
+    """`value` with every non-finite float (an unreachable site's distance) as the string "inf",
+    "-inf" or "nan" (JSON has no such numbers)."""
     if isinstance(value, float) and not math.isfinite(value):
-        return "inf" if value > 0 else "-inf"
+        return "nan" if math.isnan(value) else "inf" if value > 0 else "-inf"
     if isinstance(value, dict):
         return {k: _finite(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [_finite(v) for v in value]
     return value
-
-
-def _escape(text: str) -> str:
-    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")

@@ -10,12 +10,12 @@ flagged on the page, never silently shown.
 
 from __future__ import annotations
 
-import html
 import math
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from fg_tea.common.files import atomic_write_text
+from fg_tea.render.page import content_security_policy, fill, html_text
 from fg_tea.study.rows import Progress
 from fg_tea.study.sweep import Job, run_job
 
@@ -104,29 +104,57 @@ def write_compare_pages(jobs: Sequence[Job], rows: Sequence[Mapping[str, Any]], 
     return {"index": index, "pages": len(written), "mismatches": mismatches}
 
 
+#: The index page; :func:`fg_tea.render.page.fill` fills its slots once, each escaped for its place.
+INDEX = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8">
+<meta http-equiv="Content-Security-Policy" content="{{CSP}}">
+<title>{{TITLE}}</title>
+<style>
+body { font: 14px/1.4 system-ui, sans-serif; margin: 1.5em; color: #222; }
+table { border-collapse: collapse; } th, td { padding: 3px 10px; border-bottom: 1px solid #ddd; }
+th { text-align: left; background: #f3f3f3; position: sticky; top: 0; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+tr.mismatch { background: #fde8e8; } .note { color: #555; }
+</style></head><body>
+<h1>{{TITLE}}</h1>
+<p>{{WORLDS}} worlds; search travel (m) of every configuration, one row per world, sorted by the size
+of the difference of the pair shown side by side. Each link opens that world's two episodes in the
+explorer (a page that works from disk).</p>
+{{NOTES}}
+<table id="worlds"><thead><tr><th>world</th>{{HEAD}}</tr></thead>
+<tbody>
+{{ROWS}}
+</tbody></table>
+</body></html>
+"""
+
+
 def _index_html(entries: list[dict], configs: list[str], pair: list[str] | None, written: dict,
                 mismatches: list[int], title: str, worlds: int, pages: int) -> str:
-    e = html.escape
-    head = "".join(f"<th>{e(c)}</th>" for c in configs)
+    """The index page: every value escaped as HTML text (:func:`html_text`) before it is
+    assembled into its slot; the page runs no script."""
+    e = html_text
     houses = any(r.get("house_sites") for x in entries for r in x["cells"].values())
-    diff_head = f"<th>{e(pair[1])} − {e(pair[0])} (m)</th><th>first differing decision</th>" if pair else ""
+    head = ("<th>sites</th>" if houses else "") + "".join(f"<th>{e(c)}</th>" for c in configs)
+    if pair:
+        head += f"<th>{e(pair[1])} − {e(pair[0])} (m)</th><th>first differing decision</th>"
     body = []
     for entry in entries:
         cells = "".join(
             f"<td class=num>{x:.2f}</td>" if (x := _number(entry['cells'].get(c, {}).get(MEASURE))) is not None
             else "<td>—</td>" for c in configs)
+        seed = e(entry["seed"])
         page = written.get(entry["seed"])
-        link = (f"<a href=\"{e(page['page'])}\">world {entry['seed']}</a>" if page
-                else f"world {entry['seed']}")
+        link = f"<a href=\"{e(page['page'])}\">world {seed}</a>" if page else f"world {seed}"
         house = next((r.get("house_sites") for r in entry["cells"].values() if r.get("house_sites")), "")
         extra = ""
         if pair:
             d = entry["diff"]
             differ = ("—" if page is None else
-                      f"decision {page['differ']}" if page["differ"] else "same choices")
+                      f"decision {e(page['differ'])}" if page["differ"] else "same choices")
             extra = (f"<td class=num>{d:+.2f}</td>" if d is not None else "<td>—</td>") + f"<td>{differ}</td>"
         flag = " class=mismatch" if entry["seed"] in mismatches else ""
-        sites = f"<td class=num>{house}</td>" if houses else ""
+        sites = f"<td class=num>{e(house)}</td>" if houses else ""
         body.append(f"<tr{flag}><td>{link}</td>{sites}{cells}{extra}</tr>")
     notes = []
     if pair and pages < sum(1 for x in entries if x["diff"] is not None):
@@ -137,23 +165,6 @@ def _index_html(entries: list[dict], configs: list[str], pair: list[str] | None,
                      + ", ".join(map(str, mismatches)) + " (marked): the CSV is from other code.")
     if not pair:
         notes.append("One configuration only: there is no pair to show side by side.")
-    return f"""<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>{e(title)}</title>
-<style>
-body {{ font: 14px/1.4 system-ui, sans-serif; margin: 1.5em; color: #222; }}
-table {{ border-collapse: collapse; }} th, td {{ padding: 3px 10px; border-bottom: 1px solid #ddd; }}
-th {{ text-align: left; background: #f3f3f3; position: sticky; top: 0; }}
-td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}
-tr.mismatch {{ background: #fde8e8; }} .note {{ color: #555; }}
-</style></head><body>
-<h1>{e(title)}</h1>
-<p>{worlds} worlds; search travel (m) of every configuration, one row per world, sorted by the size
-of the difference of the pair shown side by side. Each link opens that world's two episodes in the
-explorer (a page that works from disk).</p>
-{''.join(f'<p class=note>{e(n)}</p>' for n in notes)}
-<table id="worlds"><thead><tr><th>world</th>{'<th>sites</th>' if houses else ''}{head}{diff_head}</tr></thead>
-<tbody>
-{chr(10).join(body)}
-</tbody></table>
-</body></html>
-"""
+    return fill(INDEX, {"CSP": e(content_security_policy()), "TITLE": e(title), "WORLDS": e(worlds),
+                        "NOTES": "".join(f"<p class=note>{e(n)}</p>" for n in notes),
+                        "HEAD": head, "ROWS": "\n".join(body)})
