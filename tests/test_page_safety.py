@@ -174,3 +174,26 @@ def test_commands_write_safe_pages_from_a_hostile_model_and_label(browser, tmp_p
     assert_nothing_ran(page, problems)
     assert "m<img" in page.inner_text("#worlds thead")  # the model's name, shown as text
     page.close()
+
+
+def test_a_log_too_large_for_a_page_is_refused_before_it_is_read(tmp_path, capsys):
+    from fg_tea.render.explore import EXPLORE_LOG_MAX_BYTES
+
+    log = tmp_path / "big.jsonl"
+    with log.open("wb") as f:  # sparse: nothing is written, the size is what is checked
+        f.truncate(EXPLORE_LOG_MAX_BYTES + 1)
+    assert main(["explore", str(log)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "big.jsonl: size:" in err and "64 MB" in err
+    assert not (tmp_path / "big.html").exists()
+
+
+def test_a_page_over_its_cap_is_refused_and_nothing_written(episode, tmp_path, monkeypatch):
+    import fg_tea.render.explore as explore
+    from fg_tea.common.errors import InputError
+
+    data = explore.page_data([("episode.jsonl", episode)])
+    monkeypatch.setattr(explore, "PAGE_MAX_BYTES", 10_000)
+    with pytest.raises(InputError, match="above the 0 MB a page may hold"):
+        explore.write_page(tmp_path / "p.html", data, "t")
+    assert not (tmp_path / "p.html").exists()

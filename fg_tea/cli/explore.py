@@ -39,7 +39,7 @@ def check_video(video: Path, flag: str = "--video") -> float:
 @command("explore")
 def cmd_explore(args: argparse.Namespace) -> int:
     """Write one self-contained HTML page that steps through one episode, or two side by side."""
-    from fg_tea.render.explore import page_data, read_episode, same_world, write_page
+    from fg_tea.render.explore import check_log_size, page_data, read_episode, same_world, write_page
 
     if len(args.logs) > 2:
         raise InputError("<command line>", "LOG", f"one or two logs, got {len(args.logs)}")
@@ -53,6 +53,8 @@ def cmd_explore(args: argparse.Namespace) -> int:
     for given, flag in [(name, "LOG") for name in args.logs] + ([(args.video, "--video")] if args.video else []):
         if Path(given).exists() and out.exists() and os.path.samefile(given, out):
             raise InputError("<command line>", "--out", f"{out} is the input {flag} itself: name another file")
+    for name in args.logs:
+        check_log_size(name)
     logs = [(name, read_episode(name)) for name in args.logs]
     if len(logs) == 2 and (why := same_world(logs[0][1], logs[1][1])):
         raise InputError(args.logs[1], "episode_start", f"not an episode of the same world as "
@@ -91,7 +93,8 @@ def add_parser(sub) -> None:
                        "graph, hidden states and entropies over time, and the video frame of each "
                        "step when --video is given. With two logs of the same world (factorised "
                        "and joint, or two planners) the page shows both side by side and marks the "
-                       "first decision where their choices differ.")
+                       "first decision where their choices differ. Logs over 64 MB are refused (a page "
+                       "about twice its log's size is more than a browser opens well).")
     p.add_argument("logs", nargs="+", metavar="LOG", help="episode log (episode.jsonl); a second of the same world to compare")
     p.add_argument("--video", default=None, metavar="MP4",
                    help="the episode's video (of the first log), shown at each step's time; the page "

@@ -30,6 +30,11 @@ from fg_tea.world.interface import logged_viewpoint
 #: Key :func:`read_episode` sets on the start event (in memory only) when the log's last line
 #: was not whole JSON and was left out.
 PARTIAL = "_explorer_partial_last_line"
+#: The largest log the explorer reads (bytes): its page would be about twice as large, more than
+#: a browser opens comfortably. Checked before the log is read.
+EXPLORE_LOG_MAX_BYTES = 64 * 1024 ** 2
+#: The largest page the explorer writes (bytes of its embedded data).
+PAGE_MAX_BYTES = 96 * 1024 ** 2
 #: Version of the page's data layout (the ``format`` of the embedded JSON).
 PAGE_FORMAT = 1
 #: How far (m) above its centre vantage a room's name is written on the plan.
@@ -521,19 +526,35 @@ def page_data(logs: Sequence[tuple[str, list[dict]]], video: str | None = None,
     return data
 
 
+def check_log_size(path: str | Path) -> None:
+    """Refuse, in one line, a log too large for a page a browser can open (before reading it)."""
+    size = Path(path).stat().st_size if Path(path).is_file() else 0
+    if size > EXPLORE_LOG_MAX_BYTES:
+        raise InputError(path, "size", f"{size / 2 ** 20:.0f} MB: the explorer reads logs of up to "
+                                       f"{EXPLORE_LOG_MAX_BYTES // 2 ** 20} MB (a page about twice the log's "
+                                       "size is more than a browser opens well); render its video instead")
+
+
 def write_page(out: str | Path, data: Mapping[str, Any], title: str) -> Path:
     """Write the page (data, script and styles inlined) atomically; returns its path.
+
+    Raises:
+        InputError: the page's data would exceed ``PAGE_MAX_BYTES``.
 
     The template is filled once, each slot escaped for its context (:mod:`fg_tea.render.page`):
     whatever the names in `data` and `title` hold, they reach the page as text.
     """
     script = _asset("explorer.js")
+    payload = json_script(_finite(data))
+    if len(payload) > PAGE_MAX_BYTES:
+        raise InputError(out, "page", f"its data would take {len(payload) / 2 ** 20:.0f} MB, above the "
+                                      f"{PAGE_MAX_BYTES // 2 ** 20} MB a page may hold: explore a shorter episode")
     html = fill(_asset("page.html"), {
         "CSP": html_text(content_security_policy(script, media=bool(data.get("video")))),
         "TITLE": html_text(title),
         "STYLE": _asset("explorer.css"),
         "SCRIPT": script,
-        "DATA": json_script(_finite(data)),
+        "DATA": payload,
     })
     return atomic_write_text(out, html)
 
