@@ -10,6 +10,10 @@ from fg_tea.cli.common import check_scenario, command
 from fg_tea.common.errors import InputError
 from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 
+#: What `fg-tea run` uses when not told otherwise; a model file is checked against them.
+DEFAULT_TASK = "make_tea"
+DEFAULT_PLANNER = "efe"
+
 
 def file_kind(path: Path, data: object | None) -> str:
     """Which kind of input file this is: ``model``, ``camera``, ``scenario``, ``task`` or ``world``.
@@ -41,8 +45,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
     Each file gets every check a run would make: a scenario is also laid out on the occupancy
     grid with the navigator and given an exact belief under ``--model``; a task is checked
-    against ``--scenario`` (itself given the scenario checks) and ``--model``; a world distribution's base scenario is checked and
-    one world is drawn.
+    against ``--scenario`` (itself given the scenario checks) and ``--model``; a model is checked
+    as ``fg-tea run --model`` would check it, against ``--scenario`` (default: the default
+    apartment) and ``--task`` (default: make_tea), with the default camera of its detector and the
+    default planner (:func:`check_model_runs`); a world distribution's base scenario is checked
+    and one world is drawn.
     """
     from fg_tea.common.inputs import read_json, read_toml
     from fg_tea.env.camera import parse_camera
@@ -55,7 +62,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
         if kind == "camera":
             parse_camera(data, path)
         elif kind == "model":
-            load_model(path)
+            check_model_runs(load_model(path), args.scenario or DEFAULT_SCENARIO, args.task)
         elif kind == "task":
             from fg_tea.tasks.load import parse_task
 
@@ -78,6 +85,35 @@ def cmd_validate(args: argparse.Namespace) -> int:
             check_scenario(scenario, load_model(args.model))
         print(f"{path}: ok ({kind})")
     return 0
+
+
+def check_model_runs(model, scenario_ref: str, task_ref: str) -> None:
+    """The checks ``fg-tea run --model MODEL SCENARIO --task TASK`` makes before its first step:
+    the default camera of the model's detector, the scenario under the model (grid, navigator,
+    exact belief), the task under both, and the default planner's size limits.
+
+    Raises:
+        InputError: a fault of the scenario or task file as such, as is; a task the model cannot
+            run, naming the model file, the task and the task's own one-line fault.
+    """
+    from fg_tea.cli.common import planner_size_fault
+    from fg_tea.episode.runner import env_config_for
+    from fg_tea.tasks.load import load_task
+    from fg_tea.world.scenario import load_scenario
+
+    scenario = load_scenario(scenario_ref)
+    env_config_for(model, None)
+    check_scenario(scenario, model)
+    try:
+        graph = load_task(task_ref, model, scenario)
+    except InputError as exc:
+        raise InputError(model.source, "$", f"fg-tea run --model with task {task_ref!r} in scenario "
+                         f"{scenario.name!r} would refuse it (validate --task/--scenario check "
+                         f"another pair): {exc}") from None
+    fault = planner_size_fault(DEFAULT_PLANNER, scenario, graph, model)
+    if fault is not None:
+        raise InputError(model.source, "$", f"with task {task_ref!r} in scenario "
+                         f"{scenario.name!r}: {fault}")
 
 
 def _scenario_for_task(data: object) -> str:
@@ -121,13 +157,21 @@ def _validate_targets(name: str) -> list[Path]:
 def add_parser(sub) -> None:
     p = sub.add_parser("validate", help="check scenario, model, camera, task and world files",
                        description="Check each file with every check a run makes before its first "
-                       "step; print one line per file. The kind is recognised by content. A bundled "
-                       "name (see fg-tea list) checks every bundled file of that name.")
+                       "step; print one line per file. The kind is recognised by content. A model "
+                       "is checked as fg-tea run --model checks it, with --task in --scenario (by "
+                       "default make_tea in the default apartment); a task with --model in "
+                       "--scenario; a scenario or world with --model. A bundled name (see fg-tea "
+                       "list) checks every bundled file of that name.")
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="scenario (.json), model or camera (.toml), task or world file, or a "
                    "bundled name")
     p.add_argument("--scenario", default=None,
-                   help="scenario to check task files against (default: the default apartment, or "
-                   "the first bundled scenario holding every object the task names)")
+                   help="scenario to check task and model files against (default: the default "
+                   "apartment; for a task file, the first bundled scenario holding every object "
+                   "the task names if the default apartment lacks one)")
+    p.add_argument("--task", default=DEFAULT_TASK,
+                   help="task to check model files against, in --scenario, with the default camera "
+                   "of the model's detector and the default planner, as fg-tea run does "
+                   "(default: %(default)s)")
     p.add_argument("--model", default=DEFAULT_MODEL,
                    help="model to check scenario, task and world files against (default: %(default)s)")

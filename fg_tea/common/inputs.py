@@ -292,6 +292,21 @@ def _walk_check(data: Any, file: str | Path) -> None:
             raise InputError(file, path, f"expected a finite number, got {value}")
 
 
+def refuse_null(data: Any, file: str | Path, what: str) -> None:
+    """Refuse any JSON ``null`` in `data`: in a task or world file no field takes null, and a
+    reader would otherwise take it for the field left out (its default), silently."""
+    stack = [(data, "$")]
+    while stack:
+        value, path = stack.pop()
+        if value is None:
+            raise InputError(file, path, f"null is not a value of any field of a {what} file; leave "
+                             "the field out for its default")
+        if isinstance(value, dict):
+            stack.extend((v, f"{path}.{k}") for k, v in reversed(list(value.items())))
+        elif isinstance(value, list):
+            stack.extend((v, f"{path}[{i}]") for i, v in reversed(list(enumerate(value))))
+
+
 def _check_text(text: str, file: str | Path, path: str) -> None:
     try:
         text.encode("utf-8")

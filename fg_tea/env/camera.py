@@ -119,8 +119,11 @@ def parse_camera(data: dict, file: str | Path = "<camera>") -> Camera:
     if detector == "threshold" and curve_r is not None:
         raise c.fail("has no effect with the threshold detector; remove it or use "
                      "detector = \"visibility\"", "visibility")
-    curve = (read_curve(curve_r) if curve_r is not None else VisibilityCurve()) \
-        if detector == "visibility" else None
+    if detector == "visibility" and curve_r is None:
+        raise c.fail("missing: the visibility detector draws each detection from this curve "
+                     "(half_pixels, slope, max_probability; the bundled cameras/visibility.toml "
+                     "has one)", "visibility")
+    curve = read_curve(curve_r) if curve_r is not None else None
     camera = Camera(name=name, detector=detector, min_visible_pixels=pixels,
                     site_association=c.opt("site_association", bool, True),
                     site_association_radius=c.positive("site_association_radius", 0.45),

@@ -18,6 +18,7 @@ from typing import Any, Mapping
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import Reader, read_toml
+from fg_tea.model.checks import check_model
 from fg_tea.model.learning import Learning, apply_to_sensors, read_learning
 from fg_tea.world.visibility import DETECTORS, VisibilityCurve, read_curve
 
@@ -386,9 +387,6 @@ def parse_model(data: dict, file: str | Path = "<model>",
             if planning_r.has(name) and here and (name != "weigh_early" or planning.weigh_early):
                 raise planning_r.fail('has no effect with give_up = "probability" (only the cost '
                                       'rule weighs; docs/design.md §7.8)', name)
-    if not 0.0 < planning.absent_probability < 1.0:
-        raise planning_r.fail("must lie strictly between 0 and 1 (the chance an object cannot be "
-                              "found at all)", "absent_probability")
     if planning.max_inspections_per_object < 0:
         raise planning_r.fail("must be 0 (automatic) or more, got "
                               f"{planning.max_inspections_per_object}", "max_inspections_per_object")
@@ -406,10 +404,7 @@ def parse_model(data: dict, file: str | Path = "<model>",
     relations = tuple(_read_relation(x) for x in r.items("relations", required=False))
     if structure == "factorised" and relations:
         raise r.fail("relational factors need structure = \"joint\"", "relations")
-    miss = detection.probability("miss_likelihood")
-    if miss <= 0:
-        raise detection.fail("a miss likelihood of 0 makes a missed detection impossible; "
-                             "use a small positive value", "miss_likelihood")
+    miss = detection.probability("miss_likelihood")  # its ranges: fg_tea.model.checks
     detector = perception.choice("detector", DETECTORS, "threshold")
     # The model says what the agent assumes; the camera file says what the camera does
     # (docs/design.md §1.3). Keys that used to set the camera from here are refused by name.
@@ -453,8 +448,6 @@ def parse_model(data: dict, file: str | Path = "<model>",
             declared_sensors = MappingProxyType(dict(sensors))
             sensors = learned
     floor = beliefs.probability("prior_floor")
-    if floor <= 0:
-        raise beliefs.fail("the prior floor must be positive (eq. 2)", "prior_floor")
     name = r.req("name", str)
     if not name.strip():
         raise r.fail("a model name must not be empty", "name")
@@ -483,6 +476,7 @@ def parse_model(data: dict, file: str | Path = "<model>",
         declared_sensors=declared_sensors,
     )
     r.finish()
+    check_model(model, r)
     return model
 
 

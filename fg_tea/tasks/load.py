@@ -68,7 +68,7 @@ import re
 from pathlib import Path
 
 from fg_tea.common.errors import InputError
-from fg_tea.common.inputs import Reader, _suggest, read_json
+from fg_tea.common.inputs import Reader, _suggest, read_json, refuse_null
 from fg_tea.common.resources import resolve_task
 from fg_tea.model.spec import Condition, Effect, Model
 from fg_tea.tasks.actions import RecoveryPolicy, TaskAction
@@ -385,6 +385,7 @@ def parse_task(data: object, model: Model, scenario: Scenario, preparation_site:
     r = Reader(data, file)
     if not isinstance(data, dict):
         raise r.fail("a task must be a JSON object")
+    refuse_null(data, file, "task")
     top = ("name", "description", "declares_states", "actions")
     for key in data:
         if key not in top:

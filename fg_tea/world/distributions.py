@@ -31,7 +31,7 @@ from typing import Mapping
 import numpy as np
 
 from fg_tea.common.errors import InputError
-from fg_tea.common.inputs import Reader, read_json
+from fg_tea.common.inputs import Reader, read_json, refuse_null
 from fg_tea.world.scenario import Scenario, load_scenario, parse_scenario
 
 #: Entropy tag of the random stream that draws a generated world's room count.
@@ -197,6 +197,7 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
     r = Reader(data, file)
     if not isinstance(data, dict):
         raise r.fail("a world distribution must be a JSON object")
+    refuse_null(data, file, "world distribution")
     generate = None
     if r.has("generate"):
         if r.has("base_scenario"):

@@ -27,6 +27,12 @@ if TYPE_CHECKING:
     from fg_tea.common.inputs import Reader
 
 DETECTORS = ("threshold", "visibility")
+#: Smallest half-probability pixel count n_50: a count of pixels, so below one pixel every object
+#: in view would be seen with P near p_max, whatever its size or distance.
+MIN_HALF_PIXELS = 1.0
+#: Smallest slope s: at 0.1, P(seen) changes less than two-fold from 1 to 10^6 pixels; a flatter
+#: curve no longer depends on how much of the object the camera sees.
+MIN_SLOPE = 0.1
 
 
 @dataclass(frozen=True)
@@ -86,7 +92,7 @@ def read_curve(r: "Reader", base: VisibilityCurve | None = None) -> VisibilityCu
         base: the curve whose values are kept where the table is silent (default: the defaults).
     """
     d = base or VisibilityCurve()
-    half, slope = r.positive("half_pixels", d.half_pixels), r.positive("slope", d.slope)
+    half, slope = _half_pixels(r, d.half_pixels), _slope(r, d.slope)
     categories = dict(d.categories)
     cats = r.child("categories", required=False)
     if cats is not None:
@@ -95,12 +101,28 @@ def read_curve(r: "Reader", base: VisibilityCurve | None = None) -> VisibilityCu
             # A category inherits what it does not set: its own earlier values, else this
             # curve's (so half_pixels alone keeps the curve's slope).
             default = categories.get(name) or CurveParams(half, slope)
-            categories[name] = CurveParams(c.positive("half_pixels", default.half_pixels),
-                                           c.positive("slope", default.slope))
+            categories[name] = CurveParams(_half_pixels(c, default.half_pixels),
+                                           _slope(c, default.slope))
     max_p = r.probability("max_probability", d.max_probability)
     if max_p <= 0:
         raise r.fail("max_probability must be positive, or nothing is ever seen", "max_probability")
     return VisibilityCurve(half, slope, max_p, MappingProxyType(categories))
 
+def _half_pixels(r: "Reader", default: float) -> float:
+    half = r.positive("half_pixels", default)
+    if half < MIN_HALF_PIXELS:
+        raise r.fail(f"must be at least {MIN_HALF_PIXELS:g} pixel, got {half:g} (n_50 counts "
+                     "pixels: below one, every object in view is seen as if it filled the image)",
+                     "half_pixels")
+    return half
 
-__all__ = ["DETECTORS", "CurveParams", "VisibilityCurve", "read_curve"]
+
+def _slope(r: "Reader", default: float) -> float:
+    slope = r.positive("slope", default)
+    if slope < MIN_SLOPE:
+        raise r.fail(f"must be at least {MIN_SLOPE:g}, got {slope:g} (a flatter curve hardly "
+                     "depends on the pixel count: P(seen) would be the same near and far)", "slope")
+    return slope
+
+
+__all__ = ["DETECTORS", "MIN_HALF_PIXELS", "MIN_SLOPE", "CurveParams", "VisibilityCurve", "read_curve"]
