@@ -32,7 +32,7 @@ from fg_tea.beliefs.engine import BeliefEngine, LookUpdate
 from fg_tea.beliefs.occlusion import CompanyTable
 from fg_tea.model.spec import Model
 from fg_tea.planning import Decision, DistanceModel, distances_for, make_planner
-from fg_tea.planning.base import Planner
+from fg_tea.planning.base import Planner, accept_decision, call_planner
 from fg_tea.tasks.actions import TaskAction
 from fg_tea.tasks.executor import (
     MAX_REOPENINGS,
@@ -192,8 +192,10 @@ class Agent:
             The decision: the chosen viewpoint and every candidate with its terms.
 
         Raises:
-            TypeError / ValueError: a planner returned something that is not a decision among
-                this house's viewpoints.
+            TypeError / ValueError: the planner's decision breaks the Planner contract
+                (:func:`fg_tea.planning.base.accept_decision`: not a decision, a choice outside
+                its candidates, a NaN, an unknown viewpoint or object).
+            RuntimeError: the planner raised a ``BaseException`` of its own (not an interrupt).
         """
         if self.views is None:
             raise ValueError(f"model {self.model.name!r} needs the view geometry before deciding: "
@@ -207,15 +209,10 @@ class Agent:
         # per-category reliabilities (eq. 51) the planner scores them through the views.
         views = None if self.model.close_looks_only and not learned else self.views
         extra = {"views": views} if views is not None else {}
-        decision = self.planner.choose(self.belief, objects, self.executor.search_relevance(),
-                                       distances, dict(self.inspected),
-                                       frozenset(self.executor.excluded_sites), **extra)
-        if not isinstance(decision, Decision):
-            raise TypeError(f"planner {self.planner_spec!r} returned a "
-                            f"{type(decision).__name__}, not a fg_tea.planning.Decision")
-        if decision.viewpoint not in self.views.names:
-            raise ValueError(f"planner {self.planner_spec!r} chose viewpoint {decision.viewpoint!r}, "
-                             f"which this house does not have (known: {', '.join(self.views.names)})")
+        decision = call_planner(self.planner_spec, self.planner.choose, self.belief, objects,
+                                self.executor.search_relevance(), distances, dict(self.inspected),
+                                frozenset(self.executor.excluded_sites), **extra)
+        decision = accept_decision(decision, self.planner_spec, self.views.names, objects)
         self.last_decision = decision
         return decision
 

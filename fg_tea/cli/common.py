@@ -43,6 +43,33 @@ class Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+class Failed(Exception):
+    """A command that ran and failed for a reason that is not the user's input (a fault of
+    fg_tea's own, a job of a sweep): :func:`fg_tea.cli.main.main` prints its message in one line
+    and exits with status 1 (see :data:`EXIT_STATUS`)."""
+
+
+#: The exit statuses every command shares (the --help epilogs of run and compare end with it).
+EXIT_STATUS = ("2 for bad input, in one line: a file, field or option at fault, or a fault of a "
+               "plug-in planner (it raised or exited, or its decision broke the Planner contract)")
+
+
+def plugin_planner(name: str) -> bool:
+    """Whether `name` names a plug-in planner (an entry point, ``module:attribute`` or a name
+    registered in this process), whose faults are the user's input, not fg_tea's."""
+    from fg_tea.planning import is_family_spec, planner_names
+
+    return name not in planner_names() and not is_family_spec(name)
+
+
+def out_path(text: str) -> str:
+    """An argparse type for ``--out``: a path, never an empty string (which would otherwise mean
+    the current folder to some commands and the default to others)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("empty; name a path, or leave --out out for the default")
+    return text
+
+
 def integer(lo: int, hi: int | None = None):
     """An argparse type: an integer in [lo, hi]."""
     def parse(text: str) -> int:
@@ -287,13 +314,22 @@ def planner_size_fault(planner: str, scenario, graph, model) -> str | None:
     from fg_tea.common.errors import PlannerRefused
     from fg_tea.planning import make_planner
 
+    from fg_tea.planning.base import call_planner
+
     objects = [graph.action(n).object for n in graph.search_nodes()]
+    built = make_planner(planner, model, rng=np.random.default_rng(0))
     try:
-        make_planner(planner, model, rng=np.random.default_rng(0)).check(
-            BeliefEngine(scenario, model), list(dict.fromkeys(objects)))
+        call_planner(planner, built.check, BeliefEngine(scenario, model), list(dict.fromkeys(objects)))
     except PlannerRefused as exc:
         reason = str(exc).removeprefix(f"{exc.planner} planner: ")
         return f"the {exc.planner} planner refuses this house ({exc.kind}): {reason}"
+    except (Exception, SystemExit) as exc:  # a plug-in's own check() failed: the user's input
+        if not plugin_planner(planner):
+            raise
+        first = (str(exc).splitlines() or [""])[0]
+        what = (f"called exit({exc.code!r})" if isinstance(exc, SystemExit)
+                else f"raised {type(exc).__name__}" + (f": {first}" if first else ""))
+        raise InputError("<command line>", f"--planner {planner}", f"its check() {what}") from None
     return None
 
 

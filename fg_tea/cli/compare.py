@@ -9,17 +9,21 @@ from pathlib import Path
 
 from fg_tea.cli.common import (
     CAMERA_HELP,
+    EXIT_STATUS,
     MAX_SEED,
+    Failed,
     check_out_dir,
     check_scenario,
     command,
     integer,
+    out_path,
     planner_name,
     planner_size_fault,
+    plugin_planner,
     remove_outputs,
     safe_name,
 )
-from fg_tea.common.errors import InputError
+from fg_tea.common.errors import InputError, PlannerFault
 from fg_tea.study.seeds import add_episode_seed_argument, episode_seed_scheme
 from fg_tea.common.files import (
     check_outputs_in,
@@ -28,6 +32,15 @@ from fg_tea.common.files import (
 #: Files `compare` writes besides episodes.csv (fg_tea.study.report.comparison_report).
 COMPARE_REPORT_OUTPUTS = ("summary.md", "summary.csv", "paired.csv", "paired.png",
                           "ratio_to_optimal.png", "travel_inspections.png", "entropy.png")
+
+
+#: What `fg-tea compare`'s exit status says (its --help epilog; docs/reference/cli.md shows it).
+COMPARE_EXIT_STATUS = ("Exit status: 0 when every episode ran and the report is written (episodes "
+                       "that did not complete their task are results, rows of episodes.csv); 1 when "
+                       "a job failed for a reason that is not the input (an error in fg_tea or a "
+                       "built-in planner, a worker that died): one line naming the job, and the "
+                       "finished episodes stay in OUT/episodes.csv for a resume; " + EXIT_STATUS
+                       + "; a damaged OUT/episodes.csv is bad input too.")
 
 
 # ------------------------------------------------------------ compare (docs/design.md §11)
@@ -108,9 +121,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
         rows = run_sweep(jobs, csv_path, args.executor, workers=args.workers or None,
                          address=args.address, resume=args.resume, label="compare")
     except SweepError as exc:
-        sys.stderr.write(f"fg-tea: error: {exc} (finished episodes are in {csv_path}; "
-                         "run again to resume)\n")
-        return 1
+        kept = f"finished episodes are in {csv_path}; run again to resume"
+        cause = exc.cause
+        if isinstance(cause, PlannerFault) and plugin_planner(cause.planner):  # the user's input
+            raise InputError("<command line>", f"--planners {cause.planner}", f"{cause} ({kept}), "
+                             f"in job {exc.job.key}") from None
+        raise Failed(f"{exc} ({kept})") from None
     shown = os.path.relpath(out) if not os.path.relpath(out).startswith("..") else str(out)
     command = shlex.join(["fg-tea", "compare", "--world", args.world, "--worlds", str(n_worlds),
                           "--models", *args.models, "--planners", *planners, "--first-seed",
@@ -261,7 +277,8 @@ def add_parser(sub) -> None:
                        "(headless), then write OUT/episodes.csv (one row per episode), OUT/summary.md "
                        "(means, 95% CIs, paired differences, ratio to the Bayes-optimal planner, "
                        "ablations when other models are given) and PNG plots. Episodes already in "
-                       "OUT/episodes.csv are not run again (--no-resume starts afresh).")
+                       "OUT/episodes.csv are not run again (--no-resume starts afresh).",
+                       epilog=COMPARE_EXIT_STATUS)
     add_compare_arguments(p)
 
 
@@ -297,9 +314,9 @@ def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) ->
                    f"with --quick: {' '.join(COMPARE_QUICK_PLANNERS)})")
     add_execution_arguments(p, "episodes.csv")
     if out is None:
-        p.add_argument("--out", help="output folder (default: runs/compare-WORLD)")
+        p.add_argument("--out", type=out_path, help="output folder (default: runs/compare-WORLD)")
     else:
-        p.add_argument("--out", default=out, help="output folder (default: %(default)s)")
+        p.add_argument("--out", type=out_path, default=out, help="output folder (default: %(default)s)")
     p.add_argument("--pages", type=integer(0, MAX_WORLDS), default=20, metavar="N",
                    help="side-by-side explorer pages (fg-tea explore) of the N worlds whose pair "
                    "(the first two models, or planners) differs most in search travel, linked from "

@@ -1,7 +1,11 @@
 """The `fg-tea` command line: a thin wrapper over the package's public API.
 
-Every input fault (scenario, model or task file; bad option) is printed as one line naming the
-file, the field and what is wrong, and the command exits with status 2.
+Exit statuses, the same for every command: 0 when the command did what it was asked; 1 when it
+ran and failed for a reason that is not the user's input (an episode that ended without completing
+its task, a sweep job that failed, a fault of a built-in planner), in one line; 2 for bad input:
+every input fault (scenario, model or task file; bad option; a plug-in planner that raises, exits
+or breaks the Planner contract) is printed as one line naming the file, the field and what is
+wrong; 130 when interrupted.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import fg_tea.cli.learn as learn
 import fg_tea.cli.list as listing
 import fg_tea.cli.run as run
 import fg_tea.cli.validate as validate
-from fg_tea.cli.common import COMMANDS, Parser
+from fg_tea.cli.common import COMMANDS, Failed, Parser
 from fg_tea.common.errors import InputError
 from fg_tea.common.options import DeprecatedAlias, check_aliases
 
@@ -79,6 +83,9 @@ def main(argv: Sequence[str] | None = None,
     except InputError as exc:
         _error(str(exc) + "".join(f" (note: {n})" for n in notes))
         return 2
+    except Failed as exc:
+        _error(str(exc) + "".join(f" (note: {n})" for n in notes))
+        return 1
     except BrokenPipeError:
         # The reader of our output went away (``fg-tea ... | head``): end quietly.
         _silence_stdout()

@@ -8,8 +8,10 @@ from pathlib import Path
 
 from fg_tea.cli.common import (
     CAMERA_HELP,
+    EXIT_STATUS,
     MAX_SEED,
     MODEL_HELP,
+    Failed,
     Progress,
     add_solver_argument,
     add_video_options,
@@ -20,8 +22,10 @@ from fg_tea.cli.common import (
     failure_rates,
     frames_progress,
     integer,
+    out_path,
     planner_name,
     planner_size_fault,
+    plugin_planner,
     remove_outputs,
     safe_name,
     summary,
@@ -38,8 +42,8 @@ from fg_tea.common.resources import DEFAULT_MODEL, DEFAULT_SCENARIO
 RUN_EXIT_STATUS = ("Exit status: 0 when the task is complete; 1 when the episode ended without "
                    "completing it: the frame limit (--max-frames) was reached, an object was not "
                    "found, or an action could not be carried out (the summary and the log's "
-                   "episode_end say which; the log, timings and video are written all the same); "
-                   "2 for bad input or a planner fault, in one line.")
+                   "episode_end say which; the log, timings and video are written all the same), "
+                   "or a built-in planner failed (a fault of fg_tea, in one line); " + EXIT_STATUS + ".")
 #: Every file `fg-tea run` writes into its output folder (stale ones are removed first).
 RUN_OUTPUTS = ("episode.jsonl", "episode.mp4", "timings.json")
 
@@ -89,6 +93,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             runner = EpisodeRunner(scenario, model, env, config, log, render=options)
             runner.run(progress)
     except PlannerFault as failed:  # the log is closed by an episode_end that says why
+        if not plugin_planner(args.planner):  # fg_tea's own planner: not the user's input
+            raise Failed(f"{failed} (the log {log_path} ends there)") from None
         raise InputError("<command line>", f"--planner {args.planner}",
                          f"{failed.what} (the log {log_path} ends there)") from None
     finally:
@@ -187,7 +193,8 @@ def add_parser(sub) -> None:
                    help="scenario file or bundled name (default: %(default)s)")
     p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=0, help="episode seed (default: %(default)s)")
-    p.add_argument("--out", help="output folder (default: runs/SCENARIO-MODEL-seedN)")
+    p.add_argument("--out", type=out_path,
+                   help="output folder (default: runs/SCENARIO-MODEL-seedN)")
     p.add_argument("--no-video", action="store_true", help="headless: write the log only")
     p.add_argument("--max-frames", type=integer(1, 10_000_000), default=50_000, help="frame limit (default: %(default)s)")
     p.add_argument("--planner", default="efe", type=planner_name,
@@ -208,7 +215,7 @@ def add_parser(sub) -> None:
 
     p = sub.add_parser("render", help="re-render the video of a logged episode")
     p.add_argument("log", help="an episode.jsonl written by fg-tea run")
-    p.add_argument("--out", help="output MP4, or PNG with --still (default: the log's name with .mp4 "
+    p.add_argument("--out", type=out_path, help="output MP4, or PNG with --still (default: the log's name with .mp4 "
                    "or .png)")
     p.add_argument("--still", type=integer(0, 10_000_000), default=None, metavar="FRAME",
                    help="write only this frame of the video (0-based) as a PNG, for pictures")
@@ -228,6 +235,6 @@ def add_parser(sub) -> None:
     p.add_argument("--camera", default=None, help=CAMERA_HELP)
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
                    help="seed of the start pose and world (default: %(default)s)")
-    p.add_argument("--out", help="output PNG (default: SCENARIO-preview.png; the floor plan goes to "
+    p.add_argument("--out", type=out_path, help="output PNG (default: SCENARIO-preview.png; the floor plan goes to "
                    "SCENARIO-preview_plan.png)")
     add_video_options(p)

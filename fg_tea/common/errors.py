@@ -85,12 +85,16 @@ class PlannerFault(RuntimeError):
     """A planner failed while deciding (it raised, exited, or returned no valid decision).
 
     The episode runner ends the episode with an ``episode_end`` whose reason says so, then raises
-    this; ``fg-tea run`` reports it in one line naming the planner (exit 2).
+    this; ``fg-tea run`` and ``compare`` report it in one line naming the planner: exit status 2
+    for a plug-in planner (the user's input), 1 for a built-in one (a fault of fg_tea).
     """
 
     def __init__(self, planner: str, what: str) -> None:
         super().__init__(f"planner {planner!r} {what}")
         self.planner, self.what = planner, what
+
+    def __reduce__(self):  # rebuilt from its two parts, so it crosses process boundaries (sweeps)
+        return (type(self), (self.planner, self.what))
 
 
 class ContradictionError(ValueError):

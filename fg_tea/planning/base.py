@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Mapping, Protocol, Sequence, runtime_checkable
+from typing import Collection, Mapping, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
@@ -241,9 +241,11 @@ class Planner(Protocol):
     close look) or, when `views` is given, any of ``views.names``, and not in `excluded_sites`.
     ``planner`` is the name written to the decision event; ``info`` holds extra scalars for the
     log. Candidates need every field of :class:`Candidate` (put your own score in ``base`` and
-    ``total``; lower is better by convention, but the runner only reads the chosen pair). The
-    runner raises ``TypeError`` for anything that is not a :class:`Decision` and ``ValueError``
-    for a viewpoint it does not know.
+    ``total``; lower is better by convention, but the runner only reads the chosen pair), and no
+    number of a decision may be NaN. :func:`accept_decision` checks all of this for every decision:
+    ``TypeError`` for anything that is not a :class:`Decision`, ``ValueError`` for a choice outside
+    its candidates, no candidates, a NaN, or a viewpoint or object it does not know; ``fg-tea run``
+    and ``compare`` report either in one line, with exit status 2.
 
     Attributes:
         name: the planner's name, as written to the log (built-in planners: their registry
@@ -319,6 +321,87 @@ def parse_settings(family: str, spec: str, kinds: Mapping[str, type]) -> dict:
     return values
 
 
+# ---------------------------------------------------------------------------------- accepting a decision
+#: Candidate fields that must be numbers (NaN is refused: the log cannot hold it).
+_NUMBER_FIELDS = ("distance", "probability", "information_gain", "relevance", "base", "total")
+
+
+def _nan(value) -> bool:
+    try:
+        return math.isnan(float(value))
+    except (TypeError, ValueError):
+        return True  # not a number at all: refused with the NaNs
+
+
+def accept_decision(decision, planner: str, viewpoints: Collection[str],
+                    objects: Sequence[str]) -> Decision:
+    """`decision` if it keeps the :class:`Planner` contract; else an error naming `planner`.
+
+    The one place a decision is checked before it is used or logged (the agent calls it for every
+    decision of every planner, built-in or plug-in: ``fg-tea run``, ``compare`` and
+    :class:`fg_tea.Agent` alike).
+
+    Args:
+        decision: what ``choose`` returned.
+        planner: the planner's name or spec, for the message.
+        viewpoints: the viewpoints the house has (site names, then room vantages).
+        objects: the objects the planner was asked about.
+
+    Raises:
+        TypeError: not a :class:`Decision`, or a candidate that is not a :class:`Candidate`.
+        ValueError: no candidates; the chosen (object, viewpoint) not among them; an object not
+            asked about or a viewpoint the house does not have; a NaN (or non-number) total,
+            candidate term or ``info`` value.
+    """
+    who = f"planner {planner!r}"
+    if not isinstance(decision, Decision):
+        raise TypeError(f"{who} returned a {type(decision).__name__}, not a fg_tea.planning.Decision")
+    if not isinstance(decision.candidates, tuple | list) or not decision.candidates:
+        raise ValueError(f"{who} returned a decision with no candidates (it must list the "
+                         "candidate it chose, at least)")
+    for i, c in enumerate(decision.candidates):
+        if not isinstance(c, Candidate):
+            raise TypeError(f"{who}: candidate {i} is a {type(c).__name__}, not a "
+                            "fg_tea.planning.Candidate")
+        bad = next((f for f in _NUMBER_FIELDS if _nan(getattr(c, f))), None)
+        if bad is not None:
+            raise ValueError(f"{who}: candidate ({c.object}, {c.viewpoint}) has a NaN {bad} "
+                             f"({getattr(c, bad)!r}); every term must be a number")
+    if not any(c.object == decision.object and c.viewpoint == decision.viewpoint
+               for c in decision.candidates):
+        raise ValueError(f"{who} chose ({decision.object}, {decision.viewpoint}), which is not "
+                         f"among its {len(decision.candidates)} candidates")
+    if _nan(decision.total):
+        raise ValueError(f"{who} returned a decision with a NaN total ({decision.total!r})")
+    if decision.object not in objects:
+        raise ValueError(f"{who} chose object {decision.object!r}, which is not one it was asked "
+                         f"about ({', '.join(objects)})")
+    if decision.viewpoint not in viewpoints:
+        raise ValueError(f"{who} chose viewpoint {decision.viewpoint!r}, which this house does not "
+                         f"have (known: {', '.join(viewpoints)})")
+    for key, value in dict(decision.info).items():
+        if isinstance(value, float) and math.isnan(value):
+            raise ValueError(f"{who}: decision info {key!r} is NaN")
+    return decision
+
+
+def call_planner(planner: str, method, *args, **kwargs):
+    """``method(*args, **kwargs)`` of a planner, with an exit of its own made an error.
+
+    ``Exception`` and ``SystemExit`` pass as they are (the episode runner reports both);
+    a ``KeyboardInterrupt`` stays an interrupt. Any other ``BaseException`` a plug-in raises
+    would end the program unreported; it becomes a ``RuntimeError`` naming `planner`.
+    """
+    try:
+        return method(*args, **kwargs)
+    except (Exception, SystemExit, KeyboardInterrupt):
+        raise
+    except BaseException as exc:
+        first = (str(exc).splitlines() or [""])[0]
+        raise RuntimeError(f"planner {planner!r} raised {type(exc).__name__}"
+                           + (f": {first}" if first else "")) from exc
+
+
 # ---------------------------------------------------------------------------------- shared checks
 def check_inputs(belief, objects: Sequence[str], relevance: Mapping[str, float],
                  excluded_sites: frozenset[str], views=None) -> tuple[list[int], list[int]]:
@@ -373,4 +456,4 @@ def most_relevant(objects: Sequence[str], relevance: Mapping[str, float]) -> str
 
 __all__ = ["DistanceModel", "DistanceTable", "euclidean_distances", "distance_vector",
            "distance_matrix", "Candidate", "Decision", "Planner", "PlannerBase", "check_inputs",
-           "repeat_counts", "most_relevant"]
+           "repeat_counts", "most_relevant", "accept_decision", "call_planner"]

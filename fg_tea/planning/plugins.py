@@ -207,7 +207,7 @@ def build(name: str, model, rng, builtin: Sequence[str] = ()) -> Any:
         rng: the episode's planner Generator (passed to a factory that names ``rng``).
 
     Raises:
-        PlannerSpecError: see :func:`resolve`; or the factory raised, or built no planner.
+        PlannerSpecError: see :func:`resolve`; or the factory raised or exited, or built no planner.
     """
     target = resolve(name, builtin)
     if callable(getattr(target, "choose", None)) and not inspect.isclass(target):
@@ -216,7 +216,12 @@ def build(name: str, model, rng, builtin: Sequence[str] = ()) -> Any:
         kwargs = _factory_kwargs(target, {"model": model, "rng": rng})
         try:
             planner = target(**kwargs)
-        except Exception as exc:
+        except KeyboardInterrupt:
+            raise
+        except SystemExit as exc:  # exit() as a factory (builtins:exit): never a silent success
+            raise PlannerSpecError(name, f"building planner {name!r} called exit({exc.code!r}); a "
+                                   "planner factory must return a planner, not exit") from None
+        except BaseException as exc:  # an error, or a BaseException of the plug-in's own
             first = (str(exc).splitlines() or [""])[0]
             raise PlannerSpecError(name, f"building planner {name!r} raised "
                                    f"{type(exc).__name__}: {first}") from None

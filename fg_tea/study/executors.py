@@ -22,11 +22,48 @@ def _serial(run: Run, jobs: Sequence[Any], workers: int | None, address: str | N
     for job in jobs:
         try:
             row = run(job)
-        except InputError:
+        except (InputError, KeyboardInterrupt):
             raise
-        except Exception as exc:
+        except BaseException as exc:  # SystemExit too: a job that exits has failed, not succeeded
             raise SweepError(job, exc) from exc
         yield row
+
+
+class JobFailed(RuntimeError):
+    """A worker's error that could not cross back to this process as itself (it cannot be
+    pickled, or rebuilt from its pickle): its type's name and its message, so nothing is lost
+    but the object."""
+
+    def __init__(self, kind: str, message: str) -> None:
+        super().__init__(message)
+        self.kind = kind
+
+    def __reduce__(self):
+        return (type(self), (self.kind, str(self)))
+
+
+def _portable(run: Run, job: Any) -> dict:
+    """``run(job)`` in a worker process, with every error made one the parent can unpickle.
+
+    An exception that does not survive a pickle round trip would otherwise break the whole pool
+    (``BrokenProcessPool: ... terminated abruptly``) and lose its cause; a ``BaseException``
+    (``SystemExit`` among them) would end the sweep as if it had succeeded.
+    """
+    import pickle
+
+    try:
+        return run(job)
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:
+        if isinstance(exc, Exception):
+            try:
+                pickle.loads(pickle.dumps(exc))
+            except Exception:
+                pass
+            else:
+                raise
+        raise JobFailed(type(exc).__name__, str(exc)) from None
 
 
 def _process(run: Run, jobs: Sequence[Any], workers: int | None, address: str | None) -> Iterator[dict]:
@@ -40,7 +77,7 @@ def _process(run: Run, jobs: Sequence[Any], workers: int | None, address: str | 
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=die_with_parent,
                                initargs=(os.getpid(),))  # no orphans if this process is killed
     try:
-        pending = {pool.submit(run, job): job for job in jobs}
+        pending = {pool.submit(_portable, run, job): job for job in jobs}
         while pending:
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
             for future in finished:
@@ -309,8 +346,10 @@ class SweepError(RuntimeError):
     """A job failed for a reason other than a refusal; rows finished before it are in the CSV."""
 
     def __init__(self, job: Any, cause: BaseException) -> None:
-        self.job = job
-        super().__init__(f"job {job.key} failed: {type(cause).__name__}: {cause}")
+        self.job, self.cause = job, cause
+        kind = cause.kind if isinstance(cause, JobFailed) else type(cause).__name__
+        super().__init__(f"job {job.key} failed: {kind}: {cause}")
 
 
-__all__ = ["SweepError", "local_ray", "connected_ray", "loopback_ray_env", "RAY_LOOPBACK", "RAY_DEAD_PROXY", "RAY_CONNECT_TIMEOUT_S"]
+__all__ = ["SweepError", "JobFailed", "local_ray", "connected_ray", "loopback_ray_env", "RAY_LOOPBACK",
+           "RAY_DEAD_PROXY", "RAY_CONNECT_TIMEOUT_S"]
