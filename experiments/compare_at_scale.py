@@ -86,8 +86,9 @@ from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa:
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown, ESTABLISHED)
 from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.study.seeds import (add_episode_seed_argument, check_resumable,  # noqa: E402
-                               episode_seed_scheme, recorded_argv)
+from fg_tea.study.reuse import copy_rows, match as match_reuse  # noqa: E402
+from fg_tea.study.seeds import (add_episode_seed_argument, check_episode_seeds,  # noqa: E402
+                               check_resumable, episode_seed_scheme, recorded_argv)
 from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
 from fg_tea.world.housegen import CATEGORIES  # noqa: E402
 
@@ -162,9 +163,12 @@ def build_parser() -> argparse.ArgumentParser:
                    "episode's cost with five objects")
     add_episode_seed_argument(p)
     p.add_argument("--reuse", type=Path, default=None, metavar="CSV",
-                   help="another episodes CSV: rows of this run's jobs found there (equal keys are "
-                   "equal jobs and equal rows) are copied instead of run, e.g. the one-step "
-                   "planners' episodes of a larger table beside new lookahead rows")
+                   help="another episodes CSV: its rows of this run's jobs are copied instead of "
+                   "run, e.g. the one-step planners' episodes of a larger table beside new "
+                   "lookahead rows. A row is a job's when its key is the job's, or differs only in "
+                   "the paths of generated files (another --out) that have the same name and bytes "
+                   "(fg_tea.study.reuse); stderr counts every other row under its reason and the "
+                   "jobs left to run")
     add_execution_arguments(p, "episodes.csv")
     p.add_argument("--out", type=out_folder, default=DEFAULT_OUT,
                    help="output folder; each table writes into OUT/TABLE (default: %(default)s)")
@@ -731,10 +735,9 @@ def resolve_commands(args, cells: list[dict], sets: list[SeedSet]) -> list[str]:
             if args.small_categories != ["teabag"]:
                 flags += ["--small-categories", *args.small_categories]
             tag = f"{c['size']}_n50_{float(c['half_pixels']):g}_c{float(c['strength']):g}_{c['planner']}"
-        # The houses table's models are bundled, so its discovery rows are the new run's jobs;
-        # the detectability and related tables' files live in their folder, so they run them again.
-        reuse = ["--reuse", str(table_csv)] if args.table == "houses" else []
-        flags += ["--planners", str(c["planner"]), "--timing-worlds", "0", *reuse]
+        # The discovery rows are the new run's jobs: the detectability and related tables' files
+        # are written again under the new --out, and rows match them by name and content.
+        flags += ["--planners", str(c["planner"]), "--timing-worlds", "0", "--reuse", str(table_csv)]
         flags += ["--env", args.env] if args.env != "pybullet" else []
         flags += ["--gtsam-check"] if args.gtsam_check else []
         flags += ["--episode-seeds", episode_seed_scheme(args), "--executor", "ray", "--address",
@@ -746,7 +749,7 @@ def resolve_commands(args, cells: list[dict], sets: list[SeedSet]) -> list[str]:
             f"Each cell not established whose confirmation set is smaller than its \"pairs to "
             f"resolve\": a confirmation set of that many worlds, seeds from {FRESH_FIRST_SEED} "
             "(not used by any committed table; any range disjoint from the discovery set will do, "
-            "declared before the run), this table's discovery rows copied where they can be (houses). "
+            "declared before the run), this table's discovery rows copied (--reuse). "
             "One cell per folder: each report's Holm adjustment then covers its one cell, so "
             "claims from several of these runs are judged on their confirmation p values "
             "adjusted together (Holm over the cells run; docs/design.md §11.1). Ray set-up: "
@@ -777,38 +780,6 @@ def replication_rows(cells: list[dict], sets: list[SeedSet], columns: tuple[str,
     return out
 
 
-def reuse_rows(source: Path, csv_path: Path, jobs: list[Job], resume: bool) -> int:
-    """Copy into `csv_path` the rows of `source` whose key is one of `jobs` and not yet there.
-
-    Equal keys are equal jobs, and a job's row is the same cells wherever it ran (same
-    scenario, model, planner and seeds), so a copied row is the row the job would write. Columns
-    the two files do not share are merged as a sweep merges them (empty where a row has none).
-
-    Raises:
-        InputError: `source` is not a sweep CSV.
-    """
-    wanted = {j.key for j in jobs}
-    with Path(source).open(newline="", encoding="utf-8") as fh:
-        reader = csv.DictReader(fh)
-        if not reader.fieldnames or "key" not in reader.fieldnames:
-            raise InputError(source, "key", "not an episodes CSV written by a sweep")
-        found = [row for row in reader if row.get("key") in wanted and None not in row.values()]
-    have: list[dict] = []
-    header: list[str] = []
-    if resume and csv_path.exists():
-        with csv_path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(fh)
-            header = list(reader.fieldnames or [])
-            have = [row for row in reader if None not in row.values()]
-    done = {row["key"] for row in have}
-    new = [row for row in found if row["key"] not in done]
-    if new:
-        columns = header + [c for c in new[0] if c not in header]
-        write_csv_atomic(csv_path, have + new, columns)
-    print(f"reused {len(new)} rows of {source}", file=sys.stderr)
-    return len(new)
-
-
 def main(argv=None) -> int:
     args = parse_args(argv)
     out = Path(args.out) / args.table
@@ -821,15 +792,17 @@ def main(argv=None) -> int:
     csv_path = out / "episodes.csv"
     # One episode-seed scheme per table, checked before anything is declared, copied or run.
     check_resumable(jobs, csv_path, args.resume)
-    if args.reuse is not None:
-        check_resumable(jobs, args.reuse)
+    found = None
+    if args.reuse is not None:  # its rows as this run spells their keys, checked the same way
+        found = match_reuse(args.reuse, jobs)
+        check_episode_seeds(jobs, found.keys, args.reuse)
     if sets:  # declared before any episode runs; a folder keeps its declaration
         declare_seed_sets(out, sets)
     if args.table == "related":
         check_derivation(out, args.derive_worlds, declare=True)
     out.mkdir(parents=True, exist_ok=True)
-    if args.reuse is not None:
-        reuse_rows(args.reuse, csv_path, jobs, args.resume)
+    if found is not None:
+        copy_rows(found, jobs, csv_path, args.resume)
     before = 0
     if args.resume and csv_path.exists():
         with csv_path.open(newline="", encoding="utf-8") as fh:
