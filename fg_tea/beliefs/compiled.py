@@ -131,6 +131,7 @@ class CompiledModel:
         self._component_of = {i: c for c in self.components for i in c.ids}
         self._dense: dict[int, np.ndarray] = {}
         self._marginal_cache: dict[int, np.ndarray] = {}
+        self._possible = False
 
     # -- compiling ------------------------------------------------------------------------
 
@@ -227,7 +228,18 @@ class CompiledModel:
             raise InputError(self.source, "joint", "names a variable twice")
         return self._joint_ids(ids)
 
+    def _check_possible(self) -> None:
+        """Raise ContradictionError when some component has total weight zero (then the whole
+        program, evidence included, has probability zero and no query has an answer)."""
+        if not self._possible:
+            for comp in self.components:
+                if not np.isfinite(self._log_partition(comp)):
+                    raise ContradictionError(f"{self.source}: the evidence has probability zero under the program "
+                                             f"({', '.join(comp.variables)})")
+            self._possible = True
+
     def _joint_ids(self, ids: Sequence[int]) -> np.ndarray:
+        self._check_possible()
         by_component: dict[int, list[int]] = {}
         for i in ids:
             by_component.setdefault(id(self._component_of[i]), []).append(i)
@@ -262,7 +274,10 @@ class CompiledModel:
         key = comp.ids[0]
         if key not in self._dense:
             table = log_product(self._log_factors(comp), list(comp.ids), self._cards)
-            self._dense[key] = table - np.max(table)
+            top = np.max(table)
+            if not np.isfinite(top):
+                raise ContradictionError(f"{self.source}: the evidence has probability zero under the program")
+            self._dense[key] = table - top
         return self._dense[key]
 
     def hypothetical(self, name: str, likelihoods: Any) -> Hypothetical:
@@ -309,6 +324,7 @@ class CompiledModel:
         for v in self.variables:
             if v not in out:
                 out[v] = np.tile(self.marginal(v), (lik.shape[0], 1))
+            out[v][prob <= 0] = np.nan  # evidence the program rules out: no posterior
         return Hypothetical(prob, {v: out[v] for v in self.variables})
 
     def kbest(self, k: int) -> list[Arrangement]:
@@ -320,6 +336,7 @@ class CompiledModel:
         """
         if not isinstance(k, int) or k < 1:
             raise InputError(self.source, "kbest", f"k must be a positive integer, got {k!r}")
+        self._check_possible()
         lists, order = [], []
         for comp in self.components:
             shown = [i for i in comp.ids if not self._vars[i].hidden]

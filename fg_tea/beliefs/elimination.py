@@ -128,7 +128,8 @@ def sum_out(factors: Sequence[LogFactor], order: Sequence[int],
     pool = list(factors)
     for v in order:
         touching = [f for f in pool if v in f[0]]
-        if not touching:
+        if not touching:  # a variable no factor names: summing it out multiplies by its card
+            pool.append(((), np.array(math.log(cards[v]))))
             continue
         pool = [f for f in pool if v not in f[0]]
         scope = _union(touching, v)
