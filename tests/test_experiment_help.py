@@ -79,7 +79,7 @@ def test_docs_use_no_deprecated_backend_option_in_examples():
 def test_compare_beliefs_help_run_as_a_script():
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.run([sys.executable, str(EXPERIMENTS / "compare_beliefs.py"), "--help"],
-                          capture_output=True, text=True, timeout=60, env=env, cwd=ROOT)
+                          capture_output=True, text=True, timeout=300, env=env, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.startswith("usage: compare_beliefs.py"), proc.stdout[:300]
     assert "fg-tea compare" not in proc.stdout.splitlines()[0]

@@ -118,7 +118,7 @@ def test_inspect_marginals_without_out_writes_only_under_runs(tmp_path):
                MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, str(EXPERIMENTS / "inspect_marginals.py"), "--model",
                            "factorised", "--seed", "1"],
-                          capture_output=True, text=True, timeout=60, env=env, cwd=tmp_path)
+                          capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     png = tmp_path / "runs" / "experiments" / "inspect_marginals" / "inspect_marginals.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -24,7 +24,7 @@ def test_inspect_marginals_prints_every_object_and_writes_the_png(tmp_path, mode
                MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, str(SCRIPT), "--model", model, "--seed", "1",
                            "--out", str(out)],
-                          capture_output=True, text=True, timeout=30, env=env, cwd=tmp_path)
+                          capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     text = proc.stdout
     assert out.is_file() and out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

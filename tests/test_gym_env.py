@@ -79,7 +79,7 @@ def test_served_tea_terminates_with_the_reward():
 def test_without_gymnasium_the_import_is_one_line_naming_the_extra():
     code = ("import sys; sys.modules['gymnasium'] = None\n"
             "try:\n    import fg_tea.episode.gym_env\nexcept Exception as e:\n    print(type(e).__name__, e)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     from fg_tea.common.install import install_command
 
     assert out.stdout.startswith("InputError") and install_command("gym") in out.stdout

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import itertools
-import time
 
 import numpy as np
 import pytest
@@ -167,10 +166,7 @@ def test_fake_episode_makes_tea_with_milk_and_sugar(model):
 
 
 def test_pybullet_episode_makes_tea_with_milk_and_sugar():
-    start = time.perf_counter()
-    runner = run("joint", PyBulletHouse)
-    _check_episode(runner)
-    assert time.perf_counter() - start < 60  # measured ~2 s; mark slow if this ever grows
+    _check_episode(run("joint", PyBulletHouse))  # ~2 s; how long it takes is no test's business
 
 
 # ---------------------------------------------------------------------- bodies

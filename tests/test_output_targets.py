@@ -79,7 +79,7 @@ def test_an_output_that_is_a_node_is_refused_and_left_intact(command, kind, tmp_
     args = [str(node) if a == "NODE" else str(log) if a == "LOG" else a.replace("OUT", str(out))
             for a in argv]
     proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", *args], cwd=tmp_path, capture_output=True,
-                          text=True, timeout=60, stdin=subprocess.DEVNULL)
+                          text=True, timeout=300, stdin=subprocess.DEVNULL)
     assert proc.returncode == 2, (proc.returncode, proc.stderr[-2000:])
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and str(node.name) in lines[0] and "not a regular file" in lines[0], lines

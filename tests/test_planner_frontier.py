@@ -119,7 +119,7 @@ def _refuses_each(script, cases, tmp_path):
     for bad, field in cases:
         proc = subprocess.run([sys.executable, f"experiments/{script}", *bad, "--out", str(tmp_path)],
                               capture_output=True, text=True, cwd=ROOT, stdin=subprocess.DEVNULL,
-                              timeout=120)
+                              timeout=300)
         assert proc.returncode == 2, (bad, proc.stderr)
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and field in lines[0], (bad, proc.stderr)

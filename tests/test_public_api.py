@@ -182,7 +182,7 @@ def test_readme_made_up_observations_example_runs_without_a_simulator(capsys):
     import sys
 
     code = _readme_python_examples()[1] + "\nimport sys\nprint(sorted(m for m in sys.modules if m.startswith('pybullet')))\n"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     lines = out.stdout.strip().splitlines()
     assert lines[-1] == "[]"  # no simulator was loaded
@@ -201,7 +201,7 @@ def test_public_api_lists_every_name_and_loads_lazily():
             "assert not missing, missing\n"
             "import pydoc\ntext = pydoc.render_doc(fg, renderer=pydoc.plaintext)\n"
             "print(all(n in text for n in fg.__all__ if not n.startswith('_')))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "True"
 

@@ -177,7 +177,7 @@ def test_local_ray_binds_and_talks_on_loopback_only_and_writes_the_process_pool_
     try:
         with executors.local_ray(workers=2):
             run_sweep(tiny_jobs(), path, "ray", workers=2, progress=False)
-            deadline = time.monotonic() + 15
+            deadline = time.monotonic() + 120
             while not trap.requests and time.monotonic() < deadline:
                 time.sleep(0.2)
             node_ip = ray.util.get_node_ip_address()
@@ -209,7 +209,7 @@ def test_local_ray_binds_and_talks_on_loopback_only_and_writes_the_process_pool_
 def _can_unshare_network() -> bool:
     try:
         return subprocess.run(["unshare", "-n", "--", "ip", "link", "set", "lo", "up"],
-                              capture_output=True, timeout=30).returncode == 0
+                              capture_output=True, timeout=120).returncode == 0
     except (OSError, subprocess.TimeoutExpired):
         return False
 
@@ -447,7 +447,7 @@ def test_report_writes_every_file_atomically(process_csv, tmp_path):
 ])
 def test_compare_bad_input_is_one_line_and_exit_2(argv, needle, tmp_path):
     proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", "compare", "--out", str(tmp_path / "o"), *argv],
-                          capture_output=True, text=True, timeout=60, cwd=ROOT)
+                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0], proc.stderr
@@ -455,7 +455,7 @@ def test_compare_bad_input_is_one_line_and_exit_2(argv, needle, tmp_path):
 
 
 # ------------------------------------------------------------------------------ experiments
-def _script(name: str, *argv: str, timeout: float = 90) -> subprocess.CompletedProcess:
+def _script(name: str, *argv: str, timeout: float = 300) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.run([sys.executable, str(ROOT / "experiments" / name), *argv], capture_output=True,
                           text=True, timeout=timeout, env=env, cwd=ROOT)
