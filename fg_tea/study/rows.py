@@ -48,12 +48,22 @@ def _read_good_lines(path: Path) -> tuple[list[str], list[list[str]], int]:
 
     A last line without its newline (a crash mid-write) and any row with the wrong number of
     fields are dropped.
+
+    Raises:
+        InputError: the file is not UTF-8 text (naming the line).
     """
     data = path.read_bytes()
     if b"\n" not in data:
         return [], [], 0
     good = data if data.endswith(b"\n") else data.rsplit(b"\n", 1)[0] + b"\n"
-    reader = csv.reader(io.StringIO(good.decode("utf-8"), newline=""))
+    try:
+        text = good.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = good[:exc.start].count(b"\n") + 1
+        raise InputError(path, f"line {line}", f"not UTF-8 text (byte 0x{good[exc.start]:02x} at "
+                         f"offset {exc.start}), so not a sweep CSV fg_tea wrote; choose another "
+                         "output or do not resume") from None
+    reader = csv.reader(io.StringIO(text, newline=""))
     try:
         header = next(reader)
     except StopIteration:
@@ -100,23 +110,39 @@ def write_csv_atomic(path: str | Path, rows: Sequence[Mapping[str, Any]],
     return path
 
 
+#: The column whose value says a row holds a finished episode (True or False; sweep rows always
+#: have it, docs/design.md §11): a row without it (empty, NaN) is not a result.
+FINISHED_COLUMN = "success"
+
+
+def finished(row: Mapping[str, str]) -> bool:
+    """Whether a CSV row (cells as text) holds a finished episode: its ``success`` is True/False."""
+    return row.get(FINISHED_COLUMN) in ("True", "False")
+
+
 class CsvSink:
     """A sweep CSV that grows one flushed row at a time and can be resumed.
 
     Args:
         path: the CSV file.
         resume: keep the rows already in `path` (their keys count as done); otherwise start empty.
+            In a CSV with a ``success`` column (a sweep's), rows that hold no finished episode
+            (:func:`finished`: every cell NaN or empty, say) are dropped from the file at once,
+            said so on `stream`, and so run again.
+        stream: where that note goes (default: stderr).
 
     Rows are kept in memory as strings keyed by ``key``; :meth:`finalize` rewrites the file sorted
     by key. If a new row brings columns the file's header lacks, the file is rewritten with the
     union of columns before appending.
     """
 
-    def __init__(self, path: str | Path, resume: bool = True) -> None:
+    def __init__(self, path: str | Path, resume: bool = True, stream=None) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.rows: dict[str, dict[str, str]] = {}
         self.header: list[str] = []
+        #: Keys of rows found without a finished episode (dropped, so run again).
+        self.unfinished: list[str] = []
         if resume and self.path.exists():
             header, rows, valid = _read_good_lines(self.path)
             if header and "key" not in header:
@@ -126,7 +152,18 @@ class CsvSink:
             for r in rows:
                 row = dict(zip(header, r))
                 self.rows[row["key"]] = row
-            if valid != self.path.stat().st_size:  # drop a truncated last line before appending
+            if FINISHED_COLUMN in header:  # a sweep's episodes (other keyed CSVs: every row)
+                self.unfinished = [k for k, row in self.rows.items() if not finished(row)]
+            if self.unfinished:  # never a result: rewritten without them, and run again
+                for key in self.unfinished:
+                    del self.rows[key]
+                write_csv_atomic(self.path, list(self.rows.values()), self.header)
+                n = len(self.unfinished)
+                (stream if stream is not None else sys.stderr).write(
+                    f"{n} row{'s' * (n != 1)} of {self.path} hold{'s' * (n == 1)} no finished episode "
+                    f"({FINISHED_COLUMN} is neither True nor False; first key {self.unfinished[0]}): "
+                    "removed, and run again\n")
+            elif valid != self.path.stat().st_size:  # drop a truncated last line before appending
                 with self.path.open("r+b") as fh:
                     fh.truncate(valid)
         elif self.path.exists():
@@ -208,4 +245,5 @@ class Progress:
             self.stream.flush()
 
 
-__all__ = ["CsvSink", "Progress", "read_rows", "parse_cell", "write_csv_atomic"]
+__all__ = ["CsvSink", "Progress", "read_rows", "parse_cell", "write_csv_atomic", "finished",
+           "FINISHED_COLUMN"]
