@@ -11,6 +11,10 @@ The world and the loop (docs/design.md §8-§9):
     make_env         -- a PyBullet house or the fake house, its camera set by the model.
     run_episode      -- one whole episode, as ``fg-tea run --no-video``.
     EpisodeRunner, RunConfig, EventLog, read_log  -- stepping an episode; its JSONL log.
+Models as programs (docs/design.md §4.8):
+    Program          -- declare variables (locations, states, your own) and factors over them.
+    program_from_model -- a bundled model's factors over a scenario, as a program to edit.
+    compile_program, CompiledModel, plan_text  -- exact inference over a program; its plan.
 Studies (docs/design.md §11-§12):
     compare          -- models x planners over sampled worlds, paired, with a report.
     learn            -- a learned model from episode logs (``fg-tea learn``).
@@ -46,6 +50,11 @@ _API = {
     "RunConfig": "fg_tea.episode.runner",
     "EventLog": "fg_tea.episode.log",
     "read_log": "fg_tea.episode.log",
+    "Program": "fg_tea.model.program",
+    "program_from_model": "fg_tea.model.program_bundled",
+    "compile_program": "fg_tea.beliefs.compiled",
+    "CompiledModel": "fg_tea.beliefs.compiled",
+    "plan_text": "fg_tea.beliefs.compiled",
     "compare": "fg_tea.study.compare",
     "learn": "fg_tea.study.learn",
     "InputError": "fg_tea.common.errors",
@@ -71,10 +80,13 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time the names load on first use
     from fg_tea.agent.agent import Agent
+    from fg_tea.beliefs.compiled import CompiledModel, compile_program, plan_text
     from fg_tea.common.errors import ContradictionError, InputError, PlannerRefused
     from fg_tea.episode.log import EventLog, read_log
     from fg_tea.episode.run import make_env, run_episode
     from fg_tea.episode.runner import EpisodeRunner, RunConfig
+    from fg_tea.model.program import Program
+    from fg_tea.model.program_bundled import program_from_model
     from fg_tea.model.spec import load_model
     from fg_tea.planning import planner_names, register_planner
     from fg_tea.planning.base import Candidate, Decision, Planner

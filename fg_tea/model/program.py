@@ -12,7 +12,7 @@ A :class:`Program` is the model a user would write on a whiteboard (docs/design.
         return 5.0 if dirty and mug.furniture == "sink" else 1.0
 
     m.table(["weather"], [0.7, 0.3], name="weather prior", learnable=True)
-    belief = fg.compile(m)                              # exact inference (fg_tea.beliefs.compiled)
+    belief = fg.compile_program(m)                              # exact inference (fg_tea.beliefs.compiled)
 
 Every factor is stored as a table over its scope's assignments; a function is evaluated once per
 assignment when it is declared. A location's values are :class:`SiteValue` objects carrying the
@@ -126,9 +126,9 @@ class Program:
     ``fg.program_from_model(scenario, model)`` (a bundled model's factors, to edit), or directly
     with ``Program(sites=scenario.sites)``. Then declare variables with :meth:`location`,
     :meth:`state` and :meth:`variable`, and factors with :meth:`factor` (a function) or
-    :meth:`table`; :meth:`remove` and :meth:`replace` edit it. ``fg.compile(program)`` turns it
+    :meth:`table`; :meth:`remove` and :meth:`replace` edit it. ``fg.compile_program(program)`` turns it
     into an exact belief (marginals, joints, hypothetical posteriors, K best arrangements) and
-    ``fg.compile(program).plan()`` prints how each query will be answered.
+    ``fg.compile_program(program).plan()`` prints how each query will be answered.
 
     Args:
         sites: the house's sites (scenario :class:`~fg_tea.world.scenario.Site` objects or
@@ -262,7 +262,7 @@ class Program:
             A decorator that declares the factor and returns the function unchanged.
         """
         def declare(func: Callable[..., float]) -> Callable[..., float]:
-            label = name or getattr(func, "__name__", "factor")
+            label = str(name or getattr(func, "__name__", "factor"))
             self._add(self._evaluate(label, scope, func), learnable, "function", replace)
             return func
         return declare
@@ -274,7 +274,7 @@ class Program:
         Returns:
             The stored :class:`ProgramFactor`.
         """
-        label = name or getattr(func, "__name__", "factor")
+        label = str(name or getattr(func, "__name__", "factor"))
         return self._add(self._evaluate(label, tuple(scope), func), learnable, "function", False)
 
     def table(self, scope: Sequence[str] | str, weights: Any, name: str | None = None,
@@ -436,8 +436,9 @@ def _site_value(site: Any, index: int) -> SiteValue:
         return SiteValue(site.name, site.room, site.furniture, site.capacity, site.position, index)
     if isinstance(site, str):
         return SiteValue(site, "", None, None, (0.0, 0.0, 0.0), index)
+    x, y, z = (float(c) for c in site.position)
     return SiteValue(site.name, site.room, getattr(site, "furniture", None), getattr(site, "capacity", None),
-                     tuple(float(x) for x in site.position), index)
+                     (x, y, z), index)
 
 
 def _where(variables: Sequence[Variable], index: Sequence[int]) -> str:
