@@ -249,3 +249,46 @@ def test_a_joint_query_over_budget_is_refused_while_marginals_are_answered():
     assert model.joint(["x0", "x3", "x6", "x9"]).shape == (8,) * 4  # 4,096 entries: within budget
     with pytest.raises(InputError, match="needs a table of 32,768 entries"):
         model.joint(["x0", "x2", "x4", "x6", "x9"])
+
+
+def test_a_transition_with_a_parent_is_exact():
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        m, evidence = random_program(rng)
+        names = [v.name for v in m.variables]
+        if len(names) < 2:
+            continue
+        child, parent = (str(x) for x in rng.choice(names, size=2, replace=False))
+        cc, cp = m.var(child).card, m.var(parent).card
+        step = rng.uniform(0.05, 1.0, size=(cc, cp, cc))
+        joint = brute_joint(m, evidence)
+        a, b = names.index(child), names.index(parent)
+        # P(new child = c', rest) = sum_c P(c, rest) step(c, parent, c')
+        letters = "abcdefgh"[:len(names)]
+        out = letters.replace(letters[a], "z")
+        moved = np.einsum(f"{letters},{letters[a]}{letters[b]}z->{out}", joint, step)
+        moved /= moved.sum()
+        for method in ("dense", "elimination"):
+            model = compiled(m, evidence, method).transition(child, step, parents=[parent])
+            for i, v in enumerate(names):
+                expect = moved.sum(axis=tuple(x for x in range(len(names)) if x != i))
+                np.testing.assert_allclose(model.marginal(v), expect, rtol=0, atol=TOL)
+            pair = model.joint([parent, child])
+            expect = moved.sum(axis=tuple(x for x in range(len(names)) if x not in (a, b)))
+            np.testing.assert_allclose(pair, expect if b < a else expect.T, rtol=0, atol=TOL)
+
+
+def test_auto_picks_the_dense_joint_when_elimination_would_be_as_large():
+    m = Program(source="clique.py")
+    for name in ("a", "b", "c"):
+        m.variable(name, list(range(50)))
+    rng = np.random.default_rng(3)
+    m.table(["a", "b", "c"], rng.uniform(0.1, 1.0, size=(50, 50, 50)), name="abc")
+    assert compile_program(m, dense_states=1000).components[0].method == "dense joint"
+    m2 = Program(source="chain.py")
+    for name in ("a", "b", "c", "d"):
+        m2.variable(name, list(range(50)))
+    for x, y in (("a", "b"), ("b", "c"), ("c", "d")):
+        m2.table([x, y], rng.uniform(0.1, 1.0, size=(50, 50)), name=x + y)
+    comp = compile_program(m2, dense_states=1000).components[0]
+    assert (comp.method, comp.width, comp.largest) == ("elimination", 1, 2500)

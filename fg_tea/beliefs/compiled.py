@@ -4,8 +4,9 @@
 variables of different components are independent) and gives each one method, chosen once:
 
 - ``closed form`` — a variable alone: the normalised product of its unary factors;
-- ``dense joint`` — a component of at most ``dense_states`` joint states: its whole table, from
-  which every marginal, joint, hypothetical posterior and K-best list is read;
+- ``dense joint`` — a component of at most ``dense_states`` joint states, or one whose
+  elimination would build a table as large as its joint anyway: its whole table, computed once,
+  from which every marginal, joint, hypothetical posterior and K-best list is read;
 - ``elimination`` — otherwise, variable elimination in log space with a min-fill order
   (:mod:`fg_tea.beliefs.elimination`), once per query.
 
@@ -165,6 +166,10 @@ class CompiledModel:
         scopes = self._scopes(ids)
         order = min_fill_order(scopes, list(ids[:-1]), self._cards)
         width, largest = order_cost(scopes, order, ids[-1:], self._cards)
+        if self.method == "auto" and largest >= states and states <= self.budget:
+            # Elimination would build a table as large as the joint itself: the joint, built
+            # once, answers every query at that cost.
+            return Component(names, "dense joint", states, largest=states, ids=ids)
         if largest > self.budget:
             raise self._refusal(ids, width, largest, "variable elimination")
         return Component(names, "elimination", states, tuple(self._vars[i].name for i in order),
