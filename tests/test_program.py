@@ -235,3 +235,41 @@ def test_help_is_enough_to_start():
     assert "budget" in text and "Returns" in text
     for name in ("Program", "program_from_model", "compile_program", "CompiledModel", "plan_text"):
         assert name in fg.__all__ and getattr(fg, name) is not None
+
+
+def test_vectorised_functions_give_the_looped_tables(scenario):
+    m = Program.from_scenario(scenario, source="vec.py")
+    m.location("mug")
+    m.location("kettle")
+    m.state("mug.dirty")
+    m.variable("guests", [0, 1, 2])
+    m.variable("weather", ["dry", "wet"])
+    counter = m.site("kitchen_counter")
+    pairs = [
+        (("mug", "kettle"), lambda a, b: 4.0 if a.room == b.room else 1.0,
+         lambda a, b: np.where(a.room == b.room, 4.0, 1.0)),
+        (("mug", "kettle"), lambda a, b: 0.2 if a == b else 1.0, lambda a, b: np.where(a == b, 0.2, 1.0)),
+        (("mug",), lambda a: 3.0 if a.distance(counter) <= 1.5 else 1.0,
+         lambda a: np.where(a.distance(counter) <= 1.5, 3.0, 1.0)),
+        (("mug", "mug.dirty"), lambda a, d: 5.0 if d and a.furniture == "counter" else 1.0,
+         lambda a, d: np.where(d & (a.furniture == "counter"), 5.0, 1.0)),
+        (("kettle",), lambda a: 1.0 / (1 + (a.capacity or 99)), lambda a: 1.0 / (1 + np.where(np.isinf(a.capacity),
+                                                                                                   99, a.capacity))),
+        (("guests", "weather"), lambda g, w: 1.0 + g if w == "wet" else 1.0,
+         lambda g, w: np.where(w == "wet", 1.0 + g, 1.0)),
+        (("mug", "kettle"), lambda a, b: a.distance(b) + 0.1, lambda a, b: a.distance(b) + 0.1),
+    ]
+    for n, (scope, looped, vector) in enumerate(pairs):
+        a = m.function(scope, looped, name=f"loop{n}")
+        b = m.function(scope, vector, name=f"vec{n}", vectorised=True)
+        np.testing.assert_allclose(b.table, a.table, rtol=0, atol=1e-15)
+        assert b.table.shape == a.table.shape
+    assert _fault(lambda: m.function(["mug", "kettle"], lambda a, b: 4.0 if a.room == b.room else 1.0,
+                                     name="ambiguous", vectorised=True)).startswith(
+        "vec.py: factor 'ambiguous': raised ValueError: The truth value of an array")
+    assert _fault(lambda: m.function(["mug"], lambda a: np.ones(3), name="shape", vectorised=True)) == \
+        "vec.py: factor 'shape': returned weights of shape (3,), not broadcastable to (8,)"
+    assert _fault(lambda: m.function(["guests"], lambda g: 1.0 - g, name="neg", vectorised=True)) == \
+        "vec.py: factor 'neg': weight -1.0 at guests=2 (weights must be finite and >= 0)"
+    assert _fault(lambda: m.function(["guests"], lambda g: np.zeros(3), name="zero", vectorised=True)) == \
+        "vec.py: factor 'zero': every weight is zero (the program would be impossible)"

@@ -34,6 +34,8 @@ from fg_tea.common.errors import InputError
 
 #: Most assignments a function factor is evaluated over (it is called once per assignment).
 FUNCTION_LIMIT = 2_000_000
+#: Most entries a table (given, or from a vectorised function) may have.
+TABLE_LIMIT = 50_000_000
 #: The values of a hidden state variable, in index order.
 STATE_VALUES = (False, True)
 KINDS = ("location", "state", "variable")
@@ -244,38 +246,42 @@ class Program:
     # -- factors ---------------------------------------------------------------------------
 
     def factor(self, *scope: str, name: str | None = None, learnable: bool = False,
-               replace: bool = False) -> Callable[[Callable[..., float]], Callable[..., float]]:
+               replace: bool = False, vectorised: bool = False) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
         """Decorator: a factor whose weight is a Python function of its variables' values.
 
         The function receives one value per scope variable, in scope order (a
         :class:`SiteValue` for a location, a bool for a state, the declared value otherwise),
         and returns a finite non-negative weight. It is evaluated once over every assignment
-        of the scope when declared, and stored as a table.
+        of the scope when declared (a loop, at most :data:`FUNCTION_LIMIT` assignments), and
+        stored as a table. With ``vectorised=True`` it is called once with arrays instead
+        (:mod:`fg_tea.model.program_vector`: a location is a ``SiteArray``, a state a bool
+        array) and returns an array of weights.
 
         Args:
             *scope: the variables' names (one to all of the program's variables).
             name: the factor's name (default: the function's name).
             learnable: mark the table as learnable.
             replace: replace the factor of that name instead of refusing a duplicate.
+            vectorised: call the function once with arrays over every assignment.
 
         Returns:
             A decorator that declares the factor and returns the function unchanged.
         """
-        def declare(func: Callable[..., float]) -> Callable[..., float]:
+        def declare(func: Callable[..., Any]) -> Callable[..., Any]:
             label = str(name or getattr(func, "__name__", "factor"))
-            self._add(self._evaluate(label, scope, func), learnable, "function", replace)
+            self._add(self._evaluate(label, scope, func, vectorised), learnable, "function", replace)
             return func
         return declare
 
-    def function(self, scope: Sequence[str], func: Callable[..., float], name: str | None = None,
-                 learnable: bool = False) -> ProgramFactor:
+    def function(self, scope: Sequence[str], func: Callable[..., Any], name: str | None = None,
+                 learnable: bool = False, vectorised: bool = False) -> ProgramFactor:
         """Declare a function factor without the decorator; see :meth:`factor`.
 
         Returns:
             The stored :class:`ProgramFactor`.
         """
         label = str(name or getattr(func, "__name__", "factor"))
-        return self._add(self._evaluate(label, tuple(scope), func), learnable, "function", False)
+        return self._add(self._evaluate(label, tuple(scope), func, vectorised), learnable, "function", False)
 
     def table(self, scope: Sequence[str] | str, weights: Any, name: str | None = None,
               learnable: bool = False) -> ProgramFactor:
@@ -305,8 +311,9 @@ class Program:
         self._factor_named(name)
         return self._factors.pop(name)
 
-    def replace(self, name: str, weights: Any = None, *, function: Callable[..., float] | None = None,
-                scope: Sequence[str] | None = None, learnable: bool | None = None) -> ProgramFactor:
+    def replace(self, name: str, weights: Any = None, *, function: Callable[..., Any] | None = None,
+                scope: Sequence[str] | None = None, learnable: bool | None = None,
+                vectorised: bool = False) -> ProgramFactor:
         """Replace the factor called `name` by a new table or function (same name and place).
 
         Args:
@@ -315,6 +322,7 @@ class Program:
             function: the new weight function (as for :meth:`factor`).
             scope: the new scope (default: the old one).
             learnable: the new mark (default: the old one).
+            vectorised: the new function takes arrays (see :meth:`factor`).
 
         Returns:
             The new :class:`ProgramFactor`.
@@ -323,7 +331,7 @@ class Program:
         new_scope = old.scope if scope is None else tuple(scope)
         if (weights is None) == (function is None):
             raise InputError(self.source, f"factor {name!r}", "replace needs a table or a function, not both")
-        made = (self._evaluate(name, new_scope, function) if function is not None
+        made = (self._evaluate(name, new_scope, function, vectorised) if function is not None
                 else self._tabulate(name, new_scope, weights))
         mark = old.learnable if learnable is None else learnable
         return self._add(made, mark, "function" if function is not None else "table", True)
@@ -373,11 +381,13 @@ class Program:
             raise InputError(self.source, f"factor {label!r}", "names a variable twice")
         return tuple(variables)
 
-    def _evaluate(self, label: str, scope: tuple[str, ...],
-                  func: Callable[..., float]) -> tuple[str, tuple[str, ...], np.ndarray]:
+    def _evaluate(self, label: str, scope: tuple[str, ...], func: Callable[..., Any],
+                  vectorised: bool = False) -> tuple[str, tuple[str, ...], np.ndarray]:
         variables = self._scope(label, scope)
         shape = tuple(v.card for v in variables)
         size = math.prod(shape)
+        if vectorised:
+            return label, tuple(v.name for v in variables), self._vectorised(label, variables, func)
         if size > FUNCTION_LIMIT:
             raise InputError(self.source, f"factor {label!r}",
                              f"a function over {size:,} assignments (limit {FUNCTION_LIMIT:,}); "
@@ -394,6 +404,29 @@ class Program:
                                  f"raised {type(exc).__name__}: {exc} at {_where(variables, index)}") from None
             table[flat] = _weight(self.source, label, weight, variables, index)
         return label, tuple(v.name for v in variables), _checked(self.source, label, table.reshape(shape))
+
+    def _vectorised(self, label: str, variables: tuple[Variable, ...], func: Callable[..., Any]) -> np.ndarray:
+        from fg_tea.model.program_vector import arguments, broadcast_weights
+
+        shape = tuple(v.card for v in variables)
+        if math.prod(shape) > TABLE_LIMIT:
+            raise InputError(self.source, f"factor {label!r}",
+                             f"a table of {math.prod(shape):,} entries (limit {TABLE_LIMIT:,})")
+        if not callable(func):
+            raise InputError(self.source, f"factor {label!r}", "is not a function")
+        try:
+            result = func(*arguments(variables))
+        except Exception as exc:  # a user's function: any failure is reported in one line
+            raise InputError(self.source, f"factor {label!r}",
+                             f"raised {type(exc).__name__}: {exc} (called once with arrays: vectorised=True)") from None
+        table = broadcast_weights(result, shape)
+        if isinstance(table, str):
+            raise InputError(self.source, f"factor {label!r}", table)
+        bad = np.flatnonzero(~np.isfinite(table) | (table < 0))
+        if bad.size:
+            index = np.unravel_index(int(bad[0]), shape)
+            _weight(self.source, label, float(table[index]), variables, [int(i) for i in index])
+        return _checked(self.source, label, table)
 
     def _tabulate(self, label: str, scope: tuple[str, ...],
                   weights: Any) -> tuple[str, tuple[str, ...], np.ndarray]:
