@@ -273,3 +273,32 @@ def test_vectorised_functions_give_the_looped_tables(scenario):
         "vec.py: factor 'neg': weight -1.0 at guests=2 (weights must be finite and >= 0)"
     assert _fault(lambda: m.function(["guests"], lambda g: np.zeros(3), name="zero", vectorised=True)) == \
         "vec.py: factor 'zero': every weight is zero (the program would be impossible)"
+
+
+def test_the_engines_evidence_enters_the_compiled_graph(scenario):
+    """Misses (eq. 5) and state readings (eqs. 23-24), built by the engine's own factor
+    constructors, give the engine's posterior and MAP on the joint model; gtsam agrees."""
+    from fg_tea.beliefs.compiled_gtsam import gtsam_agreement
+    from fg_tea.beliefs.factors import miss_factor, state_observation
+
+    model = fg.load_model("joint")
+    engine = BeliefEngine(scenario, model)
+    compiled = compile_program(program_from_model(scenario, model))
+    k = len(scenario.sites)
+    for site, missed in (("kitchen_counter", ("mug", "kettle")), ("side_table", ("teabag",)),
+                         ("kitchen_counter", ("mug",))):
+        engine.observe_site(site, {o: False for o in missed})
+        j = scenario.site_index(site)
+        for o in missed:
+            compiled = compiled.observe(o, miss_factor(o, j, k, model.miss_likelihood).table)
+    sensor = model.sensor("state")
+    engine.observe_state("kettle.contains_water", True, sensor)
+    reading = state_observation("kettle.contains_water", True, sensor.sensitivity, sensor.specificity)
+    compiled = compiled.observe("kettle.contains_water", reading.table)
+    for o in scenario.object_names:
+        np.testing.assert_allclose(compiled.marginal(o), engine.location(o), rtol=0, atol=1e-12)
+    assert compiled.marginal("kettle.contains_water")[1] == pytest.approx(engine.state("kettle.contains_water"),
+                                                                          abs=1e-12)
+    best = compiled.map()
+    assert {o: best.values[o].name for o in scenario.object_names} == engine.map_estimate()
+    assert gtsam_agreement(compiled) < 1e-12
