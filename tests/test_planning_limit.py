@@ -105,7 +105,7 @@ def test_the_bounds_bracket_and_tighten_with_the_cap():
     highs = [limit._solve(problem, views, sites, q0, c, upper=True) for c in (1, 2, 3)]
     assert all(lo <= hi + 1e-12 for lo in lows for hi in highs)
     assert lows == sorted(lows) and highs == sorted(highs, reverse=True)
-    found = limit.search_limit(problem, tolerance=0.05, max_entries=200_000)
+    found = limit.search_limit(problem, tolerance=0.05, max_bytes=2_000_000)
     assert found.lower >= lows[0] and found.upper <= highs[0] and found.width <= highs[0] - lows[0]
 
 
@@ -116,5 +116,5 @@ def test_a_correlated_or_too_large_problem_is_refused_with_one_line():
                           problem.start, problem.between, problem.look, problem.p_max,
                           problem.n_sites, problem.allowed, problem.factors[0], None)
     assert "correlated" in limit.limit_fault(joint)
-    with pytest.raises(ValueError, match="more than 100"):
-        limit.search_limit(problem, max_entries=100)
+    with pytest.raises(ValueError, match="more than 100 B"):
+        limit.search_limit(problem, max_bytes=100)

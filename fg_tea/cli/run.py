@@ -187,6 +187,8 @@ def cmd_preview(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub) -> None:
+    from fg_tea.planning import planner_help
+
     p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)",
                        epilog=RUN_EXIT_STATUS)
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
@@ -198,9 +200,7 @@ def add_parser(sub) -> None:
     p.add_argument("--no-video", action="store_true", help="headless: write the log only")
     p.add_argument("--max-frames", type=integer(1, 10_000_000), default=50_000, help="frame limit (default: %(default)s)")
     p.add_argument("--planner", default="efe", type=planner_name,
-                   help="search planner: efe, factorised_efe, mi_efe, nearest, greedy, random, optimal, "
-                   "lookahead (or lookahead:depth=2,width=3,...), pouct:N and pomcp:N (with the [peers] "
-                   "extra), "
+                   help=f"search planner: {planner_help()}; "
                    "a name registered in the fg_tea.planners entry-point group, or "
                    "module:attribute for a planner of your own (default: %(default)s)")
     p.add_argument("--task", default="make_tea", help="task file or bundled name (default: %(default)s)")

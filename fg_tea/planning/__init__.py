@@ -103,6 +103,20 @@ _FAMILIES: dict[str, Callable[[str, Model, np.random.Generator | None], Planner]
 }
 
 
+#: How each family's settings are written, for help texts (:func:`planner_help`).
+_FAMILY_FORMS = {"lookahead": "lookahead:depth=2,width=3,...", "exact": "exact:cap=N",
+                 "pouct": "pouct:N", "pomcp": "pomcp:N"}
+
+
+def planner_help() -> str:
+    """The built-in planners for a ``--planner`` help text, from the registry and the families
+    (so the list cannot go stale): the plain names, then each family's settings form."""
+    plain = [n for n in _REGISTRY if not is_family_spec(n)]
+    forms = [_FAMILY_FORMS.get(f, f + ":...") for f in _FAMILIES]
+    return (f"{', '.join(plain)}, or a family with settings: {', '.join(forms)} "
+            "(pouct and pomcp with the [peers] extra)")
+
+
 #: Most simulations per decision a POUCT/POMCP spec may ask for (about three hours a decision at
 #: the measured ~1 ms a simulation; pomdp-py overflows far above it).
 MAX_SIMULATIONS = 10_000_000
@@ -250,5 +264,5 @@ __all__ = ["Candidate", "Decision", "DistanceModel", "DistanceTable", "Planner",
            "FactorisedEFEPlanner", "MutualInformationEFEPlanner",
            "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
            "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "ExactPlanner", "ExactSettings", "euclidean_distances",
-           "distances_for", "make_planner", "planner_names", "check_planner_name", "is_family_spec",
+           "distances_for", "make_planner", "planner_names", "planner_help", "check_planner_name", "is_family_spec",
            "check_planner", "register_planner"]

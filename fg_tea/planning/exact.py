@@ -13,7 +13,10 @@ the objects still searched equal the tables' posterior for the looks counted (re
 they do not (another kind of evidence, a reopened search, an excluded site, other objects) or a
 viewpoint has been looked from ``cap`` times, it solves again from the current belief. A
 correlated belief is refused (the tables are exact for independent objects only), and so is a
-house whose tables would not fit at one look per viewpoint (:func:`fg_tea.planning.limit.limit_fault`).
+house whose tables at the cap asked for (the default, 3, or ``exact:cap=N``) would need more than
+:data:`MAX_BYTES` of memory (:func:`fg_tea.planning.limit.table_bytes`): the one-line refusal names
+the house's size and the largest cap that fits, to ask for explicitly. The cap is never lowered
+behind the user's back; every decision records the cap it planned with (``info["exact"]``).
 """
 
 from __future__ import annotations
@@ -27,11 +30,12 @@ import numpy as np
 from fg_tea.common.errors import PlannerRefused
 from fg_tea.planning.base import (Candidate, Decision, DistanceModel, PlannerBase, check_inputs,
                                   parse_settings)
-from fg_tea.planning.limit import Tables, _entries, _useful, solve_tables
+from fg_tea.planning.limit import Tables, _useful, human_bytes, solve_tables, table_bytes
 from fg_tea.planning.problem import LOOK_COST, build_problem
 
-#: Table entries one solve may hold (about 8 bytes each); the cap is lowered until it fits.
-MAX_ENTRIES = 8_000_000
+#: Memory one solve may use, bytes (512 MiB), as :func:`fg_tea.planning.limit.table_bytes` estimates
+#: it: the apartment's 8 close looks fit up to cap 4, a house of 12 sites at cap 1 only.
+MAX_BYTES = 512 * 1024 ** 2
 
 
 @dataclass(frozen=True)
@@ -72,13 +76,16 @@ class ExactPlanner(PlannerBase):
     name = "exact"
 
     def __init__(self, settings: ExactSettings = ExactSettings(), look: float = LOOK_COST,
-                 max_entries: int = MAX_ENTRIES) -> None:
-        self.settings, self.look, self.max_entries = settings, look, max_entries
+                 max_bytes: int = MAX_BYTES) -> None:
+        self.settings, self.look, self.max_bytes = settings, look, max_bytes
         self._solved: _Solved | None = None
         self.solves = 0
 
     def check(self, belief, objects: Sequence[str]) -> None:
-        """Refuse a correlated belief, or a house too large at one look per viewpoint.
+        """Refuse a correlated belief, or a house whose tables do not fit at the cap asked for.
+
+        Before the episode the viewpoints are not known: the sites where some searched object may
+        stand count as viewpoints (the close looks); a solve checks the viewpoints it has again.
 
         Raises:
             PlannerRefused: kind ``"belief"`` or ``"size"``.
@@ -87,28 +94,31 @@ class ExactPlanner(PlannerBase):
             raise PlannerRefused("exact planner: the belief is correlated; the exact tables hold "
                                  "for independent objects only (use a factorised model)",
                                  "belief", self.name)
-        # Every viewpoint may be useful; a bound without the views (sites as close looks).
-        n_views = len(belief.sites)
-        if _entries(n_views, len(objects), 2) > self.max_entries:
-            raise PlannerRefused(f"exact planner: {n_views} sites and {len(objects)} objects need "
-                                 f"{_entries(n_views, len(objects), 2):,} table entries at one look "
-                                 f"per site, more than {self.max_entries:,}", "size", self.name)
+        mass = sum((np.asarray(belief.marginal(o), dtype=float) > 0).astype(int) for o in objects)
+        n_sites = int(np.count_nonzero(mass)) if len(objects) else 0
+        self._fit(n_sites, n_sites, len(objects), "sites")
 
-    def _cap(self, n_views: int, n_objects: int) -> int:
+    def _fit(self, n_views: int, n_sites: int, n_objects: int, what: str) -> None:
+        """Refuse, in one line, tables that need more than :attr:`max_bytes` at the cap asked for,
+        naming the largest cap that fits (never lowering the cap silently)."""
         cap = self.settings.cap
-        while cap > 1 and _entries(n_views, n_objects, cap + 1) > self.max_entries:
-            cap -= 1
-        return cap
+        need = table_bytes(n_views, n_objects, n_sites, cap + 1)
+        if need <= self.max_bytes:
+            return
+        fits = [c for c in range(cap - 1, 0, -1) if table_bytes(n_views, n_objects, n_sites, c + 1)
+                <= self.max_bytes]
+        hint = (f"cap {fits[0]} fits: ask for it as exact:cap={fits[0]}" if fits
+                else "no cap fits: use another planner (e.g. lookahead)")
+        raise PlannerRefused(f"exact planner: {n_views} {what} and {n_objects} object"
+                             f"{'s' * (n_objects != 1)} need about {human_bytes(need)} of tables at "
+                             f"cap {cap}, more than {human_bytes(self.max_bytes)}; {hint}",
+                             "size", self.name)
 
     def _solve(self, belief, objects, distances, inspected, excluded, views) -> _Solved:
         problem = build_problem(belief, objects, distances, excluded, views, self.look)
         useful, sites, q0 = _useful(problem)
-        if _entries(len(useful), len(objects), 2) > self.max_entries:
-            raise PlannerRefused(f"exact planner: {len(useful)} viewpoints and {len(objects)} "
-                                 f"objects need more than {self.max_entries:,} table entries",
-                                 "size", self.name)
-        cap = self._cap(len(useful), len(objects))
-        tables = solve_tables(problem, useful, sites, q0, cap, upper=True)
+        self._fit(len(useful), len(sites), len(objects), "viewpoints")
+        tables = solve_tables(problem, useful, sites, q0, self.settings.cap, upper=True)
         self.solves += 1
         names = [problem.names[i] for i in useful]
         miss = 1.0 - problem.prob[useful]
