@@ -66,7 +66,8 @@ def out_path(text: str) -> str:
     """An argparse type for ``--out``: a path, never an empty string (which would otherwise mean
     the current folder to some commands and the default to others)."""
     if not text.strip():
-        raise argparse.ArgumentTypeError("empty; name a path, or leave --out out for the default")
+        raise argparse.ArgumentTypeError("expected a path, got an empty string (without --out, a "
+                                         "command with a default output uses it)")
     return text
 
 

@@ -7,7 +7,7 @@ import argparse
 import os
 from pathlib import Path
 
-from fg_tea.cli.common import command
+from fg_tea.cli.common import command, out_path
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import check_out_file
 
@@ -99,7 +99,7 @@ def add_parser(sub) -> None:
     p.add_argument("--video", default=None, metavar="MP4",
                    help="the episode's video (of the first log), shown at each step's time; the page "
                    "links to it by a path relative to the page")
-    p.add_argument("--out", default=None, metavar="HTML",
+    p.add_argument("--out", default=None, type=out_path, metavar="HTML",
                    help="the page to write (default: beside the first log, LOG.html, or "
                    "LOG-vs-FOLDER.html for two)")
     p.add_argument("--label", nargs="+", default=None, metavar="TEXT",

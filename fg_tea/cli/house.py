@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fg_tea.cli.common import check_out_file, command, integer
+from fg_tea.cli.common import check_out_file, command, integer, out_path
 from fg_tea.common.errors import InputError
 
 
@@ -70,7 +70,7 @@ def add_parser(sub) -> None:
                        "bytes.")
     p.add_argument("--rooms", type=_Rooms(), required=True, help="number of rooms, 3 to 10")
     p.add_argument("--seed", type=integer(0), default=0, help="non-negative seed (default: %(default)s)")
-    p.add_argument("--out", required=True, help="output scenario JSON")
+    p.add_argument("--out", required=True, type=out_path, help="output scenario JSON")
     p.add_argument("--objects", default="mug,kettle,teabag",
                    help="comma-separated objects among mug, kettle, teabag, milk, sugar "
                    "(default: %(default)s)")

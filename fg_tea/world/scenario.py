@@ -314,7 +314,10 @@ def _read_site(s: Reader, house: House) -> Site:
     if reach > MAX_VANTAGE_DISTANCE:
         raise s.fail(f"vantage is {reach:.2f} m from the site; at most {MAX_VANTAGE_DISTANCE:g} m, "
                      "or the camera cannot resolve objects on it", "vantage_position")
-    return Site(name, s.req("room", str), position, vantage, _frozen(weights), capacity, furniture)
+    room = s.req("room", str)
+    if not room.strip():
+        raise s.fail("a room name must not be empty", "room")
+    return Site(name, room, position, vantage, _frozen(weights), capacity, furniture)
 
 
 def _read_object(o: Reader, site_names: set[str]) -> ObjectSpec:
@@ -363,13 +366,14 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
                      "schema_version")
     house = _read_house(r.child("house"))
 
-    sites, names = [], set()
+    sites, names, site_readers = [], set(), []
     for s in r.items("sites"):
         site = _read_site(s, house)
         if site.name in names:
             raise s.fail(f"duplicate site name {site.name!r}", "name")
         names.add(site.name)
         sites.append(site)
+        site_readers.append(s)
     if not sites:
         raise r.fail("a scenario needs at least one site", "sites")
 
@@ -411,6 +415,11 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
         if room not in rooms:
             raise v.fail(f"room {room!r} has no site", "room")
         room_vantages.append(RoomVantage(name, room, v.vector("position", 2)))
+    from fg_tea.world.rooms import room_fault
+
+    misnamed = room_fault(house, sites, room_vantages)  # a site's room is the walled room it is in
+    if misnamed is not None:
+        raise site_readers[misnamed[0]].fail(misnamed[1], "room")
 
     start = r.child("start_pose")
     prep = r.opt("preparation_site", str, sites[0].name)
