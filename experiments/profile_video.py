@@ -1,0 +1,67 @@
+"""Profile the video of ``fg-tea run`` on a slice of its frames (cProfile, one process).
+
+Runs the default episode headless (as ``fg-tea run --no-video``), then renders and encodes the
+rendered frames [start, start + frames) of its video with ``fg-tea run``'s video options in this
+process, under cProfile, and writes the top functions by cumulative and by own time.
+
+    python experiments/profile_video.py [--frames 200] [--start 0] [--out FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import io
+import pstats
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+from video_reference import default_episode, default_options  # noqa: E402
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--frames", type=int, default=200, help="rendered frames to profile")
+    parser.add_argument("--start", type=int, default=0, help="first rendered frame")
+    parser.add_argument("--top", type=int, default=25, help="functions listed")
+    parser.add_argument("--out", default=None, help="write the summary here (default: stdout)")
+    args = parser.parse_args(argv)
+    from fg_tea.render import video
+
+    with tempfile.TemporaryDirectory() as tmp:
+        events = default_episode(Path(tmp))
+        options = default_options(workers=1)
+        plan = video.plan_frames(events, options)
+        hi = min(len(plan.frames), args.start + args.frames)
+        out_frames = sum(f.repeat for f in plan.frames[args.start:hi])
+        profile = cProfile.Profile()
+        t, c = time.perf_counter(), time.process_time()
+        profile.enable()
+        video._render_segment((plan, options, args.start, hi, str(Path(tmp) / "seg.mp4"), 0, None))
+        profile.disable()
+        wall, cpu = time.perf_counter() - t, time.process_time() - c
+    text = io.StringIO()
+    command = "python experiments/profile_video.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    text.write(f"# {command.strip()}\n# rendered frames {args.start}..{hi} of {len(plan.frames)} "
+               f"({out_frames} output frames), {options.width}x{options.height}, scene_scale "
+               f"{options.scene_scale:.3f}, one process\n# {cpu:.2f} s CPU, {wall:.2f} s wall: "
+               f"{1000 * cpu / max(hi - args.start, 1):.1f} ms CPU per rendered frame, "
+               f"{1000 * cpu / max(out_frames, 1):.1f} ms per output frame\n\n")
+    for key in ("cumulative", "tottime"):
+        stats = pstats.Stats(profile, stream=text)
+        stats.sort_stats(key).print_stats(args.top)
+    summary = text.getvalue()
+    summary = "\n".join(line.rstrip() for line in summary.splitlines()) + "\n"
+    if args.out:
+        Path(args.out).write_text(summary)
+    print(summary)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
