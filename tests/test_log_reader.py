@@ -56,11 +56,11 @@ def test_learn_refuses_a_fifo_and_an_endless_device_without_hanging(make, tmp_pa
 
 def test_infinity_reads_back_and_a_partial_last_line_is_tolerated_only_when_not_strict(tmp_path):
     log = tmp_path / "l.jsonl"
-    log.write_text(START + '\n{"event":"action","distance":Infinity}\n{"event":"act')
+    log.write_text(START + '\n{"event":"action","seq":1,"distance":Infinity}\n{"event":"act')
     events = read_log(log)
     assert len(events) == 2 and math.isinf(events[1]["distance"])
     with pytest.raises(InputError, match="line 3: not a JSON line"):
         read_log(log, strict=True)
-    log.write_text(START + '\n{"event":"act\n{"event":"action"}\n')
+    log.write_text(START + '\n{"event":"act\n{"event":"action","seq":1}\n')
     with pytest.raises(InputError, match="line 2"):  # only the last line may be partial
         read_log(log)

@@ -30,7 +30,9 @@ EVENT_KINDS = ("episode_start", "activate", "skip", "decision", "observation", "
 #: The executor's own records, merged by the runner into ``action`` and ``state_reading``
 #: (``state_reading.executor_event`` names which); never events of their own.
 MERGED_KINDS = ("complete", "inspect", "observe_state")
-LOG_MAX_BYTES = 4 * 1024 ** 3  # a log is read whole; 50,000 frames write well under 100 MB
+#: A log is read whole (its parsed events take a few times its bytes); 50,000 frames write well
+#: under 100 MB, and a file this size still fits in a workstation's memory when read.
+LOG_MAX_BYTES = 256 * 1024 ** 2
 _write = os.write  # the one call that puts log bytes on disk (tests replace it to fill the disk)
 DIGITS = 9  # floats are rounded so that logs are stable across platforms' last-bit noise
 #: Keys whose floats are tiny by nature (a disagreement of ~1e-16): kept to DIGITS significant
@@ -124,56 +126,86 @@ class EventLog:
         self.close()
 
 
-class _NonFinite(ValueError):
-    pass
-
-
-def _refuse_constant(name: str) -> float:
-    """JSON's non-standard constants: the log writes an infinite distance as ``Infinity`` (an
-    unreachable site), but never ``NaN`` (:func:`encode` refuses it)."""
-    if name == "NaN":
-        raise _NonFinite(name)
-    return float(name)
-
-
 def read_log(path: str | Path, strict: bool = False) -> list[dict]:
     """The events of a log file, read through the guarded input reader (one reader for every
-    command that reads logs: render, learn, the quality checks).
+    command that reads logs: render, learn, explore, the quality checks).
 
-    A FIFO, a device, a folder, an oversized or non-UTF-8 file, a bare ``NaN`` (never written by
-    fg_tea, which writes only ``Infinity``) and nesting too deep to parse are refused in every
-    mode. A truncated last line (a crash mid-write) ends the log; with `strict`, it is an error
-    too, as is any line that is not an event object and a log that does not begin with
-    ``episode_start``.
+    A FIFO, a device, a folder, an oversized or non-UTF-8 file, NUL bytes, a line that is not an
+    event, and every fault of meaning :mod:`fg_tea.episode.log_check` lists (a duplicate key, a
+    bare ``NaN``, an infinity anywhere but an unreachable ``distance``, a lone surrogate, ``seq``
+    not rising from ``episode_start``, a field of the wrong type) are refused in every mode. A
+    truncated last line (a crash mid-write) ends the log; with `strict`, it is an error too, as
+    is a log with no event.
 
     Raises:
-        InputError: one line naming the file, the line and the fault.
+        InputError: one line naming the file, the line (and the field) and the fault.
     """
+    return read_events(path, strict)[0]
+
+
+def read_events(path: str | Path, strict: bool = False) -> tuple[list[dict], bool]:
+    """:func:`read_log`'s events, and whether a partial last line was left out (never with
+    `strict`)."""
+    from fg_tea.common.errors import InputError
+
+    try:
+        return _read_events(path, strict)
+    except MemoryError:
+        raise InputError(path, "$", "too large to read into memory (a log is read whole)") from None
+
+
+def _read_events(path: str | Path, strict: bool) -> tuple[list[dict], bool]:
     from fg_tea.common.errors import InputError
     from fg_tea.common.inputs import read_text
+    from fg_tea.episode import log_check
 
-    lines = read_text(path, max_bytes=LOG_MAX_BYTES).splitlines()
+    text = read_text(path, max_bytes=LOG_MAX_BYTES)
+    nul = text.find("\0")
+    if nul >= 0:
+        raise InputError(path, f"line {text.count(chr(10), 0, nul) + 1}",
+                         "a NUL byte (padding a crash or a copy can leave): not log text")
+    walk = log_check.needs_walk(text)  # None when no line can hold an infinity or a surrogate
+    lines = text.split("\n")
+    del text
     last = max((n for n, line in enumerate(lines, 1) if line.strip()), default=0)
     events: list[dict] = []
+    previous: dict | None = None
     for n, line in enumerate(lines, 1):
         if not line.strip():
             continue
+        event: Any = None
         try:
-            event = json.loads(line, parse_constant=_refuse_constant)
-        except _NonFinite as exc:
-            raise InputError(path, f"line {n}", f"a bare {exc}: not a value fg_tea writes") from None
+            event = log_check.parse_line(line)
+            if walk is not None:
+                walk(event, line)
+            log_check.check_event(event, previous)
+        except log_check.Fault as exc:
+            kind = event.get("event") if isinstance(event, dict) else None
+            raise log_check.refuse(path, n, exc, kind if isinstance(kind, str) else None) from None
         except RecursionError:
             raise InputError(path, f"line {n}", "nested too deeply to be an event") from None
         except ValueError:
             if strict or n != last:
                 raise InputError(path, f"line {n}", "not a JSON line") from None
-            break  # a crash mid-write left a partial last line
-        if not isinstance(event, dict) or not isinstance(event.get("event"), str):
-            raise InputError(path, f"line {n}", "not an event (a JSON object with 'event')")
+            return events, True  # a crash mid-write left a partial last line
         events.append(event)
-    if strict and (not events or events[0]["event"] != "episode_start"):
+        previous = event
+    if strict and not events:
         raise InputError(path, "line 1", "a log starts with an episode_start event")
-    return events
+    return events, False
+
+
+def episode_digest(events: Iterable[Mapping]) -> str:
+    """The sha256 of an episode's content: its events, keys sorted, in canonical JSON. Two logs
+    of the same episode have the same digest whatever their bytes (key order, spacing, blank
+    lines); ``fg-tea learn`` counts an episode once by it."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for event in events:
+        digest.update(json.dumps(event, sort_keys=True, separators=(",", ":")).encode("utf-8"))
+        digest.update(b"\n")
+    return digest.hexdigest()
 
 
 def iter_events(events: Iterable[Mapping], kind: str) -> Iterator[Mapping]:

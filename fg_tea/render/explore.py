@@ -23,7 +23,7 @@ from typing import Any, Mapping, Sequence
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_write_text
-from fg_tea.episode.log import LOG_MAX_BYTES, read_log
+from fg_tea.episode.log import read_events
 from fg_tea.render.page import content_security_policy, fill, html_text, json_script
 from fg_tea.world.interface import logged_viewpoint
 
@@ -62,9 +62,7 @@ def read_episode(path: str | Path) -> list[dict]:
     """
     from fg_tea._version import __version__
 
-    from fg_tea.common.inputs import read_text
-
-    events = read_log(path, strict=False)
+    events, partial = read_events(path, strict=False)  # the log's meaning: fg_tea.episode.log_check
     if not events or events[0].get("event") != "episode_start":
         raise InputError(path, "line 1", "not an fg_tea episode log (it must start with episode_start)")
     start = events[0]
@@ -72,8 +70,7 @@ def read_episode(path: str | Path) -> list[dict]:
         if key not in start:
             raise InputError(path, "line 1", f"episode_start has no {key!r}: not a log this explorer can read")
     _check_start(path, start)
-    lines = sum(1 for line in read_text(path, max_bytes=LOG_MAX_BYTES).splitlines() if line.strip())
-    if lines > len(events):  # read_log left out a partial last line (a crash mid-write)
+    if partial:  # the reader left out a partial last line (a crash mid-write)
         start[PARTIAL] = True
     written = str((start.get("versions") or {}).get("fg_tea", ""))
     ours, theirs = _major(__version__), _major(written)

@@ -39,18 +39,19 @@ def _fail(file: str, where: str, fault: str) -> InputError:
 
 
 def read_log(path: str | Path) -> tuple[list[dict], str]:
-    """The events of a log file (:func:`fg_tea.episode.log.read_log`, strict) and the sha256 of
-    its bytes.
+    """The events of a log file (:func:`fg_tea.episode.log.read_log`, strict: every check of the
+    log's meaning) and the episode's identity: the sha256 of its content
+    (:func:`fg_tea.episode.log.episode_digest`), the same for two files of one episode whatever
+    their bytes (key order, spacing, blank lines).
 
     Raises:
         InputError: the file cannot be read, a line is not an event, or the log has no
             ``episode_start``.
     """
-    from fg_tea.episode.log import read_log as read_events
-    from fg_tea.episode.provenance import sha256_file
+    from fg_tea.episode.log import episode_digest, read_log as read_events
 
     events = read_events(path, strict=True)
-    return events, sha256_file(path) or ""
+    return events, episode_digest(events)
 
 
 def house_of(events: Sequence[Mapping], file: str = "<log>") -> tuple[str, ...]:
@@ -197,7 +198,8 @@ def learn(logs: Iterable[tuple[Sequence[Mapping], Source]], base: Learning | Non
 
     Raises:
         InputError: a log was recorded in another house than the counts held so far, or is
-            already counted (same sha256).
+            already counted (the same episode: same ``source.sha256``, the content digest of
+            :func:`read_log`).
     """
     state = base or Learning()
     if forgetting is not None:
@@ -301,6 +303,17 @@ def summary(learning: Learning) -> dict:
     return out
 
 
+def _not_counted_by_bytes(log: str | Path, state: Learning) -> None:
+    """Models learned before sources named episodes by content hold the sha256 of a log's bytes:
+    the same file is refused against those too."""
+    from fg_tea.episode.provenance import sha256_file
+
+    held = {s.sha256: s.file for s in state.sources}
+    raw = sha256_file(log)
+    if raw in held:
+        raise InputError(str(log), "$", f"this log is already counted (as {held[raw]})")
+
+
 def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
                 name: str | None = None, forgetting: float | None = None,
                 prior_strength: float | None = None) -> tuple[Path, Learning]:
@@ -354,11 +367,12 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
         raise InputError("<command line>", "--forgetting", f"expected a value in (0, 1], got {forgetting}")
     if prior_strength is not None and not (math.isfinite(prior_strength) and prior_strength > 0):
         raise InputError("<command line>", "--prior-strength", f"expected a positive number, got {prior_strength}")
+    state = base_model.learning or Learning()
     read = []
     for log in logs:
         events, sha = read_log(log)
+        _not_counted_by_bytes(log, state)
         read.append((events, Source(str(log), sha)))
-    state = base_model.learning or Learning()
     if prior_strength is not None:
         state = replace(state, prior_strength=prior_strength)
     learning = learn(read, state, forgetting)
