@@ -119,6 +119,13 @@ def test_boundary_values_that_make_the_model_degenerate_are_refused(tmp_path, ol
     _refused(path, field, words)
 
 
+@pytest.mark.parametrize("value", ["0.5", '"fill"', "[]"])
+def test_a_transition_that_is_not_a_table_is_refused_not_skipped(tmp_path, value):
+    path = _model(tmp_path, "m", 'extends = "factorised"\nname = "m"\n[transitions]\n'
+                  f'wait = {value}\n')
+    _refused(path, "$.transitions.wait", "expected a table")
+
+
 def test_a_visibility_model_without_its_curve_is_refused(tmp_path):
     text = _edit("[perception.visibility]\nhalf_pixels = 50\nslope = 3.0\nmax_probability = 0.95\n",
                  "")
@@ -162,3 +169,170 @@ def test_null_as_a_world_order_is_refused(tmp_path):
     world = json.loads((ROOT / "scenarios" / "worlds" / "correlated.json").read_text())
     world["placement"]["order"] = None
     _refused(_json(tmp_path, "w.json", world), "$.placement.order", "null")
+
+
+# ------------------------------------------------------------------------------ mutation
+#: The values a mutation writes: the boundaries of every range, tiny and huge numbers, NaN and
+#: infinities, the empty string, null (JSON only), a wrong type each way, empty containers.
+BOUNDARY = (0, 1, -1, 0.5, 1e-320, 1e300, math.nan, math.inf, -math.inf, "", None, True, "x",
+            [], {}, 2)
+OPERATIONS = ("value", "value", "value", "delete", "empty", "duplicate", "wrong_type")
+SOURCES = tuple(
+    [("model", p) for p in sorted(ROOT.glob("models/*.toml"))]
+    + [("task", p) for p in sorted(ROOT.glob("scenarios/tasks/*.json"))]
+    + [("world", p) for p in sorted(ROOT.glob("scenarios/worlds/*.json"))]
+    + [("camera", p) for p in sorted(ROOT.glob("cameras/*.toml"))])
+
+
+def _read(path: Path) -> dict:
+    return tomllib.loads(path.read_text()) if path.suffix == ".toml" else json.loads(path.read_text())
+
+
+def _paths(doc, base: tuple = ()) -> list[tuple]:
+    """Every key path of `doc` (containers and leaves), in document order."""
+    out = []
+    items = doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
+    for key, value in items:
+        out.append(base + (key,))
+        out.extend(_paths(value, base + (key,)))
+    return out
+
+
+def _wrong_type(value):
+    if isinstance(value, bool):
+        return int(value)
+    if isinstance(value, (int, float)):
+        return str(value)
+    if isinstance(value, str):
+        return 1
+    if isinstance(value, list):
+        return {"0": value[0]} if value else {}
+    if isinstance(value, dict):
+        return list(value.values())
+    return "x"
+
+
+def mutate(doc: dict, rng: random.Random, toml: bool) -> tuple[dict, str]:
+    """One seeded mutation of `doc`; returns the new document and what was done."""
+    doc = copy.deepcopy(doc)
+    paths = _paths(doc)
+    path = paths[rng.randrange(len(paths))]
+    parent = doc
+    for key in path[:-1]:
+        parent = parent[key]
+    key, value = path[-1], parent[path[-1]]
+    operation = rng.choice(OPERATIONS)
+    if operation == "delete":
+        del parent[key]
+    elif operation == "empty" and isinstance(value, (list, dict)):
+        parent[key] = type(value)()
+    elif operation == "duplicate" and isinstance(value, list) and value:
+        value.append(copy.deepcopy(value[rng.randrange(len(value))]))
+    elif operation == "duplicate" and isinstance(parent, list):
+        parent.append(copy.deepcopy(value))
+    elif operation == "wrong_type":
+        parent[key] = _wrong_type(value)
+    else:
+        operation = "value"
+        choices = [b for b in BOUNDARY if not (toml and b is None)]
+        parent[key] = rng.choice(choices)
+    return doc, f"{operation} at {'.'.join(map(str, path))}" + (
+        f" = {parent[key]!r}" if operation != "delete" and key in (parent if isinstance(parent, dict)
+                                                                   else range(len(parent))) else "")
+
+
+def _toml_key(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else json.dumps(key)
+
+
+def _toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) \
+            else repr(value)
+    if isinstance(value, (int, str)):
+        return json.dumps(value)
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
+
+
+def to_toml(doc: dict) -> str:
+    """`doc` as TOML: one line per top-level key, every table inline."""
+    return "".join(f"{_toml_key(k)} = {_toml_value(v)}\n" for k, v in doc.items())
+
+
+def test_the_toml_writer_round_trips_every_bundled_toml_file():
+    for _, path in SOURCES:
+        if path.suffix == ".toml":
+            assert tomllib.loads(to_toml(_read(path))) == _read(path), path
+
+
+def _run_with(kind: str, path: Path, data, out: Path) -> tuple[int, str]:
+    """Run a short headless episode that reads `path` as `fg-tea run` (or, for a world, one job
+    of `fg-tea compare`) would; return (exit status, error text)."""
+    head = ["run", "--no-video", "--max-frames", RUN_FRAMES, "--out", out]
+    if kind == "model":
+        status, _, err = cli(head + ["--model", path])
+    elif kind == "camera":
+        status, _, err = cli(head + ["--camera", path])
+    elif kind == "task":
+        from fg_tea.cli.validate import _scenario_for_task
+
+        status, _, err = cli(head + [_scenario_for_task(data), "--task", path])
+    else:
+        from fg_tea.common.errors import InputError
+        from fg_tea.study.sweep import Job, check_jobs, run_job
+
+        job = Job(world=str(path), world_seed=0, model="factorised", planner="greedy", env="fake",
+                  max_frames=int(RUN_FRAMES), max_steps=60, gtsam_check=False)
+        try:
+            check_jobs([job])
+            run_job(job)
+        except InputError as exc:
+            return 2, f"fg-tea: error: {exc}"
+        return 0, ""
+    return status, err
+
+
+def _check_mutations(tmp_path: Path, cases: int, seed: int) -> dict:
+    rng = random.Random(seed)
+    counts = {"refused": 0, "ran": 0}
+    faults = []
+    for n in range(cases):
+        kind, source = SOURCES[n % len(SOURCES)]
+        doc, what = mutate(_read(source), rng, source.suffix == ".toml")
+        folder = tmp_path / f"case{n}"
+        folder.mkdir()
+        path = folder / source.name
+        path.write_text(to_toml(doc) if source.suffix == ".toml" else json.dumps(doc))
+        where = f"{source.relative_to(ROOT)}: {what}"
+        try:
+            status, _, err = cli(["validate", path])
+            if status != 0:
+                assert_one_line_error(status, err)
+                counts["refused"] += 1
+                continue
+            status, err = _run_with(kind, path, doc, folder / "out")
+        except Exception as exc:  # a traceback: the fault this test hunts
+            faults.append(f"{where}: {type(exc).__name__}: {exc}")
+            continue
+        if status not in (0, 1):
+            faults.append(f"{where}: validate ok, run refused it: {err.strip()}")
+        counts["ran"] += 1
+    assert not faults, "\n".join(faults[:20]) + f"\n({len(faults)} of {cases} cases)"
+    return counts
+
+
+def test_mutated_files_validate_in_one_line_and_run_when_valid(tmp_path):
+    """Seeded mutations of every bundled model, task, world and camera file (a quick sample)."""
+    counts = _check_mutations(tmp_path, cases=40, seed=1)
+    assert counts["refused"] > 0 and counts["ran"] > 0, counts  # the mutator reaches both ends
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [2, 3, 4])
+def test_many_mutated_files_validate_in_one_line_and_run_when_valid(tmp_path, seed):
+    counts = _check_mutations(tmp_path, cases=150, seed=seed)
+    assert counts["refused"] > 0 and counts["ran"] > 0, counts

@@ -23,6 +23,8 @@ if TYPE_CHECKING:
 #: name: no run of episodes could tell the two apart, and the give-up threshold built from it,
 #: p a / ((1 - p)(1 - a)), is then below any remaining probability a search reaches.
 MIN_ABSENT_PROBABILITY = 1e-12
+#: The keys of ``[transitions]`` that are settings, not transitions.
+TRANSITIONS_SETTINGS = ("form", "success_override")
 
 
 def _fail(r: "Reader", path: str, fault: str) -> InputError:
@@ -69,6 +71,12 @@ def check_model(model: "Model", r: "Reader") -> None:
                     f"must be below 1 - miss_likelihood = {1.0 - mu:g}, got {fp:g} (a detection at "
                     "a site must be likelier when the object is there than when it is elsewhere, "
                     "or seeing it is no evidence it is there; eq. 31)")
+    transitions = r.data.get("transitions") if isinstance(r.data, dict) else None
+    for name, value in (transitions.items() if isinstance(transitions, dict) else ()):
+        if name not in TRANSITIONS_SETTINGS and not isinstance(value, dict):
+            raise _fail(r, f"$.transitions.{name}", f"expected a table of effects (a transition "
+                        f"[transitions.{name}]), got {type(value).__name__} {value!r:.40}; the "
+                        f"settings of [transitions] are {', '.join(TRANSITIONS_SETTINGS)}")
     planning = model.planning
     if not planning.give_up_probability < 1.0:
         raise _fail(r, "$.planning.give_up_probability",
