@@ -6,17 +6,19 @@ Two yardsticks (``--yardstick``):
   least expected cost of finding every object when looks can miss, bracketed from both sides.
   Search-only tasks (``find_mug``, ``find_three``) on worlds drawn from the model's own prior, one
   factorised model with close looks; each planner's exact policy cost and its sampled episodes
-  against the limit, and ``frontier.png`` draws cost / limit against median CPU ms per decision.
+  against the optimum as intervals, [cost / upper, cost / lower] (never below 1), and
+  ``frontier.png`` draws them against mean CPU ms per decision (every solve included).
   It is the study of ``experiments/search_limit.py`` (``summary.md``, ``episodes.csv``,
   ``gaps.md``; see there), run here with the frontier's planners.
 - ``optimal``: search travel in the make-tea episode against the perfect-detection DP
   (``optimal``), which is not the best policy when looks can miss; kept for the correlated worlds
   and joint beliefs the limit does not cover. It writes
 
-  - ``frontier.md``: per model and planner, mean search travel, the ratio of means to ``optimal``
-    with a paired bootstrap 95 % interval over worlds, median and 95th-percentile decision time
-    (ms), inspections and success;
-  - ``frontier.png``: ratio to optimal against median ms per decision (log scale), one point per
+  - ``frontier.md``: per model and planner, mean search travel, the ratio of means to the
+    ``optimal`` planner (not the optimum when looks can miss) with a paired bootstrap 95 % interval
+    over worlds, mean, median and 95th-percentile decision time (ms), CPU ms per decision (mean,
+    median) and per episode, inspections and success;
+  - ``frontier.png``: ratio to ``optimal`` against mean ms per decision (log scale), one point per
     planner and model.
 
 One JSON file per episode under ``<out>/episodes/``; a re-run skips episodes already there, so an

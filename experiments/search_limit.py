@@ -3,9 +3,12 @@
 The limit is the optimal expected cost of finding every object when looks can miss, bracketed
 from both sides (fg_tea/planning/limit.py, docs/design.md §6.9). Each planner runs a search-only
 task (``find_mug``, ``find_three``) on worlds drawn from the model's own prior (``independent``),
-in the fake house with a detector that misses as often as the model says, so the ratio of its
-mean cost to the limit measures planning alone. Writes ``summary.md`` and ``episodes.csv`` to
-``--out``, and one JSON file per episode under ``--out``/episodes (a re-run resumes).
+in the fake house with a detector that misses as often as the model says, so its cost against
+the limit measures planning alone. A ratio to the optimum is an interval, [cost / upper, cost /
+lower], never below 1 (a policy that finds every object costs at least the optimum; a give-up is
+charged the sweep that would finish the search). CPU per decision is reported as mean, median and
+95th percentile, every solve included, and per episode. Writes ``summary.md`` and ``episodes.csv``
+to ``--out``, and one JSON file per episode under ``--out``/episodes (a re-run resumes).
 
     python experiments/search_limit.py --worlds 50                  # a quick look, about a minute
     # the committed table (experiments/results/search_limit/):

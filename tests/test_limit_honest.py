@@ -101,3 +101,69 @@ def test_the_size_test_lets_the_apartment_s_cap_4_through():
     need = limit.table_bytes(8, 3, 8, 6)
     assert 0.9e9 <= need <= 1.4e9 and need <= limit.MAX_BYTES
     assert limit.table_bytes(8, 3, 8, 7) > limit.MAX_BYTES  # cap 5 does not fit
+
+
+QUITTER = """extends = "factorised_close"
+name = "quitter"
+description = "gives a search up early: a test of the policy evaluator"
+
+[planning]
+give_up = "probability"
+give_up_probability = 0.2
+"""
+
+
+def _ratios(text: str, column: str) -> list[float]:
+    """Every number of a column of the summary's tables."""
+    import re
+
+    out = []
+    for block in text.split("## task")[1:]:
+        rows = [line for line in block.splitlines() if line.startswith("|")]
+        col = [c.strip() for c in rows[0].strip("|").split("|")].index(column)
+        for line in rows[2:]:
+            cell = [c.strip() for c in line.strip("|").split("|")][col]
+            out += [float(x) for x in re.findall(r"\d+\.\d+", cell)]
+    return out
+
+
+def test_a_give_up_is_charged_so_no_policy_costs_less_than_the_limit(tmp_path):
+    """A model that gives a search up at 20 % remaining probability: the old evaluator charged
+    nothing after it, so the exact planner's policy cost fell far below the optimum's lower
+    bound. Charged the sweep that finishes the search, every cost is a real policy's, at least
+    the lower bound, and every ratio printed to the optimum is at least 1."""
+    from fg_tea.study import yardstick
+
+    model = tmp_path / "quitter.toml"
+    model.write_text(QUITTER)
+    lim, objects = yardstick.start_limit("independent", str(model), "find_mug", tolerance=0.01)
+    policies = {}
+    for planner in ("efe", "exact"):
+        pol = yardstick.evaluate_policy("independent", str(model), planner, "find_mug")
+        assert pol.given_up > 0.1 and pol.completion > 0.1 and pol.unexpanded == 0.0
+        assert pol.cost >= lim.lower * (1 - yardstick.RATIO_TOLERANCE), (planner, pol, lim)
+        low, high = yardstick.ratio_interval(pol.cost, lim)
+        assert 1.0 <= low <= high and high == pytest.approx(pol.cost / lim.lower)
+        policies[("find_mug", planner)] = pol
+    rows = [{"task": "find_mug", "planner": p, "seed": s, "cost": c, "looks": 3, "success": True,
+             "decision_cpu_seconds": [0.5, 0.001, 0.001]}
+            for p in ("efe", "exact") for s, c in enumerate((lim.lower * 0.5, lim.lower * 1.2, lim.lower))]
+    text = yardstick.summarise(rows, {"find_mug": (lim, objects)}, "independent", "quitter", "cmd", policies)
+    for column in ("policy / optimum", "episodes / optimum [95 %]"):
+        got = _ratios(text, column)
+        assert got and min(got) >= 1.0, (column, got)
+    # CPU: the mean counts the solve that the median hides, and the episode's sum is reported
+    assert _ratios(text, "CPU ms mean") == [pytest.approx(167.33, abs=0.01)] * 2
+    assert _ratios(text, "CPU ms median") == [1.0, 1.0]
+    assert _ratios(text, "CPU ms per episode") == [502.0, 502.0]
+
+
+def test_a_cost_below_the_lower_bound_is_flagged_never_printed_as_a_ratio():
+    from fg_tea.planning.limit import Limit
+    from fg_tea.study import yardstick
+
+    lim = Limit(10.0, 10.5, 3, 0, 8, 3)
+    assert yardstick.ratio_interval(10.2, lim) == (1.0, pytest.approx(1.02))  # 10.2 / 10.5 < 1: raised
+    assert yardstick.ratio_interval(10.0 * (1 - 1e-12), lim) == (1.0, 1.0)  # within the tolerance
+    assert yardstick.ratio_interval(9.99, lim) is None
+    assert "below the limit" in yardstick.ratio_text(9.99, lim)

@@ -54,9 +54,9 @@ def test_the_frontier_against_the_limit_writes_its_study_and_resumes(tmp_path, c
     assert len(episodes) == 4
     table = (tmp_path / "summary.md").read_text()
     assert "Regenerate: `python experiments/planner_frontier.py --worlds 2" in table
-    ratios = {line.split(" | ")[0].strip("| "): float(line.split(" | ")[2])
+    ratios = {line.split(" | ")[0].strip("| "): [float(x) for x in line.split(" | ")[2].strip("[]").split(", ")]
               for line in table.splitlines() if line.startswith(("| efe |", "| exact |"))}
-    assert 0.99 <= ratios["exact"] <= 1.01 < ratios["efe"]
+    assert 1.0 <= ratios["exact"][0] <= ratios["exact"][1] <= 1.01 < ratios["efe"][0]
     stamps = [p.stat().st_mtime_ns for p in episodes]
     assert frontier.main(args + ["--gaps", "efe"]) == 0  # resumes: nothing is run again
     assert [p.stat().st_mtime_ns for p in episodes] == stamps
@@ -213,4 +213,4 @@ def test_the_limit_frontier_gives_every_planner_its_own_style_and_a_legend(tmp_p
     (fig,) = figures
     (ax,) = [a for a in fig.axes if a.get_xlabel()]
     assert ax.get_legend_handles_labels()[1] == planners
-    assert len(ax.containers) == 6  # the six sampled planners carry error bars
+    assert len(ax.containers) == len(planners)  # every planner drawn as its interval to the optimum

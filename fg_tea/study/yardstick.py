@@ -133,46 +133,89 @@ def run(world: str, seeds: range, model: str, planners: list[str], task: str, ou
     return rows
 
 
+#: Relative slack allowed below the limit's lower bound (rounding in the sums and the sweep's tail
+#: bound, 1e-12 of the mass): a cost below ``lower * (1 - RATIO_TOLERANCE)`` is an error, not a ratio.
+RATIO_TOLERANCE = 1e-9
+
+
+def ratio_interval(cost: float, limit: Limit) -> tuple[float, float] | None:
+    """``[cost / upper, cost / lower]``, the ratio of `cost` to the optimum V* (which the limit
+    brackets), its low end raised to 1 where it falls below: a policy that finds every object
+    costs at least V*. None if `cost` lies below the lower bound beyond :data:`RATIO_TOLERANCE`
+    (then it is not the cost of such a policy, and no ratio is printed)."""
+    if cost < limit.lower * (1.0 - RATIO_TOLERANCE):
+        return None
+    return max(1.0, cost / limit.upper), max(1.0, cost / limit.lower)
+
+
+def ratio_text(cost: float, limit: Limit, digits: int = 4) -> str:
+    """:func:`ratio_interval` as ``[1.0000, 1.0005]``, or why there is none."""
+    got = ratio_interval(cost, limit)
+    if got is None:
+        return f"below the limit by {limit.lower - cost:.2g} m: not a policy's cost"
+    return f"[{got[0]:.{digits}f}, {got[1]:.{digits}f}]"
+
+
+def cpu_summary(rows: list[dict]) -> dict[str, float]:
+    """CPU ms per decision (mean, median, 95th percentile, every decision, solves included)
+    and per episode (mean of each episode's sum)."""
+    per = np.array([t for r in rows for t in r["decision_cpu_seconds"]]) * 1e3
+    episodes = np.array([sum(r["decision_cpu_seconds"]) for r in rows]) * 1e3
+    if not per.size:
+        return {"mean": float("nan"), "median": float("nan"), "p95": float("nan"),
+                "episode": float("nan")}
+    return {"mean": float(per.mean()), "median": float(np.median(per)),
+            "p95": float(np.percentile(per, 95)), "episode": float(episodes.mean())}
+
+
 def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], world: str, model: str,
               command: str, policies: dict[tuple[str, str], "PolicyCost"] | None = None) -> str:
     """The markdown tables: per task and planner, the exact expected cost of its policy (where it
-    is deterministic) and the mean over sampled episodes, each against the limit, and times."""
+    is deterministic) and the mean over sampled episodes, each against the limit as an interval
+    (:func:`ratio_interval`), and CPU times."""
     policies = policies or {}
     lines = [f"# Planners against the search limit: model `{model}`, world `{world}`", "",
              f"Regenerate: `{command}`", "",
              "Cost: travel between the viewpoints looked from (the planner's own distances) plus "
              f"{LOOK_COST:.3f} m-equivalent per image, until every object is found. Limit: the "
-             "optimal expected cost of the same search (docs/design.md §6.9), bracketed "
-             "[lower, upper]; ratios are to its midpoint. *Policy*: the exact expected cost of the "
-             "planner's own policy, every outcome of every look enumerated under the model "
-             "(branches below 1e-9 left out; `given up`: the chance it gives a search up, which "
-             "ends it early and so can put a ratio just below 1). *Episodes*: the mean over "
-             "sampled worlds with a 95 % bootstrap interval. CPU: median and 95th percentile per "
-             "decision in the episodes, ms, serial.", ""]
+             "optimal expected cost V* of the same search (docs/design.md §6.9), bracketed "
+             "[lower, upper]. A ratio to the optimum is an interval, [cost / upper, cost / lower] "
+             "(V* lies in the bracket), its low end raised to 1 where below: no policy that finds "
+             f"every object costs less than V* (a cost below the lower bound by more than "
+             f"{RATIO_TOLERANCE:g} relative is flagged, never printed as a ratio). *Policy*: the "
+             "exact expected cost of the planner's own policy, every outcome of every look "
+             "enumerated under the model; where it gives a search up (*given up*, its probability) "
+             "or a branch is less probable than 1e-9 (*unexpanded*), the search is finished by a "
+             "cyclic sweep of the viewpoints, whose expected cost (*sweep*, m) is part of the "
+             "policy cost. *Episodes*: the mean cost over sampled worlds with a 95 % bootstrap "
+             "interval, and that interval against the limit (same rule). CPU: ms per decision "
+             "(mean, median and 95th percentile over every decision, the exact planner's solves "
+             "included) and per episode (mean), serial.", ""]
     for task in sorted({r["task"] for r in rows}):
         limit, objects = limits[task]
-        mid = (limit.lower + limit.upper) / 2
         lines += [f"## task `{task}` ({', '.join(objects)})", "",
-                  f"Limit: {mid:.3f} m [{limit.lower:.4f}, {limit.upper:.4f}] (cap {limit.cap}, "
+                  f"Limit: [{limit.lower:.6f}, {limit.upper:.6f}] m (cap {limit.cap}, "
                   f"{limit.viewpoints} viewpoints).", "",
-                  "| planner | policy cost (m) | policy / limit | given up | worlds | episodes: mean "
-                  "cost (m) | episodes / limit [95 %] | looks | success | CPU ms median | CPU ms p95 |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "| planner | policy cost (m) | policy / optimum | given up | unexpanded | sweep (m) | "
+                  "worlds | episodes: mean cost (m) [95 %] | episodes / optimum [95 %] | looks | "
+                  "success | CPU ms mean | CPU ms median | CPU ms p95 | CPU ms per episode |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for planner in dict.fromkeys(r["planner"] for r in rows if r["task"] == task):
             mine = sorted((r for r in rows if r["task"] == task and r["planner"] == planner),
                           key=lambda r: r["seed"])
             cost = np.array([r["cost"] for r in mine])
-            lo, hi = bootstrap_interval(cost / mid)
-            cpu = np.array([t for r in mine for t in r["decision_cpu_seconds"]]) * 1e3
+            lo, hi = bootstrap_interval(cost)
+            sampled = (f"[{max(1.0, lo / limit.upper):.3f}, {hi / limit.lower:.3f}]"
+                       if hi >= limit.lower else "– (the sample lies below the limit)")
+            cpu = cpu_summary(mine)
             pol = policies.get((task, planner))
-            exact = (f"{pol.cost:.3f} | {pol.cost / mid:.4f} | {pol.given_up:.4f}" if pol is not None
-                     else "– | – | –")
-            lines.append(f"| {planner} | {exact} | {len(mine)} | {cost.mean():.3f} | "
-                         f"{cost.mean() / mid:.3f} [{lo:.3f}, {hi:.3f}] | "
-                         f"{np.mean([r['looks'] for r in mine]):.2f} | "
-                         f"{np.mean([r['success'] for r in mine]):.3f} | "
-                         f"{np.median(cpu) if cpu.size else float('nan'):.2f} | "
-                         f"{np.percentile(cpu, 95) if cpu.size else float('nan'):.2f} |")
+            exact = (f"{pol.cost:.4f} | {ratio_text(pol.cost, limit)} | {pol.given_up:.2g} | "
+                     f"{pol.unexpanded:.2g} | {pol.completion:.4f}" if pol is not None
+                     else "– | – | – | – | –")
+            lines.append(f"| {planner} | {exact} | {len(mine)} | {cost.mean():.3f} [{lo:.3f}, {hi:.3f}] | "
+                         f"{sampled} | {np.mean([r['looks'] for r in mine]):.2f} | "
+                         f"{np.mean([r['success'] for r in mine]):.3f} | {cpu['mean']:.2f} | "
+                         f"{cpu['median']:.2f} | {cpu['p95']:.2f} | {cpu['episode']:.1f} |")
         lines.append("")
     return "\n".join(lines)
 
@@ -193,9 +236,10 @@ def planner_styles(planners: list[str]) -> dict[str, tuple[str, str]]:
 
 def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
                   policies: dict[tuple[str, str], "PolicyCost"], path: Path) -> Path:
-    """The quality-cost frontier against the limit: per task, each planner's cost / limit (its
-    exact policy cost where it has one, else the episodes' mean with its 95 % interval) against
-    its median CPU ms per decision (log), with the limit (1) and 3 % above it marked."""
+    """The quality-cost frontier against the limit: per task, each planner's cost against the
+    optimum as an interval (its exact policy cost where it has one, [cost / upper, cost / lower];
+    else the episodes' 95 % interval, the same way), against its mean CPU ms per decision (log,
+    every solve included), with the limit (1) and 3 % above it marked."""
     from fg_tea.study.analysis import figure_row, save_figure
     from fg_tea.study.frontier import log_ticks
 
@@ -204,33 +248,40 @@ def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
     fig, axes = figure_row(width=4.2 * len(tasks) + 2.2, height=4.0, ncols=len(tasks))
     for ax, task in zip(axes, tasks):
         limit, objects = limits[task]
-        mid = (limit.lower + limit.upper) / 2
         styles = planner_styles(planners)
         for planner in planners:
             mine = [r for r in rows if r["task"] == task and r["planner"] == planner]
-            cpu = np.array([t for r in mine for t in r["decision_cpu_seconds"]]) * 1e3
-            if not mine or not cpu.size or np.median(cpu) <= 0:
+            cpu = cpu_summary(mine)["mean"] if mine else float("nan")
+            if not mine or not np.isfinite(cpu) or cpu <= 0:
                 continue
             colour, marker = styles[planner]
             style = {"marker": marker, "label": planner, "color": colour}
             pol = policies.get((task, planner))
             if pol is not None:
-                ax.scatter(np.median(cpu), pol.cost / mid, s=36, **style)
+                got = ratio_interval(pol.cost, limit)
+                if got is None:
+                    continue
+                mid = (got[0] + got[1]) / 2
+                ax.errorbar(cpu, mid, yerr=[[mid - got[0]], [got[1] - mid]], ls="none", capsize=3,
+                            markersize=6, **style)
             else:  # randomised: only its sampled episodes say how it does
-                ratio = np.array([r["cost"] for r in mine]) / mid
-                lo, hi = bootstrap_interval(ratio)
-                ax.errorbar(np.median(cpu), ratio.mean(), yerr=[[ratio.mean() - lo], [hi - ratio.mean()]],
-                            ls="none", capsize=3, markersize=6, markerfacecolor="none", **style)
+                lo, hi = bootstrap_interval(np.array([r["cost"] for r in mine]))
+                if hi < limit.lower:
+                    continue
+                low, high = max(1.0, lo / limit.upper), hi / limit.lower
+                mid = (low + high) / 2
+                ax.errorbar(cpu, mid, yerr=[[mid - low], [high - mid]], ls="none", capsize=3,
+                            markersize=6, markerfacecolor="none", **style)
         ax.axhline(1.0, color="grey", lw=0.8)
         ax.axhline(1.03, color="grey", lw=0.8, ls=":")
         log_ticks(ax)
-        ax.set_xlabel("median CPU ms per decision (log)")
-        ax.set_ylabel("expected cost / limit")
+        ax.set_xlabel("mean CPU ms per decision (log, solves included)")
+        ax.set_ylabel("expected cost / optimum (interval)")
         ax.set_title(f"{task} ({len(objects)} object{'s' if len(objects) != 1 else ''})", fontsize=10)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, fontsize=7, loc="outside right center", frameon=False)
     fig.suptitle("Quality against cost, against the search limit (dotted: 3 % above it; filled: the "
-                 "exact policy cost, open: episodes' mean, 95 %)", fontsize=9)
+                 "exact policy cost, open: episodes' 95 %)", fontsize=9)
     return save_figure(fig, path)
 
 
@@ -323,11 +374,17 @@ class _FromViewpoint:
 class PolicyCost:
     """A planner's exact expected search cost, by enumerating every outcome of its looks.
 
+    The cost is that of a real policy that finds every object, so it is never below the limit:
+    the planner's, followed until it gives a search up (the give-up rule, §7.8) or until a branch
+    is less probable than the evaluation's floor, and from there a cyclic sweep of the viewpoints
+    until every object is found (:func:`completion_cost`, the upper cut's own continuation).
+
     Attributes:
-        cost: expected cost (metres-equivalent) over the branches expanded.
-        unexpanded: probability of the branches below ``floor``, not expanded (their cost is
-            missing from ``cost``).
-        given_up: probability that the agent gives a search up (the give-up rule, §7.8).
+        cost: expected cost (metres-equivalent) to find every object, the sweeps included.
+        unexpanded: probability of the branches below ``floor``, not followed further (finished
+            by a sweep instead of the planner).
+        given_up: probability that the agent gives a search up (finished by a sweep).
+        completion: the part of ``cost`` the sweeps after a give-up or below the floor add.
         states: distinct decision states evaluated.
     """
 
@@ -335,6 +392,31 @@ class PolicyCost:
     unexpanded: float
     given_up: float
     states: int
+    completion: float = 0.0
+
+
+def completion_cost(agent, distances, close_looks: bool) -> float:
+    """The expected cost of finding every object the agent still searches for, from where it
+    stands, by sweeping the viewpoints that can show one in a fixed cyclic order (a
+    nearest-neighbour tour entered at its nearest viewpoint), as the limit's upper cut finishes
+    (:func:`fg_tea.planning.limit._cycle_cost`); inf if some object can never be seen."""
+    from fg_tea.planning.limit import _cycle_cost, _tour, _useful
+
+    objects = agent.executor.pending_search_objects()
+    if not objects:
+        return 0.0
+    problem = build_problem(agent.belief, objects, distances, frozenset(),
+                            None if close_looks else agent.views, LOOK_COST)
+    useful, sites, q0 = _useful(problem)
+    if useful.size == 0:
+        return float("inf")
+    prob = problem.prob[np.ix_(useful, np.arange(len(objects)), sites)]
+    between = problem.between[np.ix_(useful, useful)]
+    tour = _tour(between)
+    start = problem.start[useful]
+    first = int(np.argmin(start[tour]))
+    return _cycle_cost(q0[:, sites], prob, np.roll(tour, -first), float(start[tour[first]]), between,
+                       problem.look[useful])
 
 
 def evaluate_policy(world: str, model_name: str, planner: str, task: str,
@@ -373,23 +455,29 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
             return cache[(a, b)]
 
         shared = {id(x): x for x in (scenario, model, agent.views, agent.planner)}
-        memo: dict[tuple, tuple[float, float, float]] = {}
+        memo: dict[tuple, tuple[float, float, float, float]] = {}
         totals = {"unexpanded": 0.0}
 
-        def value(agent: Agent, here: str | None, weight: float) -> tuple[float, float]:
-            """(expected cost to go, probability of giving up) from this state."""
-            action = agent.next_action((0.0, 0.0), _FromViewpoint(start, between, here))
+        def value(agent: Agent, here: str | None, weight: float) -> tuple[float, float, float]:
+            """(expected cost to go, probability of giving up, expected completion cost) from
+            this state."""
+            where = _FromViewpoint(start, between, here)
+            action = agent.next_action((0.0, 0.0), where)
             if action is None:
-                return 0.0, (0.0 if agent.done else 1.0)
+                if agent.done:
+                    return 0.0, 0.0, 0.0
+                rest = completion_cost(agent, where, model.close_looks_only)  # given up: sweep
+                return rest, 1.0, rest
             key = (here, tuple(sorted(agent.inspected.items())),
                    tuple(sorted(agent.executor.pending_search_objects())))
             # A state met again is reused only if it was expanded at least as deep: branches are
             # cut at an absolute probability, so a visit with less weight cut more of its subtree.
-            if key in memo and trace is None and memo[key][2] >= weight:
-                return memo[key][:2]
-            if weight < floor:
+            if key in memo and trace is None and memo[key][3] >= weight:
+                return memo[key][:3]
+            if weight < floor:  # not followed further: finished by a sweep
                 totals["unexpanded"] += weight
-                return 0.0, 0.0
+                rest = completion_cost(agent, where, model.close_looks_only)
+                return rest, 0.0, rest
             decision = agent.decide(action, (0.0, 0.0), _FromViewpoint(start, between, here))
             v = decision.viewpoint
             assert agent.views is not None
@@ -407,7 +495,7 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
                 seen = [(sites[k], float(marg[o][k] * p[k])) for k in range(len(sites))
                         if marg[o][k] * p[k] > 0]
                 per_object.append([(None, 1.0 - sum(x for _, x in seen))] + seen)
-            cost, gave = step, 0.0
+            cost, gave, rest = step, 0.0, 0.0
             for combo in itertools.product(*per_object):
                 prob = float(np.prod([x for _, x in combo]))
                 if prob <= 0:
@@ -415,16 +503,17 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
                 child = copy.deepcopy(agent, memo=dict(shared))
                 child.executor.events.clear()
                 child.observe_look(v, {o: site for o, (site, _) in zip(objects, combo)})
-                c, g = value(child, v, weight * prob)
+                c, g, r = value(child, v, weight * prob)
                 cost += prob * c
                 gave += prob * g
-            memo[key] = (cost, gave, weight)
-            return cost, gave
+                rest += prob * r
+            memo[key] = (cost, gave, rest, weight)
+            return cost, gave, rest
 
-        cost, gave = value(agent, None, 1.0)
+        cost, gave, rest = value(agent, None, 1.0)
     finally:
         env.close()
-    return PolicyCost(cost, totals["unexpanded"], gave, len(memo))
+    return PolicyCost(cost, totals["unexpanded"], gave, len(memo), rest)
 
 
 def gap_analysis(world: str, model_name: str, planner: str, task: str, cap: int = 3,
