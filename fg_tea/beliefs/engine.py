@@ -14,9 +14,10 @@ Only this module writes beliefs. It keeps two independent blocks of one factor g
 Exact answers come from a solver (:mod:`fg_tea.beliefs.solvers`): ``backend="gtsam"`` runs every
 query through gtsam's discrete elimination (the engine of record); ``backend="numpy"`` (default)
 answers the same queries from closed forms (factorised models), the dense K^N joint table (small
-joint models) or the subset dynamic program of :mod:`fg_tea.beliefs.structured` (joint models
-whose relational factors are site- or room-local, at any size up to its object limit), and
-:meth:`BeliefEngine.check_against_gtsam` measures their agreement. Hypothetical evidence (what
+joint models), the subset dynamic program of :mod:`fg_tea.beliefs.structured` (joint models
+whose relational factors are site- or room-local, at any size up to its object limit) or variable
+elimination (:mod:`fg_tea.beliefs.eliminated`: extra factors of any scope, joints too big to hold),
+and :meth:`BeliefEngine.check_against_gtsam` measures their agreement. Hypothetical evidence (what
 the planner asks dozens of times per decision) is answered in one vectorised step from single
 and pairwise marginals, without mutating the belief.
 """
@@ -26,7 +27,6 @@ from __future__ import annotations
 import copy
 import math
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
@@ -48,6 +48,7 @@ from fg_tea.beliefs.factors import (
 )
 from fg_tea.beliefs.graph import (DENSE_LIMIT, BeliefGraph, build_graph, check_exact_method,
                                   pair_weight_matrices)
+from fg_tea.beliefs.eliminated import EliminatedLocationModel, eliminated_model, elimination_plan
 from fg_tea.beliefs.occlusion import CompanyEvidence, alone_miss
 from fg_tea.beliefs.solvers import GtsamSolver, NumpySolver
 from fg_tea.beliefs.structured import (
@@ -56,6 +57,7 @@ from fg_tea.beliefs.structured import (
     PairWeights,
     StructuredLocationModel,
 )
+from fg_tea.beliefs.updates import LookUpdate, StateUpdate  # noqa: F401 - re-exported
 from fg_tea.common.errors import ContradictionError
 from fg_tea.common.stats import entropy
 from fg_tea.model.spec import Effect, Model, Sensor
@@ -83,35 +85,6 @@ class UnknownVariableError(KeyError):
         return str(self.args[0]) if self.args else ""
 
 
-@dataclass(frozen=True)
-class LookUpdate:
-    """The effect of one look on the location beliefs.
-
-    Attributes:
-        viewpoint: what was looked from: the inspected site (:meth:`BeliefEngine.observe_site`)
-            or the viewpoint's name (:meth:`BeliefEngine.observe_viewpoint`).
-        detections: the observation, object -> True (seen) / False (looked, not seen).
-        before, after: location marginals of every object before and after.
-        detected: objects seen, in object order.
-    """
-
-    viewpoint: str
-    detections: Mapping[str, bool]
-    before: Mapping[str, np.ndarray]
-    after: Mapping[str, np.ndarray]
-    detected: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
-class StateUpdate:
-    """Belief in each touched state, before and after an observation or transition."""
-
-    kind: str
-    before: Mapping[str, float]
-    after: Mapping[str, float]
-    detail: Mapping[str, object] = field(default_factory=dict)
-
-
 class BeliefEngine:
     """Exact beliefs over object locations and task states for one scenario and model.
 
@@ -121,13 +94,16 @@ class BeliefEngine:
         backend: ``"numpy"`` (fast exact path) or ``"gtsam"`` (every location and state query,
             hypothetical ones included, re-solved through gtsam's discrete elimination).
         location_solver: how the numpy backend solves a joint location block: ``"auto"`` (the
-            cheaper of the two exact methods), ``"dense"`` (the K^N joint table) or
-            ``"structured"`` (the subset dynamic program of :mod:`fg_tea.beliefs.structured`).
+            cheapest exact method), ``"dense"`` (the K^N joint table), ``"structured"`` (the
+            subset dynamic program of :mod:`fg_tea.beliefs.structured`) or ``"elimination"``
+            (variable elimination, :mod:`fg_tea.beliefs.eliminated`; auto's choice for extra
+            factors over a joint above 250,000 states).
 
     Raises:
         ValueError: unknown backend or solver, or a joint model that no exact method can hold
             (relational factors that are not site/room-local over more than
-            :data:`DENSE_LIMIT` joint states).
+            :data:`DENSE_LIMIT` joint states), or one whose elimination exceeds its budget
+            (:class:`~fg_tea.beliefs.eliminated.EliminationRefused`, one line).
     """
 
     def __init__(self, scenario: Scenario | BeliefGraph, model: Model, backend: str = "numpy",
@@ -136,9 +112,9 @@ class BeliefEngine:
 
         if backend not in ("numpy", "gtsam"):
             raise ValueError(f"unknown belief backend {backend!r}; use 'numpy' or 'gtsam'")
-        if location_solver not in ("auto", "dense", "structured"):
+        if location_solver not in ("auto", "dense", "structured", "elimination"):
             raise ValueError(f"unknown location solver {location_solver!r}; "
-                             "use 'auto', 'dense' or 'structured'")
+                             "use 'auto', 'dense', 'structured' or 'elimination'")
         graph = scenario if isinstance(scenario, BeliefGraph) else build_graph(scenario, model)
         self.model = model
         self.graph = graph
@@ -158,7 +134,9 @@ class BeliefEngine:
         self._structurable = (self._correlated and not graph.extra and n <= MAX_OBJECTS
                               and bool(np.all(self._pair_weights.same_room > 0)))
         self._dense_ok = graph.joint_size <= DENSE_LIMIT
-        check_exact_method(graph, self._structurable, location_solver)
+        self._elim_plan = elimination_plan(graph, self._pair_weights, location_solver)
+        if self._elim_plan is None:
+            check_exact_method(graph, self._structurable, location_solver)
         self.location_solver = location_solver
         self._rel_joint: np.ndarray | None = None
         self._company: CompanyEvidence | None = None  # coupled looks under occlusion (eq. 59)
@@ -225,11 +203,14 @@ class BeliefEngine:
 
     # ------------------------------------------------------------------ location solvers
     def _method(self) -> str:
-        """Which exact method answers location queries: independent, dense, structured or gtsam."""
+        """Which exact method answers location queries: independent, dense, structured,
+        elimination (:mod:`fg_tea.beliefs.eliminated`) or gtsam."""
         if self.backend == "gtsam":
             return "gtsam"
         if not self._correlated:
             return "independent"
+        if self._elim_plan is not None:
+            return "elimination"
         if self.location_solver != "auto":
             return self.location_solver
         if not self._dense_ok:
@@ -244,7 +225,7 @@ class BeliefEngine:
     @property
     def location_method(self) -> str:
         """The exact method answering location queries (``independent``, ``dense``,
-        ``structured`` or ``gtsam``)."""
+        ``structured``, ``elimination`` or ``gtsam``)."""
         return self._method()
 
     def _relational_joint(self) -> np.ndarray:
@@ -265,6 +246,13 @@ class BeliefEngine:
                                              else self._company.weights)
             self._cache["structured"] = cached
         return cached
+
+    def _eliminated(self) -> EliminatedLocationModel:
+        if "eliminated" not in self._cache:
+            assert self._elim_plan is not None
+            self._cache["eliminated"] = eliminated_model(self._elim_plan, self.graph, self._pair_weights,
+                                                         self._unary, self._company)
+        return self._cache["eliminated"]
 
     def structured_model(self) -> StructuredLocationModel | None:
         """The subset dynamic program of the current location belief (docs/design.md §4.4).
@@ -317,6 +305,8 @@ class BeliefEngine:
                     if not self._dense_ok:
                         raise
                     cached = self._dense_marginals()
+            elif method == "elimination":
+                cached = self._eliminated().singles()
             else:
                 cached = self._dense_marginals()
             self._cache["locations"] = cached
@@ -444,7 +434,9 @@ class BeliefEngine:
             method = self._method()
             m = self._location_marginals()
             n, k = m.shape
-            if method == "structured":
+            if method == "elimination":
+                cached = self._eliminated().pairwise()
+            elif method == "structured":
                 try:
                     cached = self._structured().pairwise()
                 except NumericalGuardError:
@@ -557,6 +549,8 @@ class BeliefEngine:
                 return self._location_marginals()[axes[0]].copy()
             if len(axes) == 2:
                 return self._pairwise()[axes[0], axes[1]].copy()
+            if self._method() == "elimination":
+                return self._eliminated().joint(axes).copy()
             full = self.location_joint()
             other = tuple(a for a in range(len(names)) if a not in axes)
             reduced = full.sum(axis=other)
@@ -595,7 +589,7 @@ class BeliefEngine:
             previous = self._cache.pop("structured", None)
             if previous is not None:     # rooms the evidence left unchanged are reused from it
                 self._cache["structured_previous"] = previous
-            for key in ("locations", "joint", "pairwise"):
+            for key in ("locations", "joint", "pairwise", "eliminated"):
                 self._cache.pop(key, None)
 
     def _log_prior(self, o: int) -> np.ndarray:
@@ -775,7 +769,7 @@ class BeliefEngine:
                 self._company = company.absorb(view.conditional, view.sites, {
                     self._obj_index[o]: None if s is None else self._site_index[s]
                     for o, s in found.items()}, view.probability)
-                for key in ("locations", "joint", "pairwise", "structured"):
+                for key in ("locations", "joint", "pairwise", "structured", "eliminated"):
                     self._cache.pop(key, None)
             miss = alone_miss(view.conditional) if coupled else view.miss
             self._commit_location([view_miss_factor(o, view.sites, miss[self._obj_index[o]], k, label)
@@ -960,10 +954,12 @@ class BeliefEngine:
         """The most probable joint arrangement of objects.
 
         gtsam max-product over the factor graph; joint models whose dense relational tables
-        would exceed :data:`GTSAM_MAP_LIMIT` joint states use the structured max-product chain.
+        would exceed :data:`GTSAM_MAP_LIMIT` joint states use the structured max-product chain,
+        and the elimination method max-product elimination.
         """
-        if self._correlated and self._structurable and self.graph.joint_size > GTSAM_MAP_LIMIT:
-            sites = self._structured().map_assignment()
+        elimination = self._method() == "elimination"
+        if elimination or (self._correlated and self._structurable and self.graph.joint_size > GTSAM_MAP_LIMIT):
+            sites = (self._eliminated() if elimination else self._structured()).map_assignment()
             return {o: self.sites[int(sites[i])] for i, o in enumerate(self.objects)}
         assignment = GtsamSolver(self._keys).map_assignment(self._location_factors(), self._cards)
         return {o: self.sites[assignment[location_var(o)]] for o in self.objects}

@@ -64,7 +64,9 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.beliefs.graph import DENSE_LIMIT
 from fg_tea.beliefs.structured import NumericalGuardError
+from fg_tea.common.errors import PlannerRefused
 from fg_tea.common.stats import entropy
 from fg_tea.model.spec import PlanningWeights
 from fg_tea.planning.base import (
@@ -375,6 +377,24 @@ class EFEPlanner(PlannerBase):
         if rank < 1:
             raise ValueError(f"rank must be at least 1, got {rank}")
         self.rank = rank
+
+    def check(self, belief, objects: Sequence[str]) -> None:
+        """Refuse a belief whose exact joint gain has no route: a joint above the dense limit
+        without a subset program (e.g. extra factors answered by elimination, docs/design.md §4.8).
+
+        Raises:
+            PlannerRefused: kind ``"belief"``, naming the sizes and the way out.
+        """
+        mode = self.information if self.information != "auto" else \
+            ("joint" if belief.correlated else "factorised")
+        size = len(belief.sites) ** len(belief.objects)
+        if mode != "joint" or size <= DENSE_LIMIT or belief.structured_model() is not None:
+            return
+        raise PlannerRefused(f"{self.name} planner: the exact joint information gain needs the joint of "
+                             f"{len(belief.objects)} objects x {len(belief.sites)} sites ({size:,} states), "
+                             f"above the dense limit {DENSE_LIMIT:,}, and this belief has no subset program "
+                             "(its relational factors are not all site/room-local); use information = "
+                             "'factorised'", "belief", self.name)
 
     def information_gain(self, belief, objects: Sequence[str]) -> tuple[np.ndarray, str]:
         """I(o, j) for the objects (caller's order) and every site, shape (|objects|, K), nats.
