@@ -117,6 +117,15 @@ def test_a_plugin_check_that_fails_is_one_line_and_status_2(tmp_path, capsys, pl
     assert not out.exists()
 
 
+def test_a_plugin_check_that_fails_in_compare_is_status_2_before_any_episode(tmp_path, capsys):
+    out = tmp_path / "c"
+    status = main(["compare", "--planners", f"{MOD}:CheckRaises", "--env", "fake", "--worlds", "1",
+                   "--models", "factorised", "--executor", "serial", "--pages", "0", "--out", str(out)])
+    line = _one_line(capsys)
+    assert status == 2 and "its check() raised RuntimeError: cannot check" in line, line
+    assert not (out / "episodes.csv").exists()
+
+
 def test_compare_with_a_factory_that_exits_is_status_2(tmp_path, capsys):
     status = main(["compare", "--planners", "builtins:exit", "--env", "fake", "--worlds", "1",
                    "--models", "factorised", "--executor", "serial", "--pages", "0",

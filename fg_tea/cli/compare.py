@@ -94,6 +94,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
             planners = [p for p in planners if p != "optimal"]
             sys.stderr.write(f"compare: planner optimal left out of the default planners: "
                              f"{fault.split(': ', 1)[-1].split('; ')[0]} in {base.name}\n")
+    for spec in planners:  # a plug-in's factory and check() run once here, before any episode
+        if plugin_planner(spec):
+            first = load_model(model_path(args.models[0]))
+            fault = planner_size_fault(spec, base, load_task("make_tea", first, base), first)
+            if fault is not None:
+                raise InputError(world.source or args.world, f"--planners {spec}", f"{fault} ({base.name})")
     sets = _seed_sets(args, n_worlds)
     check_out_dir(out)
     jobs = plan_sweep([args.world], n_worlds, args.models, planners, first_seed=args.first_seed,
