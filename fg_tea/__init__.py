@@ -14,6 +14,7 @@ The world and the loop (docs/design.md §8-§9):
 Models as programs (docs/design.md §4.8):
     Program          -- declare variables (locations, states, your own) and factors over them.
     program_from_model -- a bundled model's factors over a scenario, as a program to edit.
+    model_program    -- the program of any loaded model (TOML, or a model program file) over a scenario.
     compile_program, CompiledModel, plan_text  -- exact inference over a program; its plan.
 Studies (docs/design.md §11-§12):
     compare          -- models x planners over sampled worlds, paired, with a report.
@@ -52,6 +53,7 @@ _API = {
     "read_log": "fg_tea.episode.log",
     "Program": "fg_tea.model.program",
     "program_from_model": "fg_tea.model.program_bundled",
+    "model_program": "fg_tea.model.program_file",
     "compile_program": "fg_tea.beliefs.compiled",
     "CompiledModel": "fg_tea.beliefs.compiled",
     "plan_text": "fg_tea.beliefs.compiled",
@@ -87,6 +89,7 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load o
     from fg_tea.episode.runner import EpisodeRunner, RunConfig
     from fg_tea.model.program import Program
     from fg_tea.model.program_bundled import program_from_model
+    from fg_tea.model.program_file import model_program
     from fg_tea.model.spec import load_model
     from fg_tea.planning import planner_names, register_planner
     from fg_tea.planning.base import Candidate, Decision, Planner

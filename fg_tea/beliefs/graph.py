@@ -1,6 +1,7 @@
 """Build the agent's initial factor graph from a scenario and a model — a pure function.
 
-``build_graph(scenario, model)`` returns the variables (named, with cardinalities and gtsam keys),
+``build_graph(scenario, model)`` builds the model's starting factors as a program and translates
+it (:mod:`fg_tea.beliefs.from_program`); it returns the variables (named, with cardinalities and gtsam keys),
 the location priors [eq. 2], the relational factors of joint models, and the Bernoulli state
 priors (eq. 21). Evidence and queries live in :mod:`fg_tea.beliefs.engine`; this module only
 reads the scenario's priors (site affordances, state priors), never its hidden truth.
@@ -165,16 +166,16 @@ def assemble_graph(model: Model, sites: Sequence[str], rooms: Sequence[str],
                     for b in objects[i + 1:]:
                         pairs.append(PairRelation(a, b, rel.weight, 1.0, f"exclusivity {a}|{b}"))
         if model.learning is not None and model.learning.counts.relations_active:
-            pairs = _learned_pairs(model, pairs, objects, categories, priors, rooms)
+            pairs = learned_pairs(model, pairs, objects, categories, [f.table for f in priors], rooms)
     states = tuple(state_prior(name, p) for name, p in (state_priors or {}).items())
     return BeliefGraph(sites=tuple(sites), objects=tuple(objects), rooms=tuple(rooms),
                        capacities=capacities, location_priors=priors, state_priors=states,
                        structure=model.structure, pairs=tuple(pairs), capacity_penalty=penalty)
 
 
-def _learned_pairs(model: Model, pairs: list[PairRelation], objects: Sequence[str],
-                   categories: Sequence[str], priors: Sequence[Factor],
-                   rooms: Sequence[str]) -> list[PairRelation]:
+def learned_pairs(model: Model, pairs: list[PairRelation], objects: Sequence[str],
+                  categories: Sequence[str], priors: Sequence[np.ndarray],
+                  rooms: Sequence[str]) -> list[PairRelation]:
     """The pair factors with eq. (55)'s learned co-location weights (docs/design.md §12.1).
 
     For every two objects related by a co-location relation whose categories have counts, the
@@ -186,7 +187,7 @@ def _learned_pairs(model: Model, pairs: list[PairRelation], objects: Sequence[st
     assert model.learning is not None
     learning = model.learning
     cat = dict(zip(objects, categories))
-    prior = {o: f.table for o, f in zip(objects, priors)}
+    prior = dict(zip(objects, priors))
     groups: dict[frozenset, list[int]] = {}
     for i, p in enumerate(pairs):
         groups.setdefault(frozenset((p.a, p.b)), []).append(i)
@@ -212,24 +213,17 @@ def _learned_pairs(model: Model, pairs: list[PairRelation], objects: Sequence[st
 
 
 def build_graph(scenario: Scenario, model: Model) -> BeliefGraph:
-    """The initial factor graph of `model` over the house of `scenario`."""
-    return assemble_graph(
-        model,
-        sites=scenario.site_names,
-        rooms=[s.room for s in scenario.sites],
-        objects=scenario.object_names,
-        categories=[o.category for o in scenario.objects],
-        # Eq. 2's weights, or with experience eq. 50's posterior-predictive mean (docs/design.md §12).
-        weights=np.stack([location_weights(model.learning, o.category, scenario.site_names,
-                                           prior_weights(scenario, o.category), model.prior_floor,
-                                           model.source)
-                          for o in scenario.objects]),
-        capacities=[s.capacity for s in scenario.sites],
-        state_priors={f"{o.name}.{name}": p for o in scenario.objects
-                      for name, p in o.state_priors.items()},
-    )
+    """The initial factor graph of `model` over the house of `scenario`.
 
+    There is one construction path (docs/design.md §4.8): the model's starting factors as a
+    program — the program of a program file (:mod:`fg_tea.model.program_file`), or a TOML model's
+    via :func:`~fg_tea.model.program_bundled.program_from_model` — turned into the engine's graph
+    by :func:`~fg_tea.beliefs.from_program.graph_from_program`.
+    """
+    from fg_tea.beliefs.from_program import graph_from_program
+    from fg_tea.model.program_file import model_program
 
+    return graph_from_program(model_program(scenario, model), scenario, model)
 
 
 def pair_weight_matrices(graph: BeliefGraph) -> PairWeights:

@@ -1,4 +1,5 @@
-"""``fg-tea beliefs``: the prior marginals of every object and task state (eq. 2, eq. 21).
+"""``fg-tea beliefs``: the prior marginals of every object and task state (eq. 2, eq. 21), and with
+``--top K`` the K most probable joint arrangements of the model's program (docs/design.md §4.8).
 """
 
 from __future__ import annotations
@@ -38,7 +39,36 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
     print("most probable arrangement (gtsam max-product): " +
           ", ".join(f"{o} on {s}" for o, s in belief.map_estimate().items()))
     print(f"agreement with gtsam: max |difference| = {belief.check_against_gtsam():.2e}")
+    if args.top is not None:
+        print()
+        print(top_text(scenario, model, args.top), end="")
     return 0
+
+
+def top_text(scenario, model, k: int) -> str:
+    """The `k` most probable joint arrangements of the model's program over `scenario`, exactly
+    (K-best MAP of the compiled program: every location, task state and variable of its own)."""
+    from fg_tea.beliefs.compiled import compile_program
+    from fg_tea.model.program_file import model_program
+
+    compiled = compile_program(model_program(scenario, model))
+    best = compiled.kbest(k)
+    lines = [f"{len(best)} most probable arrangements (exact K-best of the compiled program):"]
+    for rank, a in enumerate(best, 1):
+        values = ", ".join(f"{name} on {value}" if hasattr(value, "room") else f"{name}={value}"
+                           for name, value in a.values.items())
+        lines.append(f"{rank:3d}. p={a.probability:.6f}  {values}")
+    return "\n".join(lines) + "\n"
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
+    return value
 
 
 def add_parser(sub) -> None:
@@ -46,4 +76,7 @@ def add_parser(sub) -> None:
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                    help="scenario file or bundled name (default: %(default)s)")
     p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
+    p.add_argument("--top", type=_positive, default=None, metavar="K",
+                   help="also print the K most probable joint arrangements of every variable of the "
+                   "model's program (locations, task states, variables of its own), exactly")
     add_solver_argument(p)

@@ -372,7 +372,10 @@ def planner_name(text: str) -> str:
 
 
 # ------------------------------------------------------------------------------ bundled names
-MODEL_HELP = "model file, or bundled model or ablation name (default: %(default)s)"
+MODEL_HELP = ("model file (.toml), bundled model or ablation name, or a model program (a .py file, "
+              "module:attr or an fg_tea.models entry point; docs/how-to/model-as-program.md; "
+              "importing and building it are limited to FG_TEA_MODEL_SECONDS seconds each, "
+              "default 60) (default: %(default)s)")
 CAMERA_HELP = ("camera file, or bundled camera name (visibility, threshold, no_site_association): "
                "what the camera reports (docs/design.md §1.3); default: the bundled camera of the "
                "detector the model assumes")

@@ -310,7 +310,9 @@ def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) ->
                    help="worlds of the confirmation set (default: --worlds)")
     add_episode_seed_argument(p)
     p.add_argument("--models", nargs="+", default=["factorised", "joint"],
-                   help="models: bundled names, bundled ablations or files (default: factorised joint)")
+                   help="models: bundled names, bundled ablations, files, or model programs (.py, "
+                   "module:attr, fg_tea.models entry points; building each is limited to "
+                   "FG_TEA_MODEL_SECONDS seconds, default 60) (default: factorised joint)")
     p.add_argument("--camera", default=None, help=CAMERA_HELP.replace("the model assumes",
                                                                        "each model assumes"))
     p.add_argument("--planners", nargs="+", type=planner_name, default=None,

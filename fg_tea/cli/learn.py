@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from fg_tea.cli.common import MODEL_HELP, command, out_path
+from fg_tea.cli.common import command, out_path
 from fg_tea.common.resources import DEFAULT_MODEL
 
 
@@ -43,7 +43,9 @@ def add_parser(sub) -> None:
                        "Learning from A then B (with the first result as --base) equals learning "
                        "from A and B at once.")
     p.add_argument("logs", nargs="*", metavar="LOG", help="episode.jsonl logs, counted in this order")
-    p.add_argument("--base", default=DEFAULT_MODEL, help=MODEL_HELP.replace("model file", "base model file"))
+    p.add_argument("--base", default=DEFAULT_MODEL,
+                   help="base model file (.toml), or bundled model or ablation name; not a model "
+                   "program (default: %(default)s)")
     p.add_argument("--out", required=True, type=out_path,
                    help="the learned model file to write (.toml)")
     p.add_argument("--name", default=None, help="the learned model's name (default: <base>_learned)")

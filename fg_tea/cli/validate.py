@@ -56,7 +56,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from fg_tea.model.spec import load_model
     from fg_tea.world.scenario import load_scenario, parse_scenario
 
+    from fg_tea.model.program_file import is_program_ref
+
     for path in [p for name in args.files for p in _validate_targets(name)]:
+        if is_program_ref(path):
+            print(check_program(str(path), args.scenario or DEFAULT_SCENARIO, args.task), end="")
+            continue
         data = read_toml(path) if path.suffix == ".toml" else read_json(path)
         kind = file_kind(path, data)
         if kind == "camera":
@@ -116,6 +121,30 @@ def check_model_runs(model, scenario_ref: str, task_ref: str) -> None:
                          f"{scenario.name!r}: {fault}")
 
 
+def check_program(ref: str, scenario_ref: str, task_ref: str) -> str:
+    """Check a model program as ``fg-tea run --model REF`` would (:func:`check_model_runs`) and
+    return its report: the ok line, how the belief engine answers location queries, and the
+    compiled plan (variables, factors, the exact method of each query, elimination width,
+    largest table; :meth:`fg_tea.beliefs.compiled.CompiledModel.plan`)."""
+    from fg_tea.beliefs.compiled import compile_program
+    from fg_tea.beliefs.engine import BeliefEngine
+    from fg_tea.model.program_file import program_for
+    from fg_tea.model.spec import load_model
+    from fg_tea.world.scenario import load_scenario
+
+    model = load_model(ref)
+    check_model_runs(model, scenario_ref, task_ref)
+    scenario = load_scenario(scenario_ref)
+    program = program_for(scenario, model)
+    engine = BeliefEngine(scenario, model)
+    labels = engine.graph.relational_labels
+    return (f"{ref}: ok (model program, base {model.program.base}, sha256 {model.program.sha256[:12]}; "
+            f"scenario {scenario.name}, task {task_ref})\n"
+            f"episode beliefs: location queries by the {engine.location_method} method; "
+            f"relational factors: {', '.join(labels) or 'none'}\n"
+            + compile_program(program).plan())
+
+
 def _scenario_for_task(data: object) -> str:
     """The bundled scenario a task file is checked against when none is named: the default
     apartment, or the first bundled scenario holding every object the task's actions name."""
@@ -160,10 +189,15 @@ def add_parser(sub) -> None:
                        "step; print one line per file. The kind is recognised by content. A model "
                        "is checked as fg-tea run --model checks it, with --task in --scenario (by "
                        "default make_tea in the default apartment); a task with --model in "
-                       "--scenario; a scenario or world with --model. A bundled name (see fg-tea "
-                       "list) checks every bundled file of that name.")
+                       "--scenario; a scenario or world with --model. A model program (a .py file, "
+                       "module:attr or fg_tea.models entry point) is checked as a model, then its "
+                       "compiled plan is printed: variables, factors, the exact method of each query, "
+                       "the elimination width and the largest table; importing and building it are "
+                       "limited to FG_TEA_MODEL_SECONDS seconds each (default 60). A bundled name "
+                       "(see fg-tea list) checks every bundled file of that name.")
     p.add_argument("files", nargs="+", metavar="FILE",
-                   help="scenario (.json), model or camera (.toml), task or world file, or a "
+                   help="scenario (.json), model or camera (.toml), task or world file, a model "
+                   "program (.py, module:attr, entry point: also prints its compiled plan), or a "
                    "bundled name")
     p.add_argument("--scenario", default=None,
                    help="scenario to check task and model files against (default: the default "

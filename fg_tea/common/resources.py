@@ -143,7 +143,12 @@ def resolve_scenario(name: str | Path) -> Path:
 
 
 def resolve_model(name: str | Path) -> Path:
-    """A model path, or the bundled model of that name, or else the bundled ablation of that name."""
+    """A model path, or the bundled model of that name, or else the bundled ablation of that name; a
+    model program's reference (``.py``, ``module:attribute``, entry point) is returned as it is."""
+    from fg_tea.model.program_file import is_program_ref
+
+    if is_program_ref(name):
+        return Path(name)
     return _resolve_named(name, "model or ablation", ("models", "ablations"))
 
 

@@ -296,6 +296,7 @@ class EpisodeRunner:
             for v in self.scenario.viewpoints if v.name in views.names]
         self._viewpoints_logged = viewpoints
         from fg_tea.common.resources import _resolve, resolve_task
+        from fg_tea.model.program_file import program_record
 
         world = None if self.world is None else _resolve(self.world, "scenarios/worlds", ".json")
         provenance = episode_provenance(self.scenario.source, model.source,
@@ -307,6 +308,8 @@ class EpisodeRunner:
             "scenario_file": (provenance["inputs"]["scenario"] or {}).get("file"),
             "model": model.name, "model_file": portable_ref(model.source) if model.source else None,
             "structure": model.structure,
+            # A model program (docs/design.md §4.8): its file, hash and factors; absent for TOML models.
+            **({"program": program_record(self.scenario, model)} if model.program is not None else {}),
             "task": self.graph.name, "planner": self.config.planner, "seed": self.config.seed,
             "versions": provenance["versions"], "git": provenance["git"],
             "inputs": provenance["inputs"],

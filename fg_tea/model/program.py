@@ -102,23 +102,41 @@ class Variable:
         return tuple(str(v) for v in self.values)
 
 
-@dataclass(frozen=True, eq=False)
 class ProgramFactor:
     """A named non-negative table over some of a program's variables.
 
     Attributes:
         name: unique within its program (what :meth:`Program.remove` and ``replace`` take).
         scope: variable names, one per axis of `table`.
-        table: float64 array, finite, non-negative, not all zero.
+        table: float64 array, finite, non-negative, not all zero (a structured factor builds it
+            on first use).
         learnable: marked for learning (docs/design.md §12); inference treats it like any table.
         origin: ``"table"`` or ``"function"`` (how it was declared), for the compiled plan.
+        form: None, or the structured form a bundled model's factor was made from and still has
+            (``("pair", a, b, same_site, same_room)`` or ``("capacity", penalty)``); the belief
+            engine keeps such factors structured (:mod:`fg_tea.beliefs.from_program`).
     """
 
-    name: str
-    scope: tuple[str, ...]
-    table: np.ndarray
-    learnable: bool = False
-    origin: str = "table"
+    __slots__ = ("name", "scope", "_table", "_build", "learnable", "origin", "form")
+
+    def __init__(self, name: str, scope: tuple[str, ...], table: np.ndarray | None = None,
+                 learnable: bool = False, origin: str = "table", form: tuple[Any, ...] | None = None,
+                 build: Callable[[], np.ndarray] | None = None) -> None:
+        if (table is None) == (build is None):
+            raise ValueError("a program factor needs a table or a way to build one, not both")
+        self.name, self.scope, self._table, self._build = name, tuple(scope), table, build
+        self.learnable, self.origin, self.form = bool(learnable), origin, form
+
+    @property
+    def table(self) -> np.ndarray:
+        """The factor's table over its scope (built, once, when first asked for)."""
+        if self._table is None:
+            assert self._build is not None
+            self._table = self._build()
+        return self._table
+
+    def __repr__(self) -> str:
+        return f"ProgramFactor({self.name!r}, scope={self.scope!r}, origin={self.origin!r})"
 
 
 class Program:
@@ -149,6 +167,9 @@ class Program:
         self.objects = None if objects is None else tuple(objects)
         self._variables: dict[str, Variable] = {}
         self._factors: dict[str, ProgramFactor] = {}
+        #: The model whose other settings (planning, detection, sensors, transitions) go with
+        #: these starting factors: set by ``program_from_model``; None = the default model's.
+        self.model: Any = None
 
     @classmethod
     def from_scenario(cls, scenario: Any, source: str | None = None) -> "Program":
@@ -361,9 +382,14 @@ class Program:
         name, scope, table = made
         if name in self._factors and not replace:
             raise InputError(self.source, f"factor {name!r}", "declared twice (use replace to change it)")
-        made_factor = ProgramFactor(name, scope, table, bool(learnable), origin)
-        self._factors[name] = made_factor  # a replaced factor keeps its place in the order
-        return made_factor
+        return self._put(ProgramFactor(name, scope, table, bool(learnable), origin), replace)
+
+    def _put(self, made: ProgramFactor, replace: bool = False) -> ProgramFactor:
+        """Store a made factor (a bundled model's structured factors come in this way)."""
+        if made.name in self._factors and not replace:
+            raise InputError(self.source, f"factor {made.name!r}", "declared twice (use replace to change it)")
+        self._factors[made.name] = made  # a replaced factor keeps its place in the order
+        return made
 
     def _scope(self, label: str, scope: tuple[str, ...]) -> tuple[Variable, ...]:
         if not scope:

@@ -10,9 +10,14 @@ declared task state, and the factors the belief engine starts from (docs/design.
   capacity multiplies by the penalty), ``co_location a~b`` and ``exclusivity a|b`` (pairwise
   same-site / same-room weights), with the same names and values as the engine's factors.
 
+Learned relation weights (eq. 55) scale the first co-location factor of a pair, as the engine
+always did. The relational factors carry their structured form (``ProgramFactor.form``) and build
+their tables only when asked (the capacity table has K^N entries), so the belief engine keeps
+them structured while they stay unedited (:mod:`fg_tea.beliefs.from_program`). The program
+remembers `model` (``program.model``): planning, detection, sensors and transitions come from it.
+
 Evidence and transitions are not part of a model file; they enter the compiled model
-(:meth:`fg_tea.beliefs.compiled.CompiledModel.observe` and ``transition``). Learned relation
-weights (eq. 55) are not a program front end yet and are refused in one line.
+(:meth:`fg_tea.beliefs.compiled.CompiledModel.observe` and ``transition``).
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import numpy as np
 
 from fg_tea.common.errors import InputError
 from fg_tea.model.learning import location_weights
-from fg_tea.model.program import Program
+from fg_tea.model.program import Program, ProgramFactor
 from fg_tea.model.spec import Model
 
 #: Largest capacity table (K^N entries) built for a program.
@@ -41,10 +46,11 @@ def program_from_model(scenario: Any, model: Model) -> Program:
         A :class:`Program` to extend, edit (``remove``, ``replace``) and compile.
 
     Raises:
-        InputError: the model has learned relation weights, or its capacity table would exceed
+        InputError: (when its table is asked for) the capacity table would exceed
             :data:`CAPACITY_LIMIT` entries.
     """
     m = Program.from_scenario(scenario, source=model.source or f"<model {model.name}>")
+    m.model = model
     sites = scenario.site_names
     for o in scenario.objects:
         m.location(o.name)
@@ -65,37 +71,44 @@ def program_from_model(scenario: Any, model: Model) -> Program:
 
 
 def _relations(m: Program, scenario: Any, model: Model) -> None:
-    if model.learning is not None and model.learning.counts.relations_active:
-        raise InputError(m.source, "$.learning.co_location",
-                         "learned relation weights (eq. 55) are not yet built as a program; "
-                         "use the model file directly")
+    from fg_tea.beliefs.graph import PairRelation, learned_pairs
+
     objects = scenario.object_names
     categories = [o.category for o in scenario.objects]
     penalty = None
+    pairs: list[Any] = []
     for rel in model.relations:
         if rel.kind == "capacity":
             penalty = rel.penalty if penalty is None else penalty * rel.penalty
-    if penalty is not None:
-        _capacity(m, scenario, penalty)
-    for rel in model.relations:
-        if rel.kind == "co_location":
+        elif rel.kind == "co_location":
             a_cat, b_cat = rel.categories
             for a, ca in zip(objects, categories):
                 for b, cb in zip(objects, categories):
                     if ca == a_cat and cb == b_cat and a != b:
-                        _pair(m, a, b, rel.same_site, rel.same_room, f"co_location {a}~{b}")
+                        pairs.append(PairRelation(a, b, rel.same_site, rel.same_room, f"co_location {a}~{b}"))
         elif rel.kind == "exclusivity":
             for i, a in enumerate(objects):
                 for b in objects[i + 1:]:
-                    _pair(m, a, b, rel.weight, 1.0, f"exclusivity {a}|{b}")
+                    pairs.append(PairRelation(a, b, rel.weight, 1.0, f"exclusivity {a}|{b}"))
+    if model.learning is not None and model.learning.counts.relations_active:
+        priors = [m.factor_named(f"prior {o}").table for o in objects]
+        pairs = learned_pairs(model, pairs, objects, categories, priors, [s.room for s in scenario.sites])
+    if penalty is not None:
+        _capacity(m, scenario, penalty)
+    rooms = np.array([s.room for s in scenario.sites])
+    for p in pairs:
+        m._put(ProgramFactor(p.label, (p.a, p.b), None, False, "function",
+                             ("pair", p.a, p.b, float(p.same_site), float(p.same_room)),
+                             build=_pair_table(rooms, p.same_site, p.same_room)))
 
 
-def _pair(m: Program, a: str, b: str, same_site: float, same_room: float, name: str) -> None:
-    def weight(la, lb):  # a site's value carries its room
-        if la.name == lb.name:
-            return same_site
-        return same_room if la.room == lb.room else 1.0
-    m.function((a, b), weight, name=name)
+def _pair_table(rooms: np.ndarray, same_site: float, same_room: float):
+    def build() -> np.ndarray:  # x same_site on one site, x same_room on two sites of one room
+        table = np.where(rooms[:, None] == rooms[None, :], float(same_room), 1.0)
+        np.fill_diagonal(table, float(same_site))
+        table.setflags(write=False)
+        return table
+    return build
 
 
 def _capacity(m: Program, scenario: Any, penalty: float) -> None:
@@ -103,13 +116,18 @@ def _capacity(m: Program, scenario: Any, penalty: float) -> None:
     limited = [(j, s.capacity) for j, s in enumerate(scenario.sites) if s.capacity is not None and s.capacity < n]
     if not limited:
         return
-    if k ** n > CAPACITY_LIMIT:
-        raise InputError(m.source, "relations.capacity",
-                         f"the capacity factor over {n} objects x {k} sites has {k ** n:,} entries, "
-                         f"above {CAPACITY_LIMIT:,}")
-    grids = np.indices((k,) * n, sparse=True)
-    table = np.ones((k,) * n)
-    for j, c in limited:
-        count = sum((g == j).astype(int) for g in grids)
-        table = table * float(penalty) ** np.maximum(count - c, 0)
-    m.table(scenario.object_names, table, name="capacity")
+
+    def build() -> np.ndarray:
+        if k ** n > CAPACITY_LIMIT:
+            raise InputError(m.source, "relations.capacity",
+                             f"the capacity factor over {n} objects x {k} sites has {k ** n:,} entries, "
+                             f"above {CAPACITY_LIMIT:,}")
+        grids = np.indices((k,) * n, sparse=True)
+        table = np.ones((k,) * n)
+        for j, c in limited:
+            count = sum((g == j).astype(int) for g in grids)
+            table = table * float(penalty) ** np.maximum(count - c, 0)
+        table.setflags(write=False)
+        return table
+    m._put(ProgramFactor("capacity", tuple(scenario.object_names), None, False, "table",
+                         ("capacity", float(penalty)), build=build))

@@ -212,6 +212,8 @@ class Model:
     learning: Learning | None = None
     #: The declared sensors before eq. 52 was applied (None when no learning changed them).
     declared_sensors: Mapping[str, Sensor] | None = None
+    #: A model program's source (:class:`fg_tea.model.program_file.ProgramSource`): the graph's starting factors.
+    program: Any = None
 
     @property
     def close_looks_only(self) -> bool:
@@ -568,9 +570,12 @@ def _load_document(path: Path, seen: tuple[Path, ...],
 
 
 def load_model(path: str | Path) -> Model:
-    """Load and validate a model TOML file (a path, or the name of a bundled model)."""
+    """Load and validate a model TOML file (a path, or the name of a bundled model), or a model program."""
     from fg_tea.common.resources import resolve_model
+    from fg_tea.model.program_file import is_program_ref, load_program_model
 
+    if is_program_ref(path):  # a .py file, module:attribute or entry point (docs/design.md §4.8)
+        return load_program_model(path)
     path = Path(resolve_model(path))
     origins: dict[str, str] = {}
     try:

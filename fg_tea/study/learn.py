@@ -352,6 +352,10 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
         raise InputError("<command line>", "--out", f"cannot write into folder {folder}")
     base_path = Path(resolve_model(base))
     base_model = load_model(base)
+    if base_model.program is not None:
+        raise InputError("<command line>", "--base", f"{base!r} is a model program; learning writes a TOML "
+                         f"model extending its base, so learn from the program's base model "
+                         f"({base_model.program.base!r}) (learned programs are not built yet)")
     if base_model.facing_tolerance or base_model.occlusion:
         raise InputError("<command line>", "--base", f"{base_model.name!r} sets [perception] "
                          "facing_tolerance or occlusion, which learned detection probabilities "
