@@ -25,5 +25,6 @@ def test_bench_program_scale_quick(tmp_path):
     assert "| + capacity 1 on 15 sites | refused |" in text
     refusal = re.search(r"refused in one line: `([^`]*)`", text)
     assert refusal and "elimination width" in refusal.group(1) and "budget" in refusal.group(1)
-    agreement = re.search(r"hypothetical posterior: ([0-9.e+-]+)\.", text)
-    assert agreement and float(agreement.group(1)) < 1e-9
+    agreement = re.search(r"hypothetical posterior: ([0-9.e+-]+); vs gtsam's marginals "
+                          r"\(check_against_gtsam\): ([0-9.e+-]+)\.", text)
+    assert agreement and all(float(x) < 1e-9 for x in agreement.groups())

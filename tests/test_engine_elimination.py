@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import fg_tea.beliefs.eliminated as eliminated
 from fg_tea.beliefs.eliminated import (ELIMINATION_FROM, EliminationPlan, EliminationRefused,
                                        EliminatedLocationModel)
 from fg_tea.beliefs.engine import BeliefEngine
@@ -97,8 +98,11 @@ def marginal_of(joint: np.ndarray, axes) -> np.ndarray:
     return np.moveaxis(reduced, [order.index(a) for a in axes], list(range(len(axes))))
 
 
+@pytest.mark.parametrize("space", ["linear", "log"])
 @pytest.mark.parametrize("seed", range(14))
-def test_elimination_equals_dense_and_brute_force(seed):
+def test_elimination_equals_dense_and_brute_force(seed, space, monkeypatch):
+    if space == "log":     # every query through log-space elimination (wide evidence ranges)
+        monkeypatch.setattr(eliminated, "LINEAR_RANGE", -1.0)
     rng = np.random.default_rng(seed)
     graph = random_graph(rng, zeros=seed % 3 == 0)
     elim = BeliefEngine(graph, LIKELIHOOD, location_solver="elimination")
@@ -263,3 +267,22 @@ def test_over_budget_is_refused_in_one_line():
     assert "\n" not in text
     assert text.startswith("exact inference over L[o0], L[o1], L[o2], L[o3], L[o4] by ")
     assert "elimination width" in text and "entries" in text and "refused (no approximation" in text
+
+
+def test_misses_too_wide_for_scaled_tables_run_in_log_space_and_stay_exact():
+    """Evidence of about 1e-200 at one site for every object (hundreds of misses): the products of
+    such tables could leave float range, so the linear route's guard (LINEAR_RANGE) sends every
+    query to log-space elimination, which still equals the dense joint."""
+    rng = np.random.default_rng(21)
+    graph = random_graph(rng, n=3, k=4)
+    elim = BeliefEngine(graph, LIKELIHOOD, location_solver="elimination")
+    dense = BeliefEngine(graph, LIKELIHOOD, location_solver="dense")
+    looks = int(200 / -math.log10(LIKELIHOOD.miss_likelihood))
+    for e in (elim, dense):
+        for _ in range(looks):
+            e.observe_site(graph.sites[0], {o: False for o in graph.objects})
+    model = elim._eliminated()
+    spread = sum(eliminated._log_range(model._log_unary[o]) for o in range(3))
+    assert spread > eliminated.LINEAR_RANGE
+    assert np.abs(elim.location_matrix() - dense.location_matrix()).max() < TOL
+    assert np.abs(elim.pairwise() - dense.pairwise()).max() < TOL
