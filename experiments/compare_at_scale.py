@@ -44,7 +44,11 @@ Long sweeps: ``--executor ray --address auto`` (or ``ray://head:10001``) runs th
 tasks on a cluster with fg_tea installed on every node; the CSV is the same bytes as on the
 process pool.
 
-Each report covers every row of its CSV whose model is one of ``--looks``' pair (the related
+``--models FIRST SECOND`` (houses table) compares two models of your own instead of the ``--looks``
+pair — model files, bundled names or model programs (``my_model.py``, ``module:attr``;
+docs/how-to/model-as-program.md) — the first with a factorised belief, the second a joint one.
+
+Each report covers every row of its CSV whose model is one of ``--looks``' pair (or ``--models``; the related
 table: ``factorised`` and ``joint_related_<n>``), not only
 the episodes the last command planned: cells run by separate commands (for example fewer worlds
 for the 45-site houses) share one report, each with its own number of pairs, and
@@ -138,6 +142,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "factorised_occlusion/joint_occlusion (detection that knows the turn tolerance "
                    "and what shares a site, docs/design.md §3.4); close: "
                    "factorised_close/joint_close (default: %(default)s)")
+    p.add_argument("--models", nargs=2, default=None, metavar=("FACTORISED", "JOINT"),
+                   help="houses table: the two models compared instead of the --looks pair, a "
+                   "factorised-structure one then a joint-structure one: model files, bundled names "
+                   "or model programs (.py, module:attr; docs/how-to/model-as-program.md)")
     p.add_argument("--planners", nargs="+", default=list(GAINS + BASELINES),
                    help=f"planner names (default: {' '.join(GAINS + BASELINES)})")
     p.add_argument("--half-pixels", nargs="+", type=float, default=list(DEFAULT_HALF_PIXELS),
@@ -216,6 +224,18 @@ def parse_args(argv=None) -> argparse.Namespace:
         if c not in CATEGORIES:
             p.error(f"--small-categories: {c!r} is not an object of the generated houses "
                     f"({', '.join(CATEGORIES)})")
+    if args.models is not None:
+        if args.table != "houses":
+            p.error(f"--models: the {args.table} table has models of its own; --models is for --table houses")
+        from fg_tea.model.spec import load_model
+
+        try:
+            structures = [load_model(m).structure for m in args.models]
+        except InputError as exc:
+            p.error(f"--models: {exc}")
+        if structures != ["factorised", "joint"]:
+            p.error(f"--models: {' '.join(args.models)}: the first must have a factorised belief and the "
+                    f"second a joint one (they have {structures[0]} and {structures[1]})")
     for name in args.planners:  # before seed_sets.json is declared or any row copied
         try:
             check_planner(name)   # built-ins, family specs and plug-ins, as the sweep checks them
@@ -341,9 +361,21 @@ def strength_knobs(c: float) -> dict[str, float]:
     return {"same_site": round(2 * c / 3, 12), "same_room": round(c / 3, 12)}
 
 
+def compared_models(args) -> tuple[str, str]:
+    """The two models of the table: ``--models``, or the ``--looks`` pair."""
+    return tuple(args.models) if getattr(args, "models", None) else LOOKS[args.looks]
+
+
+def model_names(models: tuple[str, ...]) -> tuple[str, ...]:
+    """The names rows carry for these model references (a program file's name is its stem)."""
+    from fg_tea.model.spec import load_model
+
+    return tuple(load_model(m).name for m in models)
+
+
 def plan(args, out: Path) -> tuple[list[Job], list[dict]]:
     """The job list and, per job key, the cell it belongs to."""
-    models = LOOKS[args.looks]
+    models = compared_models(args)
     jobs: list[Job] = []
     cells: list[dict] = []
 
@@ -718,6 +750,7 @@ def resolve_commands(args, cells: list[dict], sets: list[SeedSet]) -> list[str]:
         if c["verdict"] == ESTABLISHED or not need or need <= have:
             continue
         flags = ["--table", args.table] + (["--looks", args.looks] if args.looks != "glances" else [])
+        flags += ["--models", *args.models] if getattr(args, "models", None) else []
         flags += ["--worlds", str(sets[0].count)] + (
             ["--first-seed", str(sets[0].first)] if sets[0].first else [])
         flags += ["--confirmation-first-seed", str(FRESH_FIRST_SEED), "--confirmation-worlds",
@@ -816,7 +849,7 @@ def main(argv=None) -> int:
     command = shlex.join(["python", "experiments/compare_at_scale.py",
                           *recorded_argv(sys.argv[1:] if argv is None else argv, args)])
     # One report for every cell in the CSV, whichever command ran it (see the module doc).
-    models = LOOKS[args.looks]
+    models = model_names(tuple(args.models)) if args.models else LOOKS[args.looks]
     rows = [r for r in every if row_cell(r, args.table, models)]
     cell_map = {r["key"]: row_cell(r, args.table, models) for r in rows}
     log = out / "commands.txt"
