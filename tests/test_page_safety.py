@@ -7,9 +7,10 @@ Content-Security-Policy that runs only the page's own script. Checked three ways
 - every name a log carries (scenario, model, planner, task, action, object, category, state, site,
   room, viewpoint, label) rewritten with each class of hostile payload (event-handler attributes,
   ``</script>``, ``<!--``, ``</title>``, attribute breaks, template markers, ``javascript:``, lone
-  surrogates, line separators), every page opened in headless Chromium: no script of the payload
-  ran, no dialog opened, no console error, the page finished loading, shows the names as text and
-  still steps;
+  surrogates, line separators), through ``fg-tea explore`` (whose reader refuses lone surrogates
+  in one line) and through the page writer alone (which must be safe whatever reaches it); every
+  page opened in headless Chromium: no script of the payload ran, no dialog opened, no console
+  error, the page finished loading, shows the names as text and still steps;
 - the real commands (``run`` with a hostile model name, ``explore --label``, ``compare --pages``'s
   world pages and index), opened the same way.
 """
@@ -76,15 +77,18 @@ def _rename(value, mapping: dict[str, str]):
     return value
 
 
-def hostile_log(events: list[dict], shift: int, out: Path) -> dict[str, str]:
+def hostile_events(events: list[dict], shift: int, payloads=PAYLOADS) -> tuple[list[dict], dict[str, str]]:
     """`events` with every name given a payload (name i gets class (i + shift) mod the number of
-    classes), written to `out`; returns the renaming."""
+    classes), and the renaming."""
     names = _names(events[0])
-    mapping = {n: n + PAYLOADS[(i + shift) % len(PAYLOADS)] for i, n in enumerate(names)}
+    mapping = {n: n + payloads[(i + shift) % len(payloads)] for i, n in enumerate(names)}
     renamed = [_rename(e, mapping) for e in events]
-    renamed[0]["scenario_file"] = str(out.parent / "gone.json")  # the house is drawn from the log
-    out.write_text("".join(json.dumps(e) + "\n" for e in renamed))
-    return mapping
+    renamed[0]["scenario_file"] = "gone.json"  # the house is drawn from the log
+    return renamed, mapping
+
+
+#: The payloads a log may carry: the reader refuses a lone surrogate (it is not text) in one line.
+TEXT_PAYLOADS = tuple(p for p in PAYLOADS if "lone" not in p)
 
 
 @pytest.fixture(scope="module")
@@ -122,21 +126,50 @@ def assert_explorer_works(page) -> None:
     assert f"step {n} / {n}" in page.inner_text("#step-label")
 
 
-@pytest.mark.parametrize("shift", range(len(PAYLOADS)))
+def _shown_as_text(page, mapping: dict[str, str], model: str) -> None:
+    shown = mapping[model].replace("\ud800", "\ufffd").replace("\udfff", "\ufffd")
+    assert shown.split("<")[0] in page.inner_text("h1") and page.title() == page.inner_text("h1")
+    options = page.evaluate("[...document.querySelectorAll('#object option')].map(o => o.textContent)")
+    assert any(o.startswith("mug") and len(o) > 3 for o in options)  # the hostile object name, as text
+
+
+@pytest.mark.parametrize("shift", range(len(TEXT_PAYLOADS)))
 def test_hostile_names_in_a_log_stay_text(browser, episode, shift, tmp_path):
-    log = tmp_path / "episode.jsonl"
-    mapping = hostile_log(episode, shift, log)
-    page_path = tmp_path / "page.html"
+    """Through the command: `fg-tea explore` of a log whose every name is hostile."""
+    events, mapping = hostile_events(episode, shift, TEXT_PAYLOADS)
+    log, page_path = tmp_path / "episode.jsonl", tmp_path / "page.html"
+    log.write_text("".join(json.dumps(e) + "\n" for e in events))
     assert main(["explore", str(log), "--out", str(page_path)]) == 0
     page, problems = open_safely(browser, page_path)
     assert_explorer_works(page)
     assert_nothing_ran(page, problems)
-    shown = page.inner_text("h1")
-    model = mapping[episode[0]["model"]].replace("\ud800", "\ufffd").replace("\udfff", "\ufffd")
-    assert model.split("<")[0] in shown and page.title() == page.inner_text("h1")
-    options = page.evaluate("[...document.querySelectorAll('#object option')].map(o => o.textContent)")
-    assert any(o.startswith("mug") and len(o) > 3 for o in options)  # the hostile object name, as text
+    _shown_as_text(page, mapping, episode[0]["model"])
     page.close()
+
+
+@pytest.mark.parametrize("shift", range(len(PAYLOADS)))
+def test_the_page_writer_is_safe_whatever_reaches_it(browser, episode, shift, tmp_path):
+    """The writer alone, with names no reader would pass (lone surrogates included)."""
+    from fg_tea.render.explore import page_data, write_page
+
+    events, mapping = hostile_events(episode, shift)
+    page_path = tmp_path / "page.html"
+    title = mapping[episode[0]["model"]] + " · " + mapping[episode[0]["scenario"]]
+    write_page(page_path, page_data([("episode.jsonl", events)]), title)
+    page, problems = open_safely(browser, page_path)
+    assert_explorer_works(page)
+    assert_nothing_ran(page, problems)
+    _shown_as_text(page, mapping, episode[0]["model"])
+    page.close()
+
+
+def test_a_log_with_a_lone_surrogate_is_refused_in_one_line(episode, tmp_path, capsys):
+    events, _ = hostile_events(episode, PAYLOADS.index("\ud800 \udfff lone"))
+    log = tmp_path / "episode.jsonl"
+    log.write_text("".join(json.dumps(e) + "\n" for e in events))
+    assert main(["explore", str(log)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "surrogate" in err
 
 
 def test_a_page_with_markup_forced_in_runs_none_of_it(browser, episode, tmp_path):
