@@ -350,3 +350,22 @@ def test_compare_at_scale_compares_a_program_model(program_file, tmp_path):
                             "factorised", "--out", str(tmp_path / "x")],
                            capture_output=True, text=True, stdin=subprocess.DEVNULL, cwd=ROOT, timeout=600)
     assert wrong.returncode == 2 and "first must have a factorised belief" in wrong.stderr
+
+
+def test_what_a_program_leaves_undeclared_keeps_the_base_priors(tmp_path):
+    """A program from scratch declaring only the teabag: the teabag's prior is its normalised
+    table, the mug, kettle and task states keep the base (default) model's priors."""
+    path = tmp_path / "scratch.py"
+    path.write_text("import fg_tea as fg\n\ndef model(scenario):\n    m = fg.Program.from_scenario(scenario)\n"
+                    "    m.location('teabag')\n    m.table('teabag', {'pantry_shelf': 3.0, 'sideboard': 1.0})\n"
+                    "    return m\n")
+    scenario = fg.load_scenario("default_apartment")
+    model = fg.load_model(path)
+    assert model.program.base == "factorised" and model.structure == "factorised"
+    graph, base = build_graph(scenario, model), build_graph(scenario, fg.load_model("factorised"))
+    teabag = dict(zip(scenario.site_names, graph.location_priors[scenario.object_names.index("teabag")].table))
+    assert teabag["pantry_shelf"] == 0.75 and teabag["sideboard"] == 0.25 and sum(teabag.values()) == 1.0
+    for i, o in enumerate(scenario.object_names):
+        if o != "teabag":
+            assert np.array_equal(graph.location_priors[i].table, base.location_priors[i].table)
+    assert [f.table.tolist() for f in graph.state_priors] == [f.table.tolist() for f in base.state_priors]

@@ -305,7 +305,10 @@ def model_program(scenario: Any, model: Any) -> Any:
 
 def _same_settings(a: Any, b: Any) -> bool:
     blank = {"name": "", "description": "", "source": "", "program": None}
-    return replace(a, **blank) == replace(b, **blank)
+    try:
+        return bool(replace(a, **blank) == replace(b, **blank))
+    except (TypeError, ValueError):  # a field that does not compare as a whole (an array): by text
+        return repr(replace(a, **blank)) == repr(replace(b, **blank))
 
 
 def program_record(scenario: Any, model: Any) -> dict[str, Any] | None:
