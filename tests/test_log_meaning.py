@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -199,6 +200,22 @@ def test_learn_knows_an_episode_by_its_content_not_its_bytes(variant, good_log, 
              "already counted")
 
 
+def test_learn_still_refuses_a_log_a_model_holds_by_its_bytes(good_log, tmp_path, capsys):
+    """A model learned before episodes were named by content holds the sha256 of the log's bytes."""
+    import hashlib
+
+    log = _write(tmp_path, good_log, "a.jsonl")
+    assert main(["learn", str(log), "--out", str(tmp_path / "m1.toml")]) == 0
+    model = (tmp_path / "m1.toml").read_text()
+    raw = hashlib.sha256(log.read_bytes()).hexdigest()
+    assert raw not in model  # the model names the episode by its content now
+    older = tmp_path / "older.toml"
+    older.write_text(re.sub(r'sha256 = "[0-9a-f]{64}"', f'sha256 = "{raw}"', model))
+    capsys.readouterr()
+    _refused(capsys, ["learn", str(log), "--base", str(older), "--out", str(tmp_path / "m2.toml")],
+             "already counted")
+
+
 def test_learn_counts_different_episodes(good_log, tmp_path, capsys):
     """The guard is not too eager: the same house, another seed, is another episode."""
     out = tmp_path / "run2"
@@ -225,3 +242,12 @@ def test_a_log_of_exactly_the_size_limit_is_one_line(good_log, tmp_path):
                               capture_output=True, text=True, timeout=300, env=env)
         lines = proc.stderr.strip().splitlines()
         assert proc.returncode == 2 and len(lines) == 1, proc.stderr[-800:]
+
+
+def test_the_checks_cover_every_documented_kind_and_the_doc_states_the_limit():
+    from fg_tea.episode.log import EVENT_KINDS, LOG_MAX_BYTES
+    from fg_tea.episode.log_check import FIELDS
+
+    assert set(FIELDS) == set(EVENT_KINDS)
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "log-format.md").read_text()
+    assert f"a file over {LOG_MAX_BYTES // 2 ** 20} MiB" in doc

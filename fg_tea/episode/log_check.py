@@ -17,16 +17,16 @@ quality checks), so these checks live once, here. Syntax is not enough: a line i
   logs lack some, and their readers say so).
 
 Each check costs little: duplicate keys are seen by the parser's ``object_pairs_hook``, ``NaN``
-and ``Infinity`` by its ``parse_constant``; only a line whose text could hold an overflowing
-literal or an escaped surrogate is walked whole; lists of numbers (motion, marginals) are
-checked by their element types at C speed.
+by its ``parse_constant``; only a line whose text could hold an infinity or an escaped surrogate
+(found by substring searches of the whole text, :func:`suspect_lines`) is walked whole; lists and
+objects of plain values (motion, marginals, names) are checked by their element types at C speed.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
-import re
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -36,10 +36,14 @@ from fg_tea.common.errors import InputError
 INFINITE_KEY = "distance"
 #: How far a probability may stray outside [0, 1] (floats are rounded to 9 decimals when written).
 PROBABILITY_SLACK = 1e-6
-#: Text that could hold a number beyond a float's range: an exponent of 100 or more, or 200 digits.
-_BIG_LITERAL = re.compile(r"[eE]\+?0*[1-9][0-9]{2}|[0-9]{200}")
-#: Text that could hold a lone surrogate: an escaped UTF-16 surrogate code unit.
-_SURROGATE = re.compile(r"\\u[dD][89a-fA-F]")
+#: The text of a log mapped so that one substring search finds each thing a line's parsed values
+#: must be walked for: every digit becomes 0, ``E`` and ``D`` lower case, ``+`` is dropped (lines
+#: stay lines). An infinite number then shows ``Infinity``, an exponent of 100 or more (``e000``)
+#: or a run of 200 digits; an escaped surrogate ``\\ud`` (also some other escapes: the walk tells).
+#: Plain substring searches cost a few ms per MB; regular expressions for the same, ten times more.
+_MAPPING = str.maketrans({**{d: "0" for d in "123456789"}, "E": "e", "D": "d", "+": None})
+_INFINITE_TEXT = ("Infinity", "e000", "0" * 200)
+_SURROGATE_TEXT = "\\ud"
 _NUMBER_TYPES = frozenset({int, float})
 
 
@@ -57,7 +61,8 @@ class _Bad(Exception):
 
     def __init__(self, expected: str, value: Any) -> None:
         super().__init__(expected)
-        self.expected, self.value, self.where = expected, value, []
+        self.expected, self.value = expected, value
+        self.where: list = []
 
 
 # ------------------------------------------------------------------------------------ parsing
@@ -87,20 +92,39 @@ def parse_line(line: str) -> Any:
     return json.loads(line, object_pairs_hook=_pairs, parse_constant=_constant)
 
 
-def needs_walk(text: str) -> Callable[[Any, str], None] | None:
-    """How to check a parsed line of `text` for infinities and lone surrogates, or None when no
-    line can hold one (the usual case: no ``Infinity``, no huge literal, no escaped surrogate)."""
-    infinite = "Infinity" in text or _BIG_LITERAL.search(text) is not None
-    surrogate = "\\u" in text and _SURROGATE.search(text) is not None
-    if not (infinite or surrogate):
-        return None
+def _hits(text: str, needle: str) -> list[int]:
+    found, at = [], text.find(needle)
+    while at >= 0:
+        found.append(at)
+        at = text.find(needle, at + 1)
+    return found
 
-    def walk(value: Any, line: str) -> None:
-        if infinite and ("Infinity" in line or _BIG_LITERAL.search(line)):
-            _check_finite(value, [])
-        if surrogate and _SURROGATE.search(line):
-            _check_text(value, [])
-    return walk
+
+def _lines_of(text: str, positions: list[int]) -> set[int]:
+    """The line numbers (from 1) of character positions in `text`."""
+    lines, line, last = set(), 1, 0
+    for at in sorted(positions):
+        line += text.count("\n", last, at)
+        last = at
+        lines.add(line)
+    return lines
+
+
+def suspect_lines(text: str) -> tuple[set[int], set[int]]:
+    """The lines of `text` whose parsed values must be walked: those that could hold an infinite
+    number, and those that could hold a lone surrogate (usually none of either, but for the
+    hashes of ``episode_start``, whose hex digits can read like an exponent)."""
+    mapped = text.translate(_MAPPING)
+    infinite = [at for needle in _INFINITE_TEXT for at in _hits(mapped, needle)]
+    return _lines_of(mapped, infinite), _lines_of(mapped, _hits(mapped, _SURROGATE_TEXT))
+
+
+def check_walked(value: Any, infinite: bool, surrogate: bool) -> None:
+    """Walk a parsed line whose text :func:`suspect_lines` named."""
+    if infinite:
+        _check_finite(value, [])
+    if surrogate:
+        _check_text(value, [])
 
 
 def _check_finite(value: Any, where: list) -> None:
@@ -171,56 +195,58 @@ def _describe(value: Any) -> str:
     return "a list" if isinstance(value, list) else "an object"
 
 
-def _kind(expected: str, test: Callable[[Any], bool]) -> Check:
+def _plain(expected: str, types: frozenset, bounds: tuple[float, float] | None = None) -> Check:
+    """A value of one of `types` (within `bounds`, for a number); the check carries both, so a
+    list or an object of such values is checked at C speed (:func:`_surely`)."""
     def check(v: Any) -> None:
-        if not test(v):
+        if type(v) not in types or (bounds is not None and v is not None and not bounds[0] <= v <= bounds[1]):
             raise _Bad(expected, v)
+    check.types, check.bounds, check.expected = types, bounds, expected  # type: ignore[attr-defined]
     return check
 
 
-STR = _kind("a string", lambda v: type(v) is str)
-INT = _kind("an integer", lambda v: type(v) is int)
-COUNT = _kind("a non-negative integer", lambda v: type(v) is int and v >= 0)
-NUM = _kind("a number", lambda v: type(v) in _NUMBER_TYPES)
-BOOL = _kind("true or false", lambda v: type(v) is bool)
-OBJ = _kind("an object", lambda v: type(v) is dict)
-LIST = _kind("a list", lambda v: type(v) is list)
-PROB = _kind("a probability in [0, 1]",
-             lambda v: type(v) in _NUMBER_TYPES and -PROBABILITY_SLACK <= v <= 1 + PROBABILITY_SLACK)
+def _surely(item: Check, values: Any) -> bool:
+    """True when every one of `values` (a list or a dict's values) passes the plain check `item`,
+    found without a Python call per value; False means: check them one by one."""
+    types = getattr(item, "types", None)
+    if types is None or not types.issuperset(map(type, values)):
+        return False
+    bounds = item.bounds  # type: ignore[attr-defined]
+    return bounds is None or not values or (
+        type(None) not in types and bounds[0] <= min(values) and max(values) <= bounds[1])
+
+
+STR = _plain("a string", frozenset({str}))
+INT = _plain("an integer", frozenset({int}))
+COUNT = _plain("a non-negative integer", frozenset({int}), (0, math.inf))
+NUM = _plain("a number", _NUMBER_TYPES)
+BOOL = _plain("true or false", frozenset({bool}))
+OBJ = _plain("an object", frozenset({dict}))
+LIST = _plain("a list", frozenset({list}))
+PROB = _plain("a probability in [0, 1]", _NUMBER_TYPES, (-PROBABILITY_SLACK, 1 + PROBABILITY_SLACK))
 
 
 def maybe(check: Check) -> Check:
     """`check`, or null."""
+    types = getattr(check, "types", None)
+    if types is not None:
+        return _plain(f"{check.expected} or null", types | {type(None)}, check.bounds)  # type: ignore[attr-defined]
+
     def nullable(v: Any) -> None:
         if v is not None:
             check(v)
     return nullable
 
 
-def numbers(least: int = 0, probabilities: bool = False) -> Check:
-    """A list of at least `least` numbers (probabilities in [0, 1] with `probabilities`)."""
-    what = "probabilities in [0, 1]" if probabilities else "numbers"
-    expected = f"a list of {f'at least {least} ' if least else ''}{what}"
+def list_of(item: Check, least: int = 0, expected: str | None = None) -> Check:
+    """A list of at least `least` values, each passing `item`."""
+    what = expected or f"a list{f' of at least {least}' if least else ''}"
 
     def check(v: Any) -> None:
         if type(v) is not list or len(v) < least:
-            raise _Bad(expected, v)
-        if not _NUMBER_TYPES.issuperset(map(type, v)) or (probabilities and v and (
-                min(v) < -PROBABILITY_SLACK or max(v) > 1 + PROBABILITY_SLACK)):
-            item = PROB if probabilities else NUM
-            for i, x in enumerate(v):
-                try:
-                    item(x)
-                except _Bad as bad:
-                    bad.where.append(i)
-                    raise
-    return check
-
-
-def list_of(item: Check, least: int = 0) -> Check:
-    def check(v: Any) -> None:
-        if type(v) is not list or len(v) < least:
-            raise _Bad(f"a list{f' of at least {least}' if least else ''}", v)
+            raise _Bad(what, v)
+        if _surely(item, v):
+            return
         for i, x in enumerate(v):
             try:
                 item(x)
@@ -230,11 +256,20 @@ def list_of(item: Check, least: int = 0) -> Check:
     return check
 
 
+def numbers(least: int = 0, probabilities: bool = False) -> Check:
+    """A list of at least `least` numbers (probabilities in [0, 1] with `probabilities`)."""
+    what = "probabilities in [0, 1]" if probabilities else "numbers"
+    return list_of(PROB if probabilities else NUM, least,
+                   f"a list of {f'at least {least} ' if least else ''}{what}")
+
+
 def map_of(value: Check) -> Check:
     """An object whose every value passes `value`."""
     def check(v: Any) -> None:
         if type(v) is not dict:
             raise _Bad("an object", v)
+        if _surely(value, v.values()):
+            return
         for key, x in v.items():
             try:
                 value(x)
@@ -244,21 +279,52 @@ def map_of(value: Check) -> Check:
     return check
 
 
+#: The fields to check, each with the types that settle it without a call (a plain, unbounded one).
+_Plan = list[tuple[str, Check, Any]]
+
+
+def _plan(fields: Mapping[str, Check]) -> _Plan:
+    return [(key, item, None if getattr(item, "bounds", None) is not None else getattr(item, "types", None))
+            for key, item in fields.items()]
+
+
+def _check_fields(v: Mapping[str, Any], plan: _Plan) -> None:
+    for key, item, types in plan:
+        if key in v:
+            x = v[key]
+            if types is not None and type(x) in types:
+                continue
+            try:
+                item(x)
+            except _Bad as bad:
+                bad.where.append(key)
+                raise
+
+
 def record(fields: Mapping[str, Check], required: tuple[str, ...] = ()) -> Check:
     """An object whose listed keys, where present, pass their checks (`required` must be present)."""
+    plan = _plan(fields)
+
     def check(v: Any) -> None:
         if type(v) is not dict:
             raise _Bad("an object", v)
         for key in required:
             if key not in v:
                 raise _Bad(f"an object with {key!r}", v)
-        for key, item in fields.items():
-            if key in v:
-                try:
-                    item(v[key])
-                except _Bad as bad:
-                    bad.where.append(key)
-                    raise
+        _check_fields(v, plan)
+    return check
+
+
+def rows(least: int) -> Check:
+    """A list of lists of at least `least` numbers each (a motion: one pose per frame), checked
+    at C speed; the slow walk only finds where a fault stands."""
+    slow = list_of(numbers(least))
+
+    def check(v: Any) -> None:
+        if type(v) is not list or (v and (
+                set(map(type, v)) != {list} or min(map(len, v)) < least
+                or not _NUMBER_TYPES.issuperset(map(type, itertools.chain.from_iterable(v))))):
+            slow(v)
     return check
 
 
@@ -266,7 +332,7 @@ POINT = numbers(2)  # [x, y, ...] in metres
 POSE = numbers(3)   # [x, y, yaw]
 STRS = list_of(STR)
 MARGINALS = map_of(numbers(probabilities=True))  # object -> probability per site
-MOTION = list_of(POSE)
+MOTION = rows(3)
 TRAVEL = {"distance": NUM, "frames": COUNT, "motion": MOTION}
 GRAPH = {"graph": OBJ}
 _CANDIDATE = record({"object": STR, "viewpoint": STR, "viewpoint_kind": STR, "site": STR, "distance": NUM,
@@ -337,6 +403,9 @@ FIELDS: dict[str, dict[str, Check]] = {
 }
 
 
+_PLANS = {kind: _plan(fields) for kind, fields in FIELDS.items()}
+
+
 def check_event(event: Any, previous: Mapping | None) -> str:
     """Check one parsed line against the log format and the line before it (None: it is the
     first); return its kind. Raises ``Fault`` naming the field."""
@@ -358,11 +427,8 @@ def check_event(event: Any, previous: Mapping | None) -> str:
             raise Fault(f"{seq} after {previous['seq']}: seq rises strictly from episode_start", ["seq"])
     if "frame" in event and (type(event["frame"]) is not int or event["frame"] < 0):
         raise Fault(f"expected a non-negative integer, got {_describe(event['frame'])}", ["frame"])
-    for key, check in fields.items():
-        if key in event:
-            try:
-                check(event[key])
-            except _Bad as bad:
-                raise Fault(f"expected {bad.expected}, got {_describe(bad.value)}",
-                             [key, *reversed(bad.where)]) from None
+    try:
+        _check_fields(event, _PLANS[kind])
+    except _Bad as bad:
+        raise Fault(f"expected {bad.expected}, got {_describe(bad.value)}", list(reversed(bad.where))) from None
     return kind

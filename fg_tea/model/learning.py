@@ -76,7 +76,8 @@ COUNTED_SENSOR = "state"
 
 @dataclass(frozen=True)
 class Source:
-    """A log whose counts a learned model holds: its path as given and the sha256 of its bytes."""
+    """A log whose counts a learned model holds: its path as given and the sha256 of its episode's
+    content (:func:`fg_tea.episode.log.episode_digest`; models learned before held that of its bytes)."""
 
     file: str
     sha256: str
