@@ -1,8 +1,10 @@
 """Where sweep jobs run: in this process, a process pool, or Ray (docs/design.md §11).
 
-Each executor takes the function that runs one job and yields its rows as they finish. A local Ray
-instance binds 127.0.0.1 only, with usage statistics and cloud-metadata probing off and a token
-shared by the driver and its workers (:func:`local_ray`, docs/design.md §11 "Ray, loopback only").
+Each executor takes the function that runs one job and yields its rows as they finish, keeping at
+most :func:`in_flight_window` jobs submitted at a time (:class:`Window`), so the driver's cost per
+job stays the same however many jobs a sweep has. A local Ray instance binds 127.0.0.1 only, with
+usage statistics and cloud-metadata probing off and a token shared by the driver and its workers
+(:func:`local_ray`, docs/design.md §11 "Ray, loopback only").
 """
 
 from __future__ import annotations
@@ -13,12 +15,13 @@ from typing import Any, Callable, Iterator, Mapping, Sequence
 
 from fg_tea.common.errors import InputError
 
-#: Runs one sweep job (a :class:`fg_tea.study.sweep.Job`) and returns its CSV row.
-Run = Callable[[Any], dict]
+#: Runs one sweep job (a :class:`fg_tea.study.sweep.Job`) and returns its CSV row (or what the
+#: caller asks for: :func:`fg_tea.study.cost.run_job_timed` returns the row and its CPU seconds).
+Run = Callable[[Any], Any]
 
 
 # ---------------------------------------------------------------------------------- backends
-def _serial(run: Run, jobs: Sequence[Any], workers: int | None, address: str | None) -> Iterator[dict]:
+def _serial(run: Run, jobs: Sequence[Any], workers: int | None, address: str | None) -> Iterator[Any]:
     for job in jobs:
         try:
             row = run(job)
@@ -42,7 +45,7 @@ class JobFailed(RuntimeError):
         return (type(self), (self.kind, str(self)))
 
 
-def _portable(run: Run, job: Any) -> dict:
+def _portable(run: Run, job: Any) -> Any:
     """``run(job)`` in a worker process, with every error made one the parent can unpickle.
 
     An exception that does not survive a pickle round trip would otherwise break the whole pool
@@ -66,7 +69,55 @@ def _portable(run: Run, job: Any) -> dict:
         raise JobFailed(type(exc).__name__, str(exc)) from None
 
 
-def _process(run: Run, jobs: Sequence[Any], workers: int | None, address: str | None) -> Iterator[dict]:
+#: Jobs in flight per worker: a sweep submits this many per worker, then one more each time a
+#: job finishes, so waiting costs the same per job at 1,000 jobs and at 1,000,000
+#: (experiments/bench_sweep_driver.py). Two keep a worker busy while its next job travels to it.
+IN_FLIGHT_PER_WORKER = 2
+
+
+def in_flight_window(workers: int) -> int:
+    """How many jobs a sweep keeps submitted at once on `workers` workers (at least 2)."""
+    return max(2, IN_FLIGHT_PER_WORKER * max(1, int(workers)))
+
+
+class Window:
+    """Submit jobs in order, never more than `size` at once; iterate (job, handle) as each finishes.
+
+    `submit(job)` starts a job and returns its handle; `wait_one(pending)` blocks until at least one
+    handle of the list `pending` is done and returns (done, still pending). Only the window is ever
+    waited on, so the driver's cost per job does not grow with the number of jobs (waiting on every
+    pending handle costs time in proportion to their number, each time). Jobs start in the order
+    given, so the jobs of one world, adjacent in a planned sweep, run close together in time.
+    :attr:`pending` holds the handles in flight (to cancel them when a job fails).
+    """
+
+    def __init__(self, jobs: Sequence[Any], size: int, submit: Callable[[Any], Any],
+                 wait_one: Callable[[list], tuple[list, list]]) -> None:
+        self.size, self.submit, self.wait_one = max(1, int(size)), submit, wait_one
+        self._queue = iter(jobs)
+        self._job_of: dict[Any, Any] = {}
+        self.pending: list = []
+
+    def _top_up(self) -> None:
+        if len(self.pending) >= self.size:
+            return
+        for job in self._queue:
+            handle = self.submit(job)
+            self._job_of[handle] = job
+            self.pending.append(handle)
+            if len(self.pending) >= self.size:
+                return
+
+    def __iter__(self) -> Iterator[tuple[Any, Any]]:
+        self._top_up()
+        while self.pending:
+            done, self.pending = self.wait_one(self.pending)
+            for handle in done:
+                yield self._job_of.pop(handle), handle
+            self._top_up()
+
+
+def _process(run: Run, jobs: Sequence[Any], workers: int | None, address: str | None) -> Iterator[Any]:
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
@@ -76,18 +127,20 @@ def _process(run: Run, jobs: Sequence[Any], workers: int | None, address: str | 
 
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=die_with_parent,
                                initargs=(os.getpid(),))  # no orphans if this process is killed
+
+    def wait_one(pending: list) -> tuple[list, list]:
+        done, rest = wait(pending, return_when=FIRST_COMPLETED)
+        return [f for f in pending if f in done], [f for f in pending if f in rest]
+
     try:
-        pending = {pool.submit(_portable, run, job): job for job in jobs}
-        while pending:
-            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for future in finished:
-                job = pending.pop(future)
-                try:
-                    yield future.result()
-                except InputError:  # a bad input file found by a worker: one line, status 2
-                    raise
-                except Exception as exc:
-                    raise SweepError(job, exc) from exc
+        for job, future in Window(jobs, in_flight_window(workers),
+                                  lambda job: pool.submit(_portable, run, job), wait_one):
+            try:
+                yield future.result()
+            except InputError:  # a bad input file found by a worker: one line, status 2
+                raise
+            except Exception as exc:
+                raise SweepError(job, exc) from exc
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
 
@@ -277,21 +330,33 @@ def connected_ray(address: str) -> Iterator[Any]:
             ray.shutdown()
 
 
-def _ray_tasks(ray, run: Run, jobs: Sequence[Any]) -> Iterator[dict]:
+def _ray_window(ray) -> int:
+    """The in-flight window on Ray: :func:`in_flight_window` of the cluster's CPUs (at connection)."""
+    try:
+        cpus = int(ray.cluster_resources().get("CPU", 1))
+    except Exception:  # a Ray without the call: one CPU's window, still bounded
+        cpus = 1
+    return in_flight_window(cpus)
+
+
+def _ray_tasks(ray, run: Run, jobs: Sequence[Any]) -> Iterator[Any]:
     remote = ray.remote(num_cpus=1)(run)
-    refs = {remote.remote(job): job for job in jobs}
-    pending = list(refs)
-    while pending:
-        finished, pending = ray.wait(pending, num_returns=1)
+
+    def wait_one(pending: list) -> tuple[list, list]:
+        return ray.wait(pending, num_returns=1)
+
+    window = Window(jobs, _ray_window(ray), lambda job: remote.remote(job), wait_one)
+    for job, ref in window:
         try:
-            yield ray.get(finished[0])
+            row = ray.get(ref)
         except Exception as exc:
-            for ref in pending:
-                ray.cancel(ref)
-            raise SweepError(refs[finished[0]], exc) from exc
+            for other in window.pending:
+                ray.cancel(other)
+            raise SweepError(job, exc) from exc
+        yield row
 
 
-def _ray(run: Run, jobs: Sequence[Any], workers: int | None, address: str | None) -> Iterator[dict]:
+def _ray(run: Run, jobs: Sequence[Any], workers: int | None, address: str | None) -> Iterator[Any]:
     ray = _import_ray()
     if ray.is_initialized():  # a caller's own Ray (e.g. :func:`local_ray`): used as it is
         yield from _ray_tasks(ray, run, jobs)
@@ -338,7 +403,7 @@ def _check_reachable(address: str) -> str | None:
     return host
 
 
-_BACKENDS: dict[str, Callable[[Run, Sequence[Any], int | None, str | None], Iterator[dict]]] = {
+_BACKENDS: dict[str, Callable[[Run, Sequence[Any], int | None, str | None], Iterator[Any]]] = {
     "serial": _serial, "process": _process, "ray": _ray}
 
 
@@ -351,5 +416,5 @@ class SweepError(RuntimeError):
         super().__init__(f"job {job.key} failed: {kind}: {cause}")
 
 
-__all__ = ["SweepError", "JobFailed", "local_ray", "connected_ray", "loopback_ray_env", "RAY_LOOPBACK",
-           "RAY_DEAD_PROXY", "RAY_CONNECT_TIMEOUT_S"]
+__all__ = ["SweepError", "JobFailed", "Window", "in_flight_window", "IN_FLIGHT_PER_WORKER", "local_ray",
+           "connected_ray", "loopback_ray_env", "RAY_LOOPBACK", "RAY_DEAD_PROXY", "RAY_CONNECT_TIMEOUT_S"]

@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 from fg_tea.common.errors import InputError, PlannerRefused
+from fg_tea.study.cost import ESTIMATE_ABOVE, CostEstimate, run_job_timed
 from fg_tea.study.executors import _BACKENDS
 from fg_tea.study.rows import CsvSink, Progress, read_rows
 from fg_tea.study.seeds import EPISODE_SEEDS, check_episode_seeds, episode_seed
@@ -504,7 +505,9 @@ def add_execution_arguments(parser, csv_name: str) -> None:
     parser.add_argument("--backend", dest="executor", choices=BACKENDS, action=DeprecatedAlias,
                         new="--executor")
     parser.add_argument("--address", default=None,
-                        help="Ray cluster address (default: a local Ray instance)")
+                        help="Ray cluster address: HOST:PORT, ray://HOST:PORT, or auto on a node of a "
+                        "running cluster (default: a local Ray instance); a cluster, one machine or "
+                        "several: docs/how-to/sweep-on-ray.md")
     parser.add_argument("--workers", type=int, default=0,
                         help="processes or local Ray CPUs, 0 for every core (default: %(default)s)")
     parser.add_argument("--env", choices=ENVIRONMENTS, default="pybullet",
@@ -512,6 +515,10 @@ def add_execution_arguments(parser, csv_name: str) -> None:
     parser.add_argument("--resume", action=argparse.BooleanOptionalAction, default=True,
                         help=f"skip episodes already in OUT/{csv_name} (default: on; --no-resume "
                         "starts afresh)")
+    estimate = (f"A run of more than {ESTIMATE_ABOVE:,} episodes first says on stderr how many it will run, "
+                "then, once its first few are back, its estimated CPU time (from their timing); Ctrl-C "
+                "stops it and the same command resumes it.")
+    parser.epilog = " ".join(filter(None, [parser.epilog, estimate]))
 
 
 def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process", *,
@@ -527,7 +534,8 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
         workers: processes (or Ray CPUs for a local instance); None or 0 = every core.
         address: a Ray cluster address (``ray`` backend; None starts a local instance).
         resume: skip jobs whose key is already in the CSV; False discards the existing CSV.
-        progress: report progress on stderr.
+        progress: report progress on stderr; with more than :data:`ESTIMATE_ABOVE` jobs to run,
+            their number first and then their estimated CPU time (:mod:`fg_tea.study.cost`).
         label: the progress line's prefix.
 
     Returns:
@@ -547,8 +555,16 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
     check_episode_seeds(unique, sink.rows, csv_path)
     todo = [job for job in unique if not sink.done(job.key)]
     meter = Progress(len(unique), len(unique) - len(todo), label=label) if progress else None
+    cost = CostEstimate([job.key for job in todo], label) if progress else None
     try:
-        if todo:
+        if cost is not None and cost.active:  # a large sweep: its size now, its CPU time soon
+            cost.start()
+            for row, cpu_seconds in _BACKENDS[backend](run_job_timed, todo, workers, address):
+                sink.write(row)
+                cost.record(row["key"], cpu_seconds)
+                if meter is not None:
+                    meter.update()
+        elif todo:
             for row in _BACKENDS[backend](run_job, todo, workers, address):
                 sink.write(row)
                 if meter is not None:
