@@ -7,10 +7,13 @@ it owns the house and its hidden truth and never holds a belief. Any agent can a
 :class:`~fg_tea.episode.runner.EpisodeRunner`, which then writes the same log as ``fg-tea run``.
 
 Needs the optional ``gym`` extra (``pip install "fg-tea[gym]"``): the core does not use Gymnasium.
-Importing this module registers the id ``"fg_tea/TeaMaking-v0"``; from outside, name the module in the id::
+``import fg_tea`` registers the id ``"fg_tea/TeaMaking-v0"`` (fg_tea/_gym_id.py; Gymnasium 1.x
+loads no plug-ins), so either import order works::
 
-    import gymnasium
-    env = gymnasium.make("fg_tea.episode.gym_env:fg_tea/TeaMaking-v0", scenario="default_apartment")
+    import fg_tea, gymnasium
+    env = gymnasium.make("fg_tea/TeaMaking-v0", scenario="default_apartment")
+
+(``"fg_tea.episode.gym_env:fg_tea/TeaMaking-v0"``, naming the module, works too.)
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from fg_tea._gym_id import ENV_ID, register
 from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import MAX_COORDINATE
 from fg_tea.env.base import EnvAdapter
@@ -44,7 +48,6 @@ except ImportError:  # pragma: no cover - exercised by the missing-extra test in
     raise InputError("<import>", "gymnasium", "the Gymnasium environment needs the gym extra: "
                      f"{install_command('gym')}") from None
 
-ENV_ID = "fg_tea/TeaMaking-v0"
 #: Action kinds: look from a viewpoint, read a hidden state, carry out a practical request.
 KINDS = ("look", "read", "act")
 #: Frames an episode can reach: the frame limit plus the longest single movement.
@@ -300,5 +303,4 @@ class GymAdapter(EnvAdapter):
         self.env.close()
 
 
-if ENV_ID not in gymnasium.envs.registry:
-    gymnasium.register(id=ENV_ID, entry_point="fg_tea.episode.gym_env:TeaEnv")
+register(gymnasium)
