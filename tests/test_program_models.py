@@ -172,11 +172,22 @@ def test_validate_prints_the_compiled_plan(program_file):
         assert words in out, words
 
 
-def test_a_module_attribute_reference_is_a_model(program_file, monkeypatch):
+def test_a_module_attribute_reference_is_a_model(program_file, monkeypatch, tmp_path):
+    import sys
+
     monkeypatch.chdir(program_file.parent)
+    sys.modules.pop("my_model", None)
     status, out, err = cli(["beliefs", "--model", "my_model:model"])
     assert status == 0, err
     assert "model my_model:model (joint)" in out
+    log = tmp_path / "module.jsonl"
+    fg.run_episode(fg.load_scenario("default_apartment"), fg.load_model("my_model:model"), env="fake", log=log)
+    text = log.read_text().splitlines()[0]
+    start = json.loads(text)
+    assert start["model_file"] == "my_model:model" and start["program"]["file"] == "my_model.py"
+    assert start["program"]["sha256"] == hashlib.sha256(program_file.read_bytes()).hexdigest()
+    assert str(tmp_path) not in text  # no absolute path in the log
+    sys.modules.pop("my_model", None)
 
 
 def test_compare_runs_a_program_model(program_file, tmp_path):

@@ -64,7 +64,8 @@ class ProgramSource:
 
     Attributes:
         spec: the reference as given (``my_model.py``, ``pkg.mod:model``, an entry-point name).
-        file: the Python file that defines it.
+        file: the Python file that defines it: as given for a ``.py`` reference, else relative to
+            its import root (``pkg/models.py``).
         sha256: the file's SHA-256 when loaded.
         function: the function of the scenario that returns the program.
         base: the base model's name or file (the module's ``base``).
@@ -231,7 +232,15 @@ def load_program_source(ref: str | Path) -> ProgramSource:
         digest = hashlib.sha256(path.read_bytes()).hexdigest()
     except OSError:
         digest = ""
-    return ProgramSource(spec, str(path), digest, target, str(base))
+    label = spec if spec.endswith(".py") else _module_file(module, path)
+    return ProgramSource(spec, label, digest, target, str(base))
+
+
+def _module_file(module: Any, path: Path) -> str:
+    """A module's file as the log names it: relative to its import root (``pkg/models.py``), so no
+    absolute path enters a log."""
+    name = getattr(module, "__name__", "") or path.stem
+    return name.replace(".", "/") + ("/__init__.py" if path.name == "__init__.py" else path.suffix or ".py")
 
 
 def load_program_model(ref: str | Path) -> Any:
@@ -248,7 +257,7 @@ def load_program_model(ref: str | Path) -> Any:
     base = load_model(source.base)
     name = Path(source.spec).stem if source.spec.endswith(".py") else source.spec
     return replace(base, name=name, description=f"model program {source.spec} (base {base.name})",
-                   source=source.file, program=source)
+                   source=source.spec, program=source)
 
 
 _BUILT: list[tuple[Any, Any, Any]] = []  # (source, scenario, program), the last few built
@@ -319,7 +328,8 @@ def program_record(scenario: Any, model: Any) -> dict[str, Any] | None:
     from fg_tea.episode.provenance import portable_ref
 
     source: ProgramSource = model.program
-    return {"spec": source.spec, "file": portable_ref(source.file), "sha256": source.sha256,
+    file = portable_ref(source.file) if source.spec.endswith(".py") else source.file
+    return {"spec": source.spec, "file": file, "sha256": source.sha256,
             "base": source.base,
             "factors": [{"name": f.name, "scope": list(f.scope)} for f in program.factors]}
 
