@@ -149,6 +149,7 @@ def test_nul_padding_is_refused(command, good_log, tmp_path, capsys, no_render):
     ("episode_start", lambda e: e.update(scenario_file={"a": 1}), "episode_start.scenario_file"),
     ("episode_start", lambda e: e["sites"][0].update(position="here"), "episode_start.sites[0].position"),
     ("episode_start", lambda e: e["sites"][1].update(position=[1.0]), "episode_start.sites[1].position"),
+    ("episode_start", lambda e: e["viewpoints"][2].update(position=None), "episode_start.viewpoints[2].position"),
     ("action", lambda e: e.update(frame="12"), "action.frame"),
     ("metrics", lambda e: e.update(success="yes"), "metrics.success"),
 ])
@@ -159,11 +160,12 @@ def test_a_field_of_the_wrong_type_is_named(command, kind, change, field, good_l
     _refused(capsys, _argv(command, _write(tmp_path, lines), tmp_path), f"line {n}", field)
 
 
-def test_a_lone_surrogate_is_refused_where_it_stands(good_log, tmp_path, capsys):
+@pytest.mark.parametrize("command", ["explore", "learn", "render"])
+def test_a_lone_surrogate_is_refused_where_it_stands(command, good_log, tmp_path, capsys, no_render):
     lines = list(good_log)
     lines[0] = lines[0].replace('"objects":["mug"', '"objects":["mug\\ud800"', 1)
     assert lines[0] != good_log[0]
-    _refused(capsys, _argv("explore", _write(tmp_path, lines), tmp_path), "line 1",
+    _refused(capsys, _argv(command, _write(tmp_path, lines), tmp_path), "line 1",
              "episode_start.objects[0]", "surrogate")
 
 
