@@ -167,7 +167,8 @@ def cmd_preview(args: argparse.Namespace) -> int:
     options = video_options(args)
     model = load_model(args.model)
     check_scenario(scenario, model)
-    out = check_out_file(Path(args.out) if args.out else Path(f"{safe_name(scenario.name)}-preview.png"))
+    out = check_out_file(Path(args.out) if args.out
+                         else Path("runs") / f"{safe_name(scenario.name)}-preview.png")
     plan_out = check_out_file(out.with_name(f"{out.stem}_plan.png"))
     config = env_config_for(model, args.camera)
     house = PyBulletHouse(scenario, config)
@@ -235,6 +236,6 @@ def add_parser(sub) -> None:
     p.add_argument("--camera", default=None, help=CAMERA_HELP)
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
                    help="seed of the start pose and world (default: %(default)s)")
-    p.add_argument("--out", type=out_path, help="output PNG (default: SCENARIO-preview.png; the floor plan goes to "
-                   "SCENARIO-preview_plan.png)")
+    p.add_argument("--out", type=out_path, help="output PNG (default: runs/SCENARIO-preview.png; the floor plan goes "
+                   "beside it, runs/SCENARIO-preview_plan.png)")
     add_video_options(p)
