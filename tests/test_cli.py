@@ -98,7 +98,7 @@ def test_run_accepts_an_ablation_name(tmp_path, name):
 def test_beliefs_accepts_an_ablation_name_and_the_solver_option():
     status, out, err = cli(["beliefs", "--model", "no_relevance", "--solver", "gtsam"])
     assert status == 0, err
-    assert "model no_relevance" in out and "backend gtsam" in out and err == ""
+    assert "model no_relevance" in out and "solver gtsam" in out and err == ""
 
 
 def test_validate_accepts_bundled_names():
@@ -123,7 +123,7 @@ def test_backend_is_a_deprecated_alias_of_solver():
     status, out, err = cli(["beliefs", "--backend", "gtsam"])
     assert status == 0
     assert err.splitlines() == ["fg-tea: note: --backend is deprecated; use --solver"]
-    assert "backend gtsam" in out
+    assert "solver gtsam" in out
 
 
 def test_backend_is_a_deprecated_alias_of_executor():

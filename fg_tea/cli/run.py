@@ -83,7 +83,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     remove_outputs(out, RUN_OUTPUTS)
     config = RunConfig(seed=args.seed, planner=args.planner, task=args.task,
                        preparation_site=args.preparation_site, max_frames=args.max_frames,
-                       belief_backend=args.solver)
+                       solver=args.solver)
     env = PyBulletHouse(scenario, env_config)
     log_path = out / "episode.jsonl"
     progress = Progress(args.max_frames)

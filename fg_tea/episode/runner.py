@@ -63,7 +63,9 @@ class RunConfig:
     task: str = "make_tea"
     preparation_site: str | None = None
     max_frames: int = 50_000
-    belief_backend: str = "numpy"
+    #: The exact belief solver, ``"numpy"`` or ``"gtsam"``: ``Agent(solver=)``, ``--solver``.
+    #: (``belief_backend=``, its former name, still works with a DeprecationWarning.)
+    solver: str = "numpy"
     snapshot_every_event: bool = True
     #: Task-level reopenings allowed per episode (``fg_tea.tasks.executor.MAX_REOPENINGS``).
     max_reopenings: int = MAX_REOPENINGS
@@ -71,6 +73,37 @@ class RunConfig:
     #: is the costliest step of a many-object episode; sweeps that keep only metrics may skip it,
     #: and the log then records ``"gtsam_agreement": null``.
     gtsam_check: bool = True
+
+    @property
+    def belief_backend(self) -> str:
+        """Deprecated: :attr:`solver`."""
+        _renamed()
+        return self.solver
+
+
+def _renamed() -> None:
+    import warnings
+
+    warnings.warn("RunConfig's belief_backend is now called solver (as Agent(solver=) and --solver)",
+                  DeprecationWarning, stacklevel=3)
+
+
+def _accept_former_name(init: Callable) -> Callable:
+    """`init` that also takes ``belief_backend=`` (the former name of ``solver=``), with a warning."""
+    import functools
+
+    @functools.wraps(init)
+    def __init__(self, *args, belief_backend: str | None = None, **kwargs) -> None:
+        if belief_backend is not None:
+            _renamed()
+            if kwargs.setdefault("solver", belief_backend) != belief_backend:
+                raise TypeError("RunConfig: give solver= or belief_backend= (its former name), not both")
+        init(self, *args, **kwargs)
+
+    return __init__
+
+
+RunConfig.__init__ = _accept_former_name(RunConfig.__init__)  # type: ignore[method-assign]
 
 
 def env_config_for(model: Model, camera: "str | Path | Camera | None" = None,
@@ -187,7 +220,7 @@ class EpisodeRunner:
         self._matrices: dict[tuple[str, ...], np.ndarray] = {}
         self.agent = Agent(self.scenario, self.model, config.planner, config.task,
                            seed=config.seed, preparation_site=config.preparation_site,
-                           solver=config.belief_backend, max_reopenings=config.max_reopenings)
+                           solver=config.solver, max_reopenings=config.max_reopenings)
         self.state = EpisodeState()
         self._seen_executor_events = 0
         self._started = False

@@ -17,7 +17,7 @@ from fg_tea.study.sweep import check_jobs, plan_sweep, run_sweep
 
 def compare(world: str, models: Sequence[str] = ("factorised", "joint"),
             planners: Sequence[str] = ("efe",), *, worlds: int = 10, first_seed: int = 0,
-            env: str = "fake", out: str | Path = "runs/compare", executor: str = "process",
+            env: str = "pybullet", out: str | Path = "runs/compare", executor: str = "process",
             workers: int | None = None, address: str | None = None, resume: bool = True,
             progress: bool = True, episode_seeds: str = "independent") -> dict[str, Any]:
     """Run a paired comparison and write its report; return the rows and the files written.
@@ -27,7 +27,8 @@ def compare(world: str, models: Sequence[str] = ("factorised", "joint"),
         models: model names or paths.
         planners: planner specs (``"efe"``, ``"lookahead"``, ``"optimal"``...).
         worlds: how many world seeds, from `first_seed`.
-        env: ``"fake"`` (fast, same geometry and truth) or ``"pybullet"``.
+        env: ``"pybullet"`` (the default, as ``fg-tea compare``'s) or ``"fake"`` (fast, same
+            geometry and truth, no rendering: ``--env fake``).
         out: the output folder (``episodes.csv``, ``summary.md``, plots).
         executor, workers, address, resume, progress: as ``fg-tea compare``'s options.
         episode_seeds: ``"independent"`` or ``"world"``, as ``fg-tea compare --episode-seeds``
