@@ -30,7 +30,7 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
     rows = [[f"{s.name} ({s.room})"] + [f"{locations[o][i]:.4f}" for o in belief.objects]
             for i, s in enumerate(scenario.sites)]
     rows.append(["entropy (nats)"] + [f"{entropy(locations[o]):.4f}" for o in belief.objects])
-    print(f"scenario {scenario.name} · model {model.name} ({model.structure}) · backend {belief.backend}")
+    print(f"scenario {scenario.name} · model {model.name} ({model.structure}) · solver {belief.backend}")
     print(format_table(rows, header))
     print()
     print(format_table([[s, f"{p:.4f}"] for s, p in sorted(belief.states().items())],
