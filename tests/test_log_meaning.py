@@ -103,6 +103,26 @@ def test_an_unreachable_distance_may_be_infinite(good_log, tmp_path, capsys):
     assert main(_argv("explore", _write(tmp_path, lines), tmp_path)) == 0, capsys.readouterr().err
 
 
+def test_an_unfindable_objects_cost_per_find_may_be_infinite(tmp_path):
+    """The cost rule's give_up holds the weighing; with no look that can find the object its cost
+    per find is infinite (fg_tea.agent.give_up.weigh). Only that key, and only +Infinity."""
+    from fg_tea.common.errors import InputError
+    from fg_tea.episode.log import read_log
+
+    start = '{"seq":0,"event":"episode_start","frame":0}'
+    weighed = '{"object":"mug","cost":0.0,"chance":0.0,"cost_per_find":%s,"value":60.0,"give_up":true}'
+    log = tmp_path / "l.jsonl"
+    log.write_text(start + '\n{"seq":1,"event":"give_up","weighed":' + weighed % "Infinity" + "}\n")
+    assert read_log(log, strict=True)[1]["weighed"]["cost_per_find"] == float("inf")
+    for bad, field in (("-Infinity", "give_up.weighed.cost_per_find"),):
+        log.write_text(start + '\n{"seq":1,"event":"give_up","weighed":' + weighed % bad + "}\n")
+        with pytest.raises(InputError, match=re.escape(f"line 2: {field}")):
+            read_log(log)
+    log.write_text(start + '\n{"seq":1,"event":"give_up","weighed":' + weighed % "0" + ',"value":Infinity}\n')
+    with pytest.raises(InputError, match=re.escape("line 2: give_up.value")):
+        read_log(log)
+
+
 # ------------------------------------------------------------------ order, keys, bytes
 def test_render_refuses_a_reversed_log_as_explore_does(good_log, tmp_path, capsys, no_render):
     log = _write(tmp_path, good_log[::-1])  # tac

@@ -7,8 +7,8 @@ quality checks), so these checks live once, here. Syntax is not enough: a line i
 - it holds a NUL byte (padding a crash can leave), a duplicate key, a bare ``NaN``, or a string
   with a lone UTF-16 surrogate (``"\\ud800"``: not text, it cannot be printed or written);
 - a number is infinite (``Infinity``, ``-Infinity`` or a literal beyond 1.8e308 such as ``1e400``)
-  anywhere but as the value of a ``distance`` key: fg_tea writes ``Infinity`` only there, for a
-  site it cannot reach (:meth:`fg_tea.world.navigation.Navigator.distance`), never in a seed, a
+  anywhere but as the value of a key of :data:`INFINITE_KEYS` (``distance``, ``cost_per_find``):
+  fg_tea writes ``Infinity`` only there, for what cannot be reached or found, never in a seed, a
   pose, a probability or a metric;
 - its ``seq`` is not an integer above the previous line's, or the first event is not
   ``episode_start``, or a later one is (one log holds one episode);
@@ -32,8 +32,11 @@ from typing import Any, Callable, Mapping
 
 from fg_tea.common.errors import InputError
 
-#: The one key whose number may be infinite: the distance to a site that cannot be reached.
-INFINITE_KEY = "distance"
+#: The keys whose number may be +infinite, the two places fg_tea writes ``Infinity``: the distance
+#: to a site that cannot be reached (:meth:`fg_tea.world.navigation.Navigator.distance`) and the
+#: metres per find of an object no look can find (``give_up.weighed.cost_per_find``,
+#: :func:`fg_tea.agent.give_up.weigh`).
+INFINITE_KEYS = frozenset({"distance", "cost_per_find"})
 #: How far a probability may stray outside [0, 1] (floats are rounded to 9 decimals when written).
 PROBABILITY_SLACK = 1e-6
 #: The text of a log mapped so that one substring search finds each thing a line's parsed values
@@ -127,20 +130,22 @@ def check_walked(value: Any, infinite: bool, surrogate: bool) -> None:
         _check_text(value, [])
 
 
+_INFINITE = ("an infinite number (Infinity, or a literal beyond 1.8e308): fg_tea writes Infinity only "
+             "for a distance or a cost_per_find that nothing reaches")
+
+
 def _check_finite(value: Any, where: list) -> None:
     if isinstance(value, dict):
         for key, v in value.items():
             if type(v) is float and math.isinf(v):
-                if key == INFINITE_KEY and v > 0:
-                    continue  # an unreachable site's distance
-                raise Fault("an infinite number (Infinity, or a literal beyond 1.8e308): fg_tea writes "
-                             f"Infinity only for an unreachable {INFINITE_KEY!r}", [*where, key])
+                if key in INFINITE_KEYS and v > 0:
+                    continue  # an unreachable site's distance, an unfindable object's cost
+                raise Fault(_INFINITE, [*where, key])
             _check_finite(v, [*where, key])
     elif isinstance(value, list):
         for i, v in enumerate(value):
             if type(v) is float and math.isinf(v):
-                raise Fault("an infinite number (Infinity, or a literal beyond 1.8e308): fg_tea writes "
-                             f"Infinity only for an unreachable {INFINITE_KEY!r}", [*where, i])
+                raise Fault(_INFINITE, [*where, i])
             _check_finite(v, [*where, i])
 
 
