@@ -380,3 +380,17 @@ def test_what_a_program_leaves_undeclared_keeps_the_base_priors(tmp_path):
         if o != "teabag":
             assert np.array_equal(graph.location_priors[i].table, base.location_priors[i].table)
     assert [f.table.tolist() for f in graph.state_priors] == [f.table.tolist() for f in base.state_priors]
+
+
+def test_beliefs_joint_prints_the_exact_joint_of_any_set(program_file):
+    status, out, err = cli(["beliefs", "--model", program_file, "--joint", "mug", "tidy"])
+    assert status == 0, err
+    scenario = fg.load_scenario("default_apartment")
+    joint = compile_program(program_for(scenario, fg.load_model(program_file))).joint(["mug", "tidy"])
+    rows = re.findall(r"^(\w+)\s+(true|false)\s+([0-9.]+)$", out, re.M)
+    assert len(rows) == joint.size == 16
+    for site, tidy, p in rows:
+        assert float(p) == pytest.approx(joint[scenario.site_names.index(site), int(tidy == "true")], abs=1e-6)
+    status, out, err = cli(["beliefs", "--model", program_file, "--joint", "mug", "spoon"])
+    assert_one_line_error(status, err, "unknown variable 'spoon'")
+    assert out == ""

@@ -1,5 +1,6 @@
 """``fg-tea beliefs``: the prior marginals of every object and task state (eq. 2, eq. 21), and with
-``--top K`` the K most probable joint arrangements of the model's program (docs/design.md §4.8).
+``--top K`` the K most probable joint arrangements of the model's program, with ``--joint A B ...``
+the joint marginal of any set of its variables (docs/design.md §4.8).
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise InputError(scenario.source or "<scenario>", "$.objects",
                          f"with model {model.name!r}: {exc}") from None
+    # The program's queries first, so a refused one (an unknown variable) prints nothing else.
+    extra = ([top_text(scenario, model, args.top)] if args.top is not None else []) + \
+        ([joint_text(scenario, model, args.joint)] if args.joint else [])
     locations = belief.locations()
     header = ["site (room)"] + [f"q(L[{o}])" for o in belief.objects]
     rows = [[f"{s.name} ({s.room})"] + [f"{locations[o][i]:.4f}" for o in belief.objects]
@@ -39,10 +43,38 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
     print("most probable arrangement (gtsam max-product): " +
           ", ".join(f"{o} on {s}" for o, s in belief.map_estimate().items()))
     print(f"agreement with gtsam: max |difference| = {belief.check_against_gtsam():.2e}")
-    if args.top is not None:
+    for text in extra:
         print()
-        print(top_text(scenario, model, args.top), end="")
+        print(text, end="")
     return 0
+
+
+#: Most rows ``--joint`` prints (the rest are counted, with their total probability).
+JOINT_ROWS = 40
+
+
+def joint_text(scenario, model, names: list[str]) -> str:
+    """The joint marginal of `names` under the model's program, exactly: its most probable rows
+    (at most :data:`JOINT_ROWS`; the rest counted with their total probability)."""
+    import numpy as np
+
+    from fg_tea.beliefs.compiled import compile_program
+    from fg_tea.model.program_file import model_program
+
+    compiled = compile_program(model_program(scenario, model))
+    table = compiled.joint(names)
+    labels = [[str(v).lower() if isinstance(v, bool) else str(v) for v in compiled.values(n)] for n in names]
+    order = np.argsort(-table, axis=None, kind="stable")
+    shown = [i for i in order[:JOINT_ROWS] if table.flat[i] > 0]
+    rows = [[labels[a][j] for a, j in enumerate(np.unravel_index(i, table.shape))] + [f"{table.flat[i]:.6f}"]
+            for i in shown]
+    text = f"joint of {', '.join(names)} (exact, the compiled program):\n"
+    text += format_table(rows, list(names) + ["probability"]) + "\n"
+    rest = int(table.size) - len(shown)
+    if rest:
+        left = float(table.sum() - sum(table.flat[i] for i in shown))
+        text += f"... {rest:,} more assignments, of total probability {max(left, 0.0):.6f}\n"
+    return text
 
 
 def top_text(scenario, model, k: int) -> str:
@@ -79,4 +111,8 @@ def add_parser(sub) -> None:
     p.add_argument("--top", type=_positive, default=None, metavar="K",
                    help="also print the K most probable joint arrangements of every variable of the "
                    "model's program (locations, task states, variables of its own), exactly")
+    p.add_argument("--joint", nargs="+", default=None, metavar="VAR",
+                   help="also print the joint marginal of these variables of the model's program "
+                   "(objects' locations by object name, task states such as mug.served, variables of "
+                   f"its own), exactly: its {JOINT_ROWS} most probable rows")
     add_solver_argument(p)
