@@ -113,11 +113,23 @@ class Reader:
     def has(self, key: str) -> bool:
         return isinstance(self.data, dict) and key in self.data
 
+    def missing(self, key: str) -> InputError:
+        """The fault of a required `key` that is absent: a key of this object close to it that no
+        parser has read is named as the typo (``$.beliefs.strcture: unknown field; did you mean
+        'structure'?``); otherwise the key is missing."""
+        if isinstance(self.data, dict):
+            read = self._doc.read.get(id(self.data), set())
+            unread = [k for k in self.data if isinstance(k, str) and k not in read]
+            close = difflib.get_close_matches(key, unread, n=1, cutoff=0.8)
+            if close:
+                return self.fail(f"unknown field; did you mean {key!r}?", close[0])
+        return self.fail("missing required field", key)
+
     def req(self, key: str, kind: type | tuple) -> Any:
         if not isinstance(self.data, dict):
             raise self.fail("expected an object")
         if key not in self.data:
-            raise self.fail("missing required field", key)
+            raise self.missing(key)
         self._mark(key)
         return self._check_type(self.data[key], kind, key)
 
@@ -137,7 +149,7 @@ class Reader:
         self._mark(key)
         if not self.has(key):
             if required:
-                raise self.fail("missing required field", key)
+                raise self.missing(key)
             return None
         self._check_type(self.data[key], dict, key)
         return self._new(self.data[key], self._sub(key))
@@ -146,7 +158,7 @@ class Reader:
         self._mark(key)
         if not self.has(key):
             if required:
-                raise self.fail("missing required field", key)
+                raise self.missing(key)
             return iter(())
         values = self._check_type(self.data[key], list, key)
         base = self._sub(key)
@@ -189,7 +201,7 @@ class Reader:
         self._mark(key)
         if not self.has(key):
             if required:
-                raise self.fail("missing required field", key)
+                raise self.missing(key)
             return default
         values = self._check_type(self.data[key], list, key)
         if len(values) != length:

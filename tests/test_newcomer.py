@@ -1,0 +1,94 @@
+"""What a newcomer tripped on: the Gymnasium id after ``import fg_tea``, where ``fg-tea preview``
+writes, one name per concept (solver), a misspelt required key, the summary's counts."""
+
+from __future__ import annotations
+
+import inspect
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import pytest
+
+import fg_tea as fg
+from fg_tea.cli.main import main
+
+
+def _python(code: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.parametrize("order", ["fg_tea first", "gymnasium first"])
+def test_gymnasium_make_takes_the_plain_id_after_import_fg_tea(order):
+    pytest.importorskip("gymnasium")
+    imports = "import fg_tea\nimport gymnasium\n" if order == "fg_tea first" else \
+        "import gymnasium\nimport fg_tea\n"
+    out = _python(imports + "env = gymnasium.make('fg_tea/TeaMaking-v0', scenario='milk_sugar_apartment')\n"
+                  "obs, info = env.reset(seed=1)\nprint(type(env.unwrapped).__name__, info['seed'])\n")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["TeaEnv", "1"]
+
+
+def test_import_fg_tea_still_loads_neither_numpy_nor_gymnasium():
+    out = _python("import sys, fg_tea\nprint(sorted(m for m in ('numpy', 'gymnasium') if m in sys.modules))")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+
+
+def test_preview_writes_under_runs_by_default(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["preview", "--width", "160", "--height", "90"]) == 0
+    written = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.png"))
+    assert written == ["runs/default_apartment-preview.png", "runs/default_apartment-preview_plan.png"]
+    assert "runs/default_apartment-preview.png" in capsys.readouterr().out
+
+
+def test_run_config_calls_it_solver_and_the_old_name_still_works_with_a_warning():
+    assert fg.RunConfig(solver="gtsam").solver == "gtsam"
+    assert "solver" in inspect.signature(fg.RunConfig).parameters
+    with pytest.warns(DeprecationWarning, match="solver"):
+        old = fg.RunConfig(seed=2, belief_backend="gtsam")
+    assert old == fg.RunConfig(seed=2, solver="gtsam")
+    with pytest.warns(DeprecationWarning, match="solver"):
+        assert old.belief_backend == "gtsam"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fg.RunConfig(seed=2, solver="numpy")  # the new name warns about nothing
+
+
+def test_the_beliefs_command_prints_the_word_of_its_flag(capsys):
+    assert main(["beliefs", "--solver", "numpy"]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert "solver numpy" in header and "backend" not in header
+
+
+def test_fg_compare_defaults_to_the_environment_of_fg_tea_compare():
+    from fg_tea.cli.main import build_parser
+
+    cli = build_parser().parse_args(["compare"])
+    assert inspect.signature(fg.compare).parameters["env"].default == cli.env == "pybullet"
+
+
+def _model_with(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "typo.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_misspelt_required_key_names_the_typo_without_extends(tmp_path, capsys):
+    from fg_tea.common.resources import resolve_model
+
+    bundled = Path(resolve_model("factorised")).read_text()
+    assert 'structure = "factorised"' in bundled
+    path = _model_with(tmp_path, bundled.replace('structure = "factorised"', 'strcture = "factorised"', 1))
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("$.beliefs.strcture: unknown field; did you mean 'structure'?"), err
+
+
+def test_a_misspelt_required_key_names_the_typo_with_extends(tmp_path, capsys):
+    path = _model_with(tmp_path, 'extends = "factorised"\nname = "x"\n[beliefs]\nstrcture = "joint"\n')
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("$.beliefs.strcture: unknown field; did you mean 'structure'?"), err
