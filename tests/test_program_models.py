@@ -392,5 +392,5 @@ def test_beliefs_joint_prints_the_exact_joint_of_any_set(program_file):
     for site, tidy, p in rows:
         assert float(p) == pytest.approx(joint[scenario.site_names.index(site), int(tidy == "true")], abs=1e-6)
     status, out, err = cli(["beliefs", "--model", program_file, "--joint", "mug", "spoon"])
-    assert_one_line_error(status, err, "unknown variable 'spoon'")
+    assert_one_line_error(status, err, "variable 'spoon': unknown variable")
     assert out == ""
