@@ -10,7 +10,10 @@ detection, eqs. 5-6 for misses) and times, in CPU seconds (``time.process_time``
 
 - **update**: ``observe_site`` then all five location marginals;
 - **hypotheticals**: ``hypothetical_all()`` — every object x every site, miss and seen (450
-  posteriors of all five marginals), from the pairwise marginals of the new evidence.
+  posteriors of all five marginals), from the pairwise marginals of the new evidence;
+- **EFE decision** (after every tenth look): the EFE planner over close looks at all 45 sites for
+  every object still unfound, with its exact joint information gain from the elimination method
+  (:mod:`fg_tea.planning.eliminated_gain`: one elimination per object and site).
 
 Median, mean (every call included) and 95th percentile are reported. Cases: without capacity,
 with capacity 1 on three sites, and with capacity 1 on every third site (15 sites), which is
@@ -44,9 +47,12 @@ from fg_tea.beliefs.eliminated import EliminationRefused  # noqa: E402
 from fg_tea.beliefs.engine import BeliefEngine  # noqa: E402
 from fg_tea.beliefs.factors import Factor  # noqa: E402
 from fg_tea.beliefs.graph import BeliefGraph, assemble_graph  # noqa: E402
+from fg_tea.common.errors import PlannerRefused  # noqa: E402
 from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.model.spec import Model, load_model  # noqa: E402
+from fg_tea.planning.base import DistanceTable  # noqa: E402
+from fg_tea.planning.efe import EFEPlanner  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = Path("runs") / "experiments" / "bench_program_scale" / "bench_program_scale.md"
@@ -91,9 +97,20 @@ def looks(k: int, count: int, seed: int = 5) -> list[tuple[int, dict[str, bool]]
     return out
 
 
-def timed_run(engine: BeliefEngine, sequence) -> tuple[list[float], list[float]]:
+def timed_run(engine: BeliefEngine, sequence) -> tuple[list[float], list[float], list[float] | str]:
+    """CPU seconds of every update and every hypothetical_all; and of an EFE decision (close looks,
+    every object, the exact joint gain) after every tenth look, or the planner's refusal."""
     updates, hypotheticals = [], []
-    for site, outcome in sequence:
+    decisions: list[float] | str = []
+    planner = EFEPlanner(engine.model.planning)
+    try:
+        planner.check(engine, list(engine.objects))
+    except PlannerRefused as exc:
+        decisions = str(exc)
+    k = len(engine.sites)
+    distances = DistanceTable(engine.sites, tuple(float(j % 7) for j in range(k)),
+                              tuple(tuple(float(abs(a - b) % 7) for b in range(k)) for a in range(k)))
+    for t, (site, outcome) in enumerate(sequence):
         start = time.process_time()
         engine.observe_site(engine.sites[site], outcome)
         engine.location_matrix()
@@ -101,7 +118,12 @@ def timed_run(engine: BeliefEngine, sequence) -> tuple[list[float], list[float]]
         start = time.process_time()
         engine.hypothetical_all()
         hypotheticals.append(time.process_time() - start)
-    return updates, hypotheticals
+        if t % 10 == 0 and isinstance(decisions, list):
+            unfound = [o for o in engine.objects if o != "jar" or t < len(sequence) // 2]
+            start = time.process_time()
+            planner.choose(engine, unfound, {o: 1.0 for o in unfound}, distances, {})
+            decisions.append(time.process_time() - start)
+    return updates, hypotheticals, decisions
 
 
 def stats(xs: list[float]) -> tuple[float, float, float]:
@@ -135,8 +157,8 @@ def run(count: int) -> str:
              f"joint states. {count} looks (misses of every object, one detection of the jar), each "
              "timed in CPU ms (median / mean of every call / 95th percentile).", "",
              "| case | method | components (objects) | update median | mean | p95 | "
-             "hypothetical_all median | mean | p95 |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "hypothetical_all median | mean | p95 | EFE decision median | mean |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     verdicts = []
     for name, model, every in (("co-location + user factor", no_capacity, None),
                                ("+ capacity 1 on 3 sites", joint, 15),
@@ -144,19 +166,26 @@ def run(count: int) -> str:
         try:
             engine = BeliefEngine(house(model, k, every), model)
         except EliminationRefused as exc:
-            lines.append(f"| {name} | refused | — | — | — | — | — | — | — |")
+            lines.append(f"| {name} | refused | — | — | — | — | — | — | — | — | — |")
             verdicts.append(f"- {name}: refused in one line: `{exc}`")
             continue
         plan = engine._elim_plan
         parts = " + ".join(str(len(c.objects)) for c in plan.components)
-        updates, hyps = timed_run(engine, sequence)
+        updates, hyps, decisions = timed_run(engine, sequence)
         u, h = stats(updates), stats(hyps)
+        if isinstance(decisions, str):
+            dec_cells = "refused | —"
+        else:
+            dec = stats(decisions)
+            dec_cells = f"{dec[0]:.0f} | {dec[1]:.0f}"
         lines.append(f"| {name} | {engine.location_method} | {parts} | {u[0]:.1f} | {u[1]:.1f} | {u[2]:.1f} "
-                     f"| {h[0]:.1f} | {h[1]:.1f} | {h[2]:.1f} |")
+                     f"| {h[0]:.1f} | {h[1]:.1f} | {h[2]:.1f} | {dec_cells} |")
         ok = u[0] <= TARGET_UPDATE_MS and h[0] <= TARGET_HYPOTHETICAL_MS
         verdicts.append(f"- {name}: update median {u[0]:.1f} ms (target <= {TARGET_UPDATE_MS:g}), all "
                         f"hypothetical posteriors median {h[0]:.1f} ms (target <= {TARGET_HYPOTHETICAL_MS:g}): "
                         f"{'holds' if ok else 'MISSED'}")
+        if isinstance(decisions, str):
+            verdicts.append(f"- {name}: the EFE planner refuses in one line: `{decisions}`")
     dense_gap, gtsam_gap = exactness(joint, sequence)
     lines += ["", "Targets:", *verdicts, "",
               f"Exactness: the same looks on the house cut to 12 sites (248,832 states, capacity 1 on "

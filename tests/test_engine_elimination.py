@@ -28,7 +28,8 @@ from fg_tea.beliefs.graph import assemble_graph
 from fg_tea.common.errors import PlannerRefused
 from fg_tea.model.spec import load_model
 from fg_tea.planning.base import DistanceTable
-from fg_tea.planning.efe import EFEPlanner
+from fg_tea.planning import eliminated_gain
+from fg_tea.planning.efe import EFEPlanner, joint_information_gain, view_joint_information_gain
 from fg_tea.planning.lookahead import LookaheadPlanner
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -225,6 +226,46 @@ def test_planner_decisions_equal_the_dense_methods(seed):
         assert got.total == pytest.approx(want.total, abs=1e-9)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_joint_gain_by_elimination_equals_the_dense_joints(seed):
+    """The EFE planner's exact joint gain from the elimination method (close looks and looks over
+    several sites) equals the dense joint's, to 1e-12."""
+    rng = np.random.default_rng(300 + seed)
+    graph = random_graph(rng, n=3, k=5)
+    elim = BeliefEngine(graph, LIKELIHOOD, location_solver="elimination")
+    dense = BeliefEngine(graph, LIKELIHOOD, location_solver="dense")
+    evidence(rng, [elim, dense], graph, looks=2)
+    mu, fp = LIKELIHOOD.miss_likelihood, LIKELIHOOD.false_positive_rate
+    model = elim.eliminated_model()
+    for unresolved in ([0, 1, 2], [2, 0], [1]):
+        want = joint_information_gain(dense.location_joint(), unresolved, mu, fp)
+        got = eliminated_gain.site_information_gain(model, unresolved, mu, fp)
+        assert np.abs(got - want).max() < TOL
+        sites = [1, 3]
+        prob = rng.uniform(0.2, 0.9, (len(unresolved), 2))
+        want = view_joint_information_gain(dense.location_joint(), unresolved, sites, prob, 0.01)
+        got = eliminated_gain.view_information_gain(model, unresolved, sites, prob, 0.01)
+        assert np.abs(got - want).max() < TOL
+
+
+def test_efe_decides_by_the_elimination_gain_beyond_the_dense_limit(monkeypatch):
+    """Beyond the dense limit (here lowered to 0 so that the dense decision can be compared) the
+    EFE planner takes its joint gain from the elimination method and decides as on the dense joint."""
+    rng = np.random.default_rng(400)
+    graph = random_graph(rng, n=3, k=5)
+    elim = BeliefEngine(graph, LIKELIHOOD, location_solver="elimination")
+    dense = BeliefEngine(graph, LIKELIHOOD, location_solver="dense")
+    evidence(rng, [elim, dense], graph, looks=2)
+    distances, relevance = decision_inputs(graph)
+    want = EFEPlanner(LIKELIHOOD.planning).choose(dense, list(graph.objects), relevance, distances, {})
+    monkeypatch.setattr(eliminated_gain, "DENSE_LIMIT", 0)
+    assert eliminated_gain.eliminated_gain_model(dense) is None
+    got = EFEPlanner(LIKELIHOOD.planning).choose(elim, list(graph.objects), relevance, distances, {})
+    assert (got.object, got.viewpoint) == (want.object, want.viewpoint)
+    for a, b in zip(got.candidates, want.candidates):
+        assert a.information_gain == pytest.approx(b.information_gain, abs=TOL)
+
+
 def big_graph():
     """45 sites, 5 objects, a factor over three: beyond the dense joint (184,528,125 states)."""
     rng = np.random.default_rng(11)
@@ -236,7 +277,7 @@ def big_graph():
     return model, replace(graph, extra=(user,))
 
 
-def test_beyond_the_dense_joint_elimination_answers_and_efe_refuses_in_one_line():
+def test_beyond_the_dense_joint_elimination_answers_and_efe_plans_on_it():
     model, graph = big_graph()
     belief = BeliefEngine(graph, model)
     assert belief.location_method == "elimination"
@@ -247,11 +288,28 @@ def test_beyond_the_dense_joint_elimination_answers_and_efe_refuses_in_one_line(
     np.testing.assert_allclose(pw[0, 2].sum(axis=1), q[0], atol=1e-12)
     miss, seen = belief.hypothetical_all()
     assert miss.shape == seen.shape == (5, 45, 5, 45)
+    planner = EFEPlanner(model.planning)
+    planner.check(belief, list(graph.objects))
+    distances, relevance = decision_inputs(graph)
+    objects = ["o0", "o2"]
+    decision = planner.choose(belief, objects, {o: 1.0 for o in objects}, distances, {})
+    gains = planner.information_gain(belief, objects)[0]
+    assert gains.shape == (2, 45) and np.all(gains >= -1e-12)
+    assert decision.object in objects and decision.viewpoint in graph.sites
+
+
+def test_efe_refuses_in_one_line_a_joint_gain_it_cannot_compute():
+    """A factorised belief asked for the joint gain beyond the dense limit with more objects than
+    the subset program takes: no exact route, one line."""
+    objects = [f"o{i}" for i in range(12)]
+    model = LIKELIHOOD.with_overrides(structure="factorised", relations=())
+    graph = assemble_graph(model, ["s0", "s1", "s2", "s3"], ["r0"] * 4, objects, ["x"] * 12, np.ones((12, 4)))
+    belief = BeliefEngine(graph, model)
     with pytest.raises(PlannerRefused) as err:
-        EFEPlanner(model.planning).check(belief, list(graph.objects))
+        EFEPlanner(model.planning, information="joint").check(belief, objects)
     text = str(err.value)
     assert "\n" not in text and text.startswith("efe planner: the exact joint information gain")
-    assert "184,528,125 states" in text
+    assert "16,777,216 states" in text
 
 
 def test_over_budget_is_refused_in_one_line():
@@ -286,3 +344,21 @@ def test_misses_too_wide_for_scaled_tables_run_in_log_space_and_stay_exact():
     assert spread > eliminated.LINEAR_RANGE
     assert np.abs(elim.location_matrix() - dense.location_matrix()).max() < TOL
     assert np.abs(elim.pairwise() - dense.pairwise()).max() < TOL
+
+
+def test_efe_refuses_before_the_search_a_gain_whose_elimination_is_over_budget():
+    """Capacity on three of 45 sites: the belief is answered (update, hypotheticals), but the
+    joint gain would need a 32,805,000-entry table; the planner says so in one line in check()."""
+    rng = np.random.default_rng(2)
+    graph = assemble_graph(LIKELIHOOD, [f"s{j}" for j in range(45)], [f"r{j // 4}" for j in range(45)],
+                           [f"o{i}" for i in range(5)], CATEGORIES, rng.gamma(1.0, 1.0, (5, 45)) + 0.02,
+                           capacities=[1 if j % 15 == 0 else None for j in range(45)])
+    user = Factor(("L[o0]", "L[o2]", "L[o3]"), rng.gamma(1.0, 1.0, (45, 45, 45)), "user")
+    belief = BeliefEngine(replace(graph, extra=(user,)), LIKELIHOOD)
+    assert belief.location_method == "elimination"
+    belief.hypothetical_all()
+    with pytest.raises(PlannerRefused) as err:
+        EFEPlanner(LIKELIHOOD.planning).check(belief, list(graph.objects))
+    text = str(err.value)
+    assert "\n" not in text and text.startswith("efe planner: no exact joint information gain: exact inference")
+    assert "elimination width" in text and text.endswith("use information = 'factorised'")

@@ -156,6 +156,7 @@ class EliminationPlan:
         self.components = self._split(factors)
         self.ranges = tuple(sum(_log_range(t) for _, t in comp.factors) for comp in self.components)
         self._orders: dict[tuple[int, tuple[int, ...]], list[int]] = {}
+        self._outcome_orders: dict[tuple, list[int]] = {}
         for c, comp in enumerate(self.components):   # refuse now what any query would need
             if len(comp.objects) > 1:
                 for keep in [(o,) for o in comp.objects] + [(a, b) for i, a in enumerate(comp.objects)
@@ -236,6 +237,30 @@ class EliminationPlan:
                 raise self.refusal(comp.ids, width, largest, "variable elimination")
             self._orders[key] = found
         return found
+
+    def outcome_order(self, o: int, outcomes: dict[int, int]) -> tuple[list[int], dict[int, int]]:
+        """(order, cards) keeping L_o and one outcome variable per object of `outcomes` (object ->
+        number of outcomes; ids 3N + u) (cached).
+
+        Raises:
+            EliminationRefused: the order would build a table above the budget.
+        """
+        n = self.n
+        cards = dict(self.cards)
+        cards.update({3 * n + u: m for u, m in outcomes.items()})
+        key = (o, tuple(sorted(outcomes.items())))
+        order = self._outcome_orders.get(key)
+        if order is None:
+            keep = [o] + [3 * n + u for u in sorted(outcomes)]
+            scopes = [s for comp in self.components for s, _ in comp.factors]
+            scopes += [(u,) for u in range(n)] + [(u, 3 * n + u) for u in outcomes]
+            order = min_fill_order(scopes, [v for v in cards if v not in keep], cards)
+            width, largest = order_cost(scopes, order, keep, cards)
+            if largest > self.budget:
+                raise self.refusal(tuple(range(n)), width, largest,
+                                   "variable elimination with a look's outcomes")
+            self._outcome_orders[key] = order
+        return order, cards
 
     def refusal(self, ids: Sequence[int], width: int, size: int, how: str) -> EliminationRefused:
         shown = ", ".join(f"L[{self.names[v]}]" for v in ids if v < self.n)
@@ -352,6 +377,38 @@ class EliminatedLocationModel:
             first = self.plan.components[c].objects[0]
             self._component_table(c, (first,))
         return self._log_z[c]
+
+    def outcome_joint(self, o: int, tables: dict[int, np.ndarray]) -> np.ndarray:
+        """P(L_o, D_u for u in `tables`): the joint of one location and the outcomes of a look.
+
+        Args:
+            o: the object whose location is kept.
+            tables: object u -> its outcome model P(D_u = d | L_u = a), shape (K, M_u); the D_u
+                are independent given the locations (a detector's report per object).
+
+        Returns:
+            Shape (K, M_u1, M_u2, ...), outcome axes in increasing object order, summing to 1.
+
+        Raises:
+            EliminationRefused: the elimination would build a table above the budget.
+            ContradictionError: the evidence has probability zero.
+        """
+        plan, n = self.plan, self.plan.n
+        observed = sorted(tables)
+        order, cards = plan.outcome_order(o, {u: tables[u].shape[1] for u in observed})
+        factors = [f for c in range(len(plan.components)) for f in self._factors(c)]
+        with np.errstate(divide="ignore"):
+            factors += [((u, 3 * n + u), np.log(tables[u])) for u in observed]
+        keep = [o] + [3 * n + u for u in observed]
+        if sum(_log_range(t) for _, t in factors) <= LINEAR_RANGE:
+            table, _ = _sum_product_linear(factors, order, keep, cards)
+        else:
+            log_t = log_product(sum_out(factors, order, cards), keep, cards)
+            table = np.exp(log_t - np.max(log_t)) if np.isfinite(np.max(log_t)) else np.zeros_like(log_t)
+        total = float(table.sum())
+        if not total > 0 or not math.isfinite(total):
+            raise ContradictionError("location evidence has probability zero under the model")
+        return table / total
 
     def kbest(self, count: int) -> list[tuple[float, tuple[int, ...]]]:
         """The `count` most probable arrangements (probability, site index per object), best

@@ -254,6 +254,10 @@ class BeliefEngine:
                                                          self._unary, self._company)
         return self._cache["eliminated"]
 
+    def eliminated_model(self) -> EliminatedLocationModel | None:
+        """The elimination method's queries (:mod:`fg_tea.beliefs.eliminated`), or None under another."""
+        return self._eliminated() if self._method() == "elimination" else None
+
     def structured_model(self) -> StructuredLocationModel | None:
         """The subset dynamic program of the current location belief (docs/design.md §4.4).
 

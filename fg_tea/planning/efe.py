@@ -78,6 +78,8 @@ from fg_tea.planning.base import (
     distance_vector,
     repeat_counts,
 )
+from fg_tea.planning.eliminated_gain import (check_gain, eliminated_gain_model, site_information_gain,
+                                             view_information_gain)
 from fg_tea.planning.joint_gain import JointViewGain
 
 INFORMATION_MODES = ("auto", "factorised", "joint")
@@ -380,7 +382,7 @@ class EFEPlanner(PlannerBase):
 
     def check(self, belief, objects: Sequence[str]) -> None:
         """Refuse a belief whose exact joint gain has no route: a joint above the dense limit
-        without a subset program (e.g. extra factors answered by elimination, docs/design.md §4.8).
+        without a subset program or the elimination method (docs/design.md §4.6).
 
         Raises:
             PlannerRefused: kind ``"belief"``, naming the sizes and the way out.
@@ -388,13 +390,16 @@ class EFEPlanner(PlannerBase):
         mode = self.information if self.information != "auto" else \
             ("joint" if belief.correlated else "factorised")
         size = len(belief.sites) ** len(belief.objects)
+        elim = eliminated_gain_model(belief) if mode == "joint" else None
+        if elim is not None:
+            return check_gain(elim, [belief.objects.index(o) for o in objects], self.name)
         if mode != "joint" or size <= DENSE_LIMIT or belief.structured_model() is not None:
             return
         raise PlannerRefused(f"{self.name} planner: the exact joint information gain needs the joint of "
                              f"{len(belief.objects)} objects x {len(belief.sites)} sites ({size:,} states), "
-                             f"above the dense limit {DENSE_LIMIT:,}, and this belief has no subset program "
-                             "(its relational factors are not all site/room-local); use information = "
-                             "'factorised'", "belief", self.name)
+                             f"above the dense limit {DENSE_LIMIT:,}, and this belief has neither a subset "
+                             "program nor the elimination method; use information = 'factorised'",
+                             "belief", self.name)
 
     def information_gain(self, belief, objects: Sequence[str]) -> tuple[np.ndarray, str]:
         """I(o, j) for the objects (caller's order) and every site, shape (|objects|, K), nats.
@@ -412,6 +417,9 @@ class EFEPlanner(PlannerBase):
             if solver is not None:
                 close = np.full((len(idx), 1), 1.0 - model.miss_likelihood)
                 return solver.gains([([j], close) for j in range(len(belief.sites))]), mode
+            elim = eliminated_gain_model(belief)
+            if elim is not None:
+                return site_information_gain(elim, idx, model.miss_likelihood, model.false_positive_rate), mode
             return joint_information_gain(belief.location_joint(), idx, model.miss_likelihood,
                                           model.false_positive_rate), mode
         q = belief.location_matrix()[idx]
@@ -488,7 +496,8 @@ class EFEPlanner(PlannerBase):
         # One object to find: its exact gain needs only its marginal (closed form).
         one = mode == "joint" and n == 1
         solver = structured_gain(belief, obj_idx) if mode == "joint" and not one else None
-        joint = belief.location_joint() if mode == "joint" and solver is None and not one else None
+        elim = eliminated_gain_model(belief) if mode == "joint" and solver is None and not one else None
+        joint = belief.location_joint() if mode == "joint" and solver is None and elim is None and not one else None
         fp = belief.model.false_positive_rate
         find, gain = np.empty((n, m)), np.empty((n, m))
         if solver is not None or one:
@@ -507,6 +516,8 @@ class EFEPlanner(PlannerBase):
                 if joint is not None:
                     gain[:, c] = view_joint_information_gain(joint, obj_idx, v.sites,
                                                              v.probability[obj_idx], fp)
+                elif elim is not None:
+                    gain[:, c] = view_information_gain(elim, obj_idx, v.sites, v.probability[obj_idx], fp)
                 else:
                     gain[:, c] = factorised
         d = np.array([float(distances.from_agent(v.name)) for v in eligible])
@@ -559,6 +570,8 @@ class EFEPlanner(PlannerBase):
                 "distance": str(getattr(distances, "kind", w.distance)), "viewpoints": m}
         if one:
             info["gain_solver"] = "one_object"
+        if elim is not None:
+            info["gain_solver"] = "elimination"
         if solver is not None:
             info["gain_solver"] = "structured"
             info["restricted_gains"] = solver.restricted
