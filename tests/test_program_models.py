@@ -394,3 +394,11 @@ def test_beliefs_joint_prints_the_exact_joint_of_any_set(program_file):
     status, out, err = cli(["beliefs", "--model", program_file, "--joint", "mug", "spoon"])
     assert_one_line_error(status, err, "variable 'spoon': unknown variable")
     assert out == ""
+
+
+def test_which_references_name_a_program():
+    from fg_tea.model.program_file import is_program_ref
+
+    assert [is_program_ref(r) for r in ("my_model.py", "pkg.mod:model", "joint", "no_epistemic",
+                                         "models/joint.toml", "a:b.toml", "nothing_here", "a\x00b")] == \
+        [True, True, False, False, False, False, False, False]

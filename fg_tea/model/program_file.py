@@ -132,12 +132,18 @@ def is_program_ref(ref: str | Path) -> bool:
     text = str(ref)
     if text.endswith(".py"):
         return True
-    if Path(text).exists():
+    from fg_tea.common.resources import _bundled_file, _exists
+
+    if text.endswith(".toml") or _exists(Path(text)):
         return False
     module, colon, attribute = text.partition(":")
     if colon:
-        return bool(module) and all(p.isidentifier() for p in module.split(".")) and bool(attribute)
-    return "/" not in text and "\\" not in text and "." not in text and text in entry_points()
+        return all(p.isidentifier() for p in module.split(".") + attribute.split("."))
+    if "/" in text or "\\" in text or "." in text or not text:
+        return False
+    if any(_bundled_file(kind, text, ".toml") for kind in ("models", "models/ablations")):
+        return False  # a bundled model's name wins over an entry point of the same name
+    return text in entry_points()
 
 
 def _first(exc: BaseException) -> str:
