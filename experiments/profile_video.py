@@ -24,6 +24,20 @@ sys.path.insert(0, str(ROOT / "tests"))
 from video_reference import default_episode, default_options  # noqa: E402
 
 
+def _render_range(video, plan, options, lo: int, hi: int, path: Path) -> None:
+    """Render and encode rendered frames [lo, hi) in this process, as a worker does."""
+    if hasattr(video, "_render_segment"):  # the renderer before it was made cheaper
+        video._render_segment((plan, options, lo, hi, str(path), 0, None))
+        return
+    from fg_tea.render.frames import FrameRenderer
+
+    renderer = FrameRenderer(plan, options)
+    try:
+        renderer.encode(lo, hi, path)
+    finally:
+        renderer.close()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, default=200, help="rendered frames to profile")
@@ -42,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         profile = cProfile.Profile()
         t, c = time.perf_counter(), time.process_time()
         profile.enable()
-        video._render_segment((plan, options, args.start, hi, str(Path(tmp) / "seg.mp4"), 0, None))
+        _render_range(video, plan, options, args.start, hi, Path(tmp) / "seg.mp4")
         profile.disable()
         wall, cpu = time.perf_counter() - t, time.process_time() - c
     text = io.StringIO()

@@ -7,6 +7,7 @@ video is complete, so an interrupted render never leaves a corrupt MP4 under the
 from __future__ import annotations
 
 import os
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -21,10 +22,16 @@ class Mp4Writer:
         fps: output frame rate.
         crf: x264 quality (lower is better; 23 is x264's default).
         bframes: x264 B-frames (0 keeps decode order = display order, so segments concatenate).
+        threads: x264 threads (None: x264's choice, which depends on the machine). Given, the
+            encoding is made repeatable (no macroblock tree); 1 suits one encoder per worker.
+        preset: x264 preset.
+
+    A frame written with ``repeat`` n is encoded once and shown for n frame times (its
+    timestamps say so), so a held picture costs one encoding.
     """
 
     def __init__(self, path: str | Path, width: int, height: int, fps: int = 30, crf: int = 23,
-                 bframes: int | None = None) -> None:
+                 bframes: int | None = None, threads: int | None = None, preset: str = "veryfast") -> None:
         try:
             import av
         except ImportError as exc:  # pragma: no cover - av is a core dependency
@@ -39,21 +46,42 @@ class Mp4Writer:
         self._stream = self._container.add_stream("libx264", rate=fps)
         self._stream.width, self._stream.height = width, height
         self._stream.pix_fmt = "yuv420p"
-        self._stream.options = {"preset": "veryfast", "crf": str(crf)}
+        options = {"preset": preset, "crf": str(crf)}
         if bframes is not None:
-            self._stream.options = {**self._stream.options, "bframes": str(bframes)}
-        self.frames = 0
+            options["bframes"] = str(bframes)
+        if threads is not None:
+            options["threads"] = str(threads)
+            # Same pictures, same bytes: x264's macroblock tree gave different bytes from run to
+            # run in a process that also renders (tests/test_video_speed.py), so it is off.
+            options["x264-params"] = f"threads={threads}:lookahead-threads=1:sync-lookahead=0:mbtree=0"
+        self._stream.options = options
+        self._stream.codec_context.time_base = Fraction(1, fps)
+        self._durations: dict[int, int] = {}  # pts -> frames shown
+        self.frames = 0  # output frames (frame times) written
+        self.pictures = 0  # encoded pictures
 
-    def write(self, frame: np.ndarray) -> None:
-        video_frame = self._av.VideoFrame.from_ndarray(np.ascontiguousarray(frame), format="rgb24")
-        for packet in self._stream.encode(video_frame):
+    def write(self, frame: np.ndarray, repeat: int = 1) -> None:
+        """Append `frame`, shown for `repeat` frame times."""
+        if repeat < 1:
+            raise ValueError(f"repeat must be at least 1, got {repeat}")
+        rgb = self._av.VideoFrame.from_ndarray(np.ascontiguousarray(frame), format="rgb24")
+        video_frame = rgb.reformat(format="yuv420p", threads=1)  # one thread: CPU is the cost
+        video_frame.pts = self.frames
+        video_frame.time_base = self._stream.codec_context.time_base
+        self._durations[self.frames] = repeat
+        self._mux(self._stream.encode(video_frame))
+        self.frames += repeat
+        self.pictures += 1
+
+    def _mux(self, packets) -> None:
+        for packet in packets:
+            if packet.pts is not None and packet.pts in self._durations:
+                packet.duration = self._durations.pop(packet.pts)
             self._container.mux(packet)
-        self.frames += 1
 
     def close(self) -> Path:
         """Flush the encoder and move the finished file into place."""
-        for packet in self._stream.encode():
-            self._container.mux(packet)
+        self._mux(self._stream.encode())
         self._container.close()
         os.replace(self._tmp, self.path)
         return self.path
@@ -66,12 +94,18 @@ class Mp4Writer:
 
 
 def probe(path: str | Path) -> dict:
-    """Decode a video fully; return its codec, size, frame rate and number of decoded frames."""
+    """Decode a video fully; return its codec, size, frame rate, number of decoded pictures
+    (``frames``; a held picture counts once) and its length in seconds."""
     import av
 
     with av.open(str(path)) as container:
         stream = container.streams.video[0]
-        frames = sum(1 for _ in container.decode(stream))
+        frames, last = 0, 0.0
+        for frame in container.decode(stream):
+            frames, last = frames + 1, float(frame.time or 0)
+        # The last picture is shown until the stream's end (a held picture, for its hold).
+        end = float(stream.duration * stream.time_base) if stream.duration else 0.0
+        shown = max(end, last) if frames else 0.0
         return {"codec": stream.codec_context.name, "width": stream.width, "height": stream.height,
-                "fps": float(stream.average_rate or 0), "frames": frames,
-                "pix_fmt": stream.codec_context.pix_fmt}
+                "fps": float(stream.guessed_rate or stream.average_rate or 0), "frames": frames,
+                "seconds": shown, "pix_fmt": stream.codec_context.pix_fmt}

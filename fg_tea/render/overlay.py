@@ -81,8 +81,9 @@ def _panel(img: np.ndarray, x0: int, y0: int, x1: int, y1: int, alpha: float = 0
     x1, y1 = min(x1, img.shape[1]), min(y1, img.shape[0])
     if x1 <= x0 or y1 <= y0:
         return
-    region = img[y0:y1, x0:x1].astype(np.float32)
-    img[y0:y1, x0:x1] = (region * (1 - alpha) + 18 * alpha).astype(np.uint8)
+    # region * (1 - alpha) + 18 * alpha, truncated (the -0.5: OpenCV rounds), in one pass.
+    region = img[y0:y1, x0:x1]
+    cv2.convertScaleAbs(region, region, 1 - alpha, 18 * alpha - 0.5)
 
 
 def _text(img: np.ndarray, text: str, x: int, y: int, scale: float, colour=(235, 235, 235),
@@ -178,8 +179,8 @@ def draw_overlays(frame: np.ndarray, state: OverlayState, inset_box: tuple[int, 
             image = minimap.render(mw, mh, pose, state.viewpoint, state.viewpoint_kind, covered,
                                    state.viewpoint_position, state.found_at)
             x0 = w - mw
-            region = frame[y:y + mh, x0:x0 + mw].astype(np.float32)
-            frame[y:y + mh, x0:x0 + mw] = (0.15 * region + 0.85 * image).astype(np.uint8)
+            region = frame[y:y + mh, x0:x0 + mw]
+            cv2.addWeighted(region, 0.15, image, 0.85, -0.5, dst=region)  # truncated, as before
             panels.append((x0, y, w, y + mh))
             if not compact and state.viewpoint is not None:
                 tag = (f"room glance: {state.viewpoint_room or state.viewpoint}" if state.viewpoint_kind == "room"

@@ -3,13 +3,15 @@
 The log holds everything a frame needs: the agent pose at every frame of motion, where objects
 stand after each action, which object is held, and the beliefs, decision, task statuses and
 hidden-state probabilities to overlay. :func:`plan_frames` turns the events into a list of frame
-specifications; :func:`render_video` renders them with the PyBullet house (chase view with a
-first-person inset, or either alone), splitting the frames over worker processes that each
-encode a segment, and joins the segments into one H.264 MP4 by remuxing (no re-encode).
+specifications; :func:`render_video` renders them with a render-only copy of the PyBullet house
+(chase view with a first-person inset, or either alone; :mod:`fg_tea.render.scene`), in worker
+processes over fixed pieces of the frames, and joins the pieces in order into one H.264 MP4 by
+remuxing (:mod:`fg_tea.render.frames`): the same bytes with any number of workers.
 
 Selected frames (decisions, observations, actions, skips) are held for a moment so a viewer can
-read the overlays. The overlays add a mini-map of the house with the current look's field of view
-and covered sites, and the names of the sites in the chase view (:mod:`fg_tea.render.overlay`).
+read the overlays; a held frame is rendered and encoded once and shown for the whole hold. The
+overlays add a mini-map of the house with the current look's field of view and covered sites,
+and the names of the sites in the chase view (:mod:`fg_tea.render.overlay`).
 Logs written before viewpoints existed still render: a look without ``viewpoint`` is a close look
 at its ``site``, and one without ``sites_in_view`` covers just that site.
 """
@@ -20,15 +22,12 @@ import copy
 import math
 import os
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
-from fg_tea.common.files import atomic_path
-from fg_tea.env.base import EnvConfig
 from fg_tea.episode.log import read_log
 from fg_tea.render.overlay import OverlayState, draw_overlays
 from fg_tea.world.interface import logged_viewpoint
@@ -332,36 +331,40 @@ def project_points(view: Sequence[float], proj: Sequence[float], width: int, hei
     return out
 
 
-def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayState | None,
+def _compose(views, options: VideoOptions, scene_state: tuple, overlay: OverlayState | None,
              minimap=None, sites: dict[str, Sequence[float]] | None = None) -> np.ndarray:
     """One output frame: the camera views and, if enabled, the overlays.
 
     Args:
-        house: a reset PyBulletHouse.
+        views: a :class:`~fg_tea.render.scene.SceneViews` (or a reset PyBulletHouse, drawn by the
+            plain renderer) whose chase walls stand at ``options.wall_cutaway``.
         options: rendering options.
         scene_state: (pose, placements, held object).
         overlay: what the panels say (None: no panels).
         minimap: a :class:`~fg_tea.render.floorplan.MiniMap` for the right column.
         sites: site -> surface position (x, y, z m), named in the chase view.
     """
+    from fg_tea.render.scene import HouseViews
+
+    if not hasattr(views, "chase"):
+        views = HouseViews(views, options.wall_cutaway)
     w, h = options.width, options.height
     pose, placements, held = scene_state
-    house.set_scene_state(pose, placements, held)
+    views.set_scene_state(pose, placements, held)
     inset = None
     scale = options.scene_scale
     site_pixels, keep_clear = None, []
     if options.view == "first":
-        frame = _scaled(lambda a, b: house.render_ego(a, b)[0], w, h, scale)
+        frame = _scaled(views.ego, w, h, scale)
     else:
-        chase = (options.chase_distance, options.chase_height, options.chase_pitch_deg,
-                 options.chase_hfov_deg, options.wall_cutaway)
-        frame = _scaled(lambda a, b: house.render_chase(a, b, *chase), w, h, scale)
+        chase = (options.chase_distance, options.chase_height, options.chase_pitch_deg, options.chase_hfov_deg)
+        frame = _scaled(lambda a, b: views.chase(a, b, *chase), w, h, scale)
         if sites and overlay is not None and options.overlays:
-            view, proj = house.chase_camera_matrices(w, h, *chase)
+            view, proj = views.chase_camera(w, h, *chase)
             site_pixels = project_points(view, proj, w, h, {k: (v[0], v[1], v[2] + 0.05) for k, v in sites.items()})
             # Names keep clear of the agent (and what it carries): a square of AGENT_CLEAR_M.
             agent = project_points(view, proj, w, h, {"agent": (pose_xy(pose)[0], pose_xy(pose)[1],
-                                                                  house.config.sensor_height)})
+                                                                  views.config.sensor_height)})
             if "agent" in agent:
                 u, v, depth = agent["agent"]
                 r = AGENT_CLEAR_M * w / (2 * math.tan(math.radians(options.chase_hfov_deg) / 2)) / depth
@@ -369,7 +372,7 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
         if options.view == "multi":
             iw = int(w * options.inset_scale) // 2 * 2
             ih = int(iw * 3 / 4) // 2 * 2
-            ego = _scaled(lambda a, b: house.render_ego(a, b)[0], iw, ih, max(scale, 0.75))
+            ego = _scaled(views.ego, iw, ih, max(scale, 0.75))
             x0 = w - iw - 4
             frame[2:ih + 6, x0 - 2:x0 + iw + 2] = 255
             frame[4:ih + 4, x0:x0 + iw] = ego
@@ -378,40 +381,6 @@ def _compose(house, options: VideoOptions, scene_state: tuple, overlay: OverlayS
         pose_xyyaw = tuple(pose.as_list()) if hasattr(pose, "as_list") else tuple(pose)
         draw_overlays(frame, overlay, inset, minimap, pose_xyyaw, site_pixels, keep_clear)
     return frame
-
-
-def _render_segment(args: tuple) -> tuple[int, str, int]:
-    """Worker: render frames [lo, hi) of a plan into one MP4 segment.
-
-    `done` (optional) is a shared list; slot `index` holds the output frames written so far.
-    """
-    plan, options, lo, hi, path, index, done = args
-    from fg_tea.env.house import PyBulletHouse
-    from fg_tea.render.encoder import Mp4Writer
-    from fg_tea.render.floorplan import MiniMap
-
-    scenario = _load_scenario(plan)
-    env_fields = {k: v for k, v in plan.env.items() if k in EnvConfig.__dataclass_fields__}
-    config = replace(EnvConfig(), **env_fields)
-    house = PyBulletHouse(scenario, config)
-    minimap = MiniMap(scenario, config.ego_hfov_deg)
-    sites = plan.site_positions or {s.name: s.position for s in scenario.sites}
-    house.reset(plan.seed)
-    writer = Mp4Writer(path, options.width, options.height, options.fps, bframes=0)
-    count = 0
-    try:
-        for spec in plan.frames[lo:hi]:
-            frame = _compose(house, options, (spec.pose, plan.placements[spec.placements], spec.held),
-                             plan.overlays[spec.overlay], minimap, sites)
-            for _ in range(spec.repeat):
-                writer.write(frame)
-                count += 1
-            if done is not None and count - done[index] >= 30:
-                done[index] = count
-        writer.close()
-    finally:
-        house.close()
-    return index, path, count
 
 
 def render_still(events: list[dict], out: str | Path, frame: int,
@@ -425,8 +394,6 @@ def render_still(events: list[dict], out: str | Path, frame: int,
         ValueError: `frame` is not a frame of the video.
     """
     from fg_tea.common.files import write_png
-    from fg_tea.env.house import PyBulletHouse
-    from fg_tea.render.floorplan import MiniMap
 
     plan = plan_frames(events, options)
     if not 0 <= frame < plan.output_frames:
@@ -436,46 +403,16 @@ def render_still(events: list[dict], out: str | Path, frame: int,
         if seen + spec.repeat > frame:
             break
         seen += spec.repeat
-    spec = plan.frames[index]
-    scenario = _load_scenario(plan)
-    env_fields = {k: v for k, v in plan.env.items() if k in EnvConfig.__dataclass_fields__}
-    config = replace(EnvConfig(), **env_fields)
-    sites: dict[str, Sequence[float]] = dict(plan.site_positions or
-                                             {s.name: s.position for s in scenario.sites})
-    house = PyBulletHouse(scenario, config)
+    from fg_tea.render.frames import FrameRenderer
+
+    renderer = FrameRenderer(plan, options)
     try:
-        house.reset(plan.seed)
-        image = _compose(house, options, (spec.pose, plan.placements[spec.placements], spec.held),
-                         plan.overlays[spec.overlay], MiniMap(scenario, config.ego_hfov_deg), sites)
+        image = renderer.frame(index)
     finally:
-        house.close()
+        renderer.close()
     write_png(out, image)
     return {"path": str(out), "frame": frame, "frames": plan.output_frames,
-            "caption": plan.overlays[spec.overlay].caption}
-
-
-def _concat(segments: Sequence[str], out: Path, fps: int) -> None:
-    """Join H.264 segments into one MP4 by remuxing packets with shifted timestamps."""
-    import av
-
-    with atomic_path(out, ".mp4") as tmp, av.open(str(tmp), "w", options={"movflags": "faststart"}) as dst:
-        stream = None
-        offset = 0
-        for seg in segments:
-            with av.open(seg) as src:
-                s_in = src.streams.video[0]
-                if stream is None:
-                    stream = dst.add_stream_from_template(s_in)
-                last = 0
-                for packet in src.demux(s_in):
-                    if packet.dts is None:
-                        continue
-                    packet.pts = (packet.pts or 0) + offset
-                    packet.dts = packet.dts + offset
-                    last = max(last, packet.pts + (packet.duration or 0))
-                    packet.stream = stream
-                    dst.mux(packet)
-                offset = last
+            "caption": plan.overlays[plan.frames[index].overlay].caption}
 
 
 def remove_stale_render_dirs(folder: str | Path) -> None:
@@ -518,45 +455,18 @@ def render_video(events: list[dict], out: str | Path, options: VideoOptions = Vi
     Returns:
         {"path", "frames" (output frames), "rendered" (distinct rendered frames), "workers"}.
     """
+    from fg_tea.render.frames import concat, default_workers, encode_pieces
+
     plan = plan_frames(events, options)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    workers = options.workers or min(os.cpu_count() or 1, 8)
-    workers = max(1, min(workers, len(plan.frames)))
-    bounds = np.linspace(0, len(plan.frames), workers + 1).astype(int)
-    total = plan.output_frames
+    workers = options.workers or default_workers()
     remove_stale_render_dirs(out.parent)
     with tempfile.TemporaryDirectory(dir=out.parent, prefix=f".render-{os.getpid()}-") as tmp:
-        paths = [str(Path(tmp) / f"seg{i:02d}.mp4") for i in range(workers)]
-        spans = [(int(bounds[i]), int(bounds[i + 1])) for i in range(workers) if bounds[i + 1] > bounds[i]]
-        if len(spans) == 1:
-            results = [_render_segment((plan, options, *spans[0], paths[0], 0, None))]
-        else:
-            from concurrent.futures import FIRST_COMPLETED, wait
-            from multiprocessing.managers import SyncManager
-
-            from fg_tea.common.process import die_with_parent
-
-            manager = SyncManager()
-            manager.start(die_with_parent, (os.getpid(),))
-            with manager, ProcessPoolExecutor(max_workers=len(spans), initializer=die_with_parent,
-                                              initargs=(os.getpid(),)) as pool:
-                done = manager.list([0] * len(spans))
-                pending = {pool.submit(_render_segment, (plan, options, lo, hi, paths[i], i, done))
-                           for i, (lo, hi) in enumerate(spans)}
-                results = []
-                while pending:
-                    finished, pending = wait(pending, timeout=1.0, return_when=FIRST_COMPLETED)
-                    for future in finished:
-                        index, _, count = future.result()
-                        done[index] = count
-                        results.append(future.result())
-                    if progress is not None:
-                        progress(sum(done), total)
-        results.sort()
-        _concat([r[1] for r in results], out, options.fps)
-    return {"path": str(out), "frames": sum(r[2] for r in results), "rendered": len(plan.frames),
-            "workers": len(spans)}
+        results = list(encode_pieces(plan, options, Path(tmp), workers, progress))
+        concat([path for _, path in results], out)
+    return {"path": str(out), "frames": sum(count for count, _ in results), "rendered": len(plan.frames),
+            "workers": max(1, min(workers, len(results)))}
 
 
 def render_log(log_path: str | Path, out: str | Path | None = None,

@@ -1,0 +1,256 @@
+"""The video's 3D views at a fraction of their cost: the floor drawn once, walls cut once.
+
+PyBullet's TinyRenderer (the renderer of record: EGL through Mesa's llvmpipe here is no cheaper
+in CPU and shows a different image; experiments/results/video/renderer.md) spends its time
+scanning each triangle's screen bounding box. The floor is two triangles that cover the whole
+chase image, so it cost about half of every chase frame, and the cut-away walls were full-height
+boxes sunk into the floor, drawn and then hidden by it. A :class:`SceneViews` renders the same
+pictures from two render-only copies of the house:
+
+* neither copy has a floor body; the floor's top face is a plane of one colour (flat shading
+  under a directional light), so every pixel where the renderer drew nothing and whose ray meets
+  the floor's rectangle is filled with that colour, measured once from a floor-only rendering;
+* the chase copy's walls are boxes as tall as the cut-away (nothing lies below the floor to hide),
+  the first-person copy's walls are full height.
+
+The agent's own camera (detections, pixel counts) never uses these copies: episodes and their
+logs are unchanged. Frames agree with the plain renderer to within PSNR 40 dB
+(tests/test_video_speed.py); they differ only where the floor's thin edge faces would show.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from fg_tea.env import assets
+from fg_tea.env._pybullet import pybullet
+from fg_tea.env.base import EnvConfig
+from fg_tea.env.house import WALL_COLOR, PyBulletHouse
+from fg_tea.world.navigation import wall_boxes
+from fg_tea.world.scenario import Scenario
+
+
+#: Walls are drawn in pieces at most this long (m): a long wall's faces are thin triangles whose
+#: screen bounding boxes the renderer scans whole.
+WALL_PIECE_M = 1.0
+#: Where culled boxes wait: far below the house, behind every camera's far plane.
+PARKED_FAR = (0.0, 0.0, -500.0)
+
+
+class SceneViews:
+    """Chase and first-person images of a logged scene, rendered without a floor body.
+
+    Args:
+        scenario: the house.
+        config: the environment configuration (sensor height, field of view, ...).
+        seed: the episode's seed (reset of both copies).
+        wall_cutaway: chase walls' height (m); None for full walls.
+    """
+
+    def __init__(self, scenario: Scenario, config: EnvConfig, seed: int, wall_cutaway: float | None) -> None:
+        self.ego_house = PyBulletHouse(scenario, config)
+        self.chase_house = PyBulletHouse(scenario, config)
+        self.wall_cutaway = wall_cutaway
+        self.config = config
+        for house in (self.ego_house, self.chase_house):
+            house.reset(seed)
+        self.floor_rgb = self._floor_colour()
+        house = scenario.house
+        (x0, y0), (x1, y1) = house.floor_min, house.floor_max
+        self.floor_rect = (x0 - 0.3, y0 - 0.3, x1 + 0.3, y1 + 0.3)  # the floor box of PyBulletHouse
+        for h in (self.ego_house, self.chase_house):
+            pybullet.removeBody(h._static[0], physicsClientId=h._client)  # noqa: SLF001 (render-only copy)
+        furniture = [_box_corners((f.center[0], f.center[1], f.size[2] / 2), np.array(f.size) / 2, 0.0)
+                     for f in house.furniture]
+        self._culled: dict[int, _Cull] = {}
+        for h, top in ((self.chase_house, wall_cutaway), (self.ego_house, None)):
+            n = len(h._walls)  # noqa: SLF001
+            boxes = self._cut_walls(h, top) + list(zip(h._static[1 + n:], furniture))  # noqa: SLF001
+            self._culled[h._client] = _Cull(h._client, boxes)  # noqa: SLF001
+        self.calls = 0
+
+    def _floor_colour(self) -> np.ndarray:
+        """The floor's colour as the renderer shades it: one floor-only image, looking down."""
+        h = self.chase_house
+        client, floor = h._client, h._static[0]  # noqa: SLF001
+        ids = [pybullet.getBodyUniqueId(i, physicsClientId=client)
+               for i in range(pybullet.getNumBodies(physicsClientId=client))]
+        saved = {b: pybullet.getBasePositionAndOrientation(b, physicsClientId=client) for b in ids if b != floor}
+        for b in saved:
+            pybullet.resetBasePositionAndOrientation(b, [0, 0, -500], [0, 0, 0, 1], physicsClientId=client)
+        (x0, y0), (x1, y1) = h.scenario.house.floor_min, h.scenario.house.floor_max
+        eye = ((x0 + x1) / 2, (y0 + y1) / 2, 2.0)
+        view = pybullet.computeViewMatrix(list(eye), [eye[0], eye[1], 0.0], [1.0, 0.0, 0.0])
+        proj = pybullet.computeProjectionMatrixFOV(30.0, 1.0, 0.03, 30.0)
+        rgb = h._render((view, proj), 16, 16, segmentation=False)[0]  # noqa: SLF001
+        for b, (pos, orn) in saved.items():
+            pybullet.resetBasePositionAndOrientation(b, pos, orn, physicsClientId=client)
+        return rgb[8, 8].copy()
+
+    @staticmethod
+    def _cut_walls(house: PyBulletHouse, top: float | None, piece_m: float = WALL_PIECE_M
+                   ) -> list[tuple[int, np.ndarray]]:
+        """Replace `house`'s walls by pieces at most `piece_m` long, from the floor up to `top`
+        metres (None: full height); return each piece's body and corners."""
+        client = house._client  # noqa: SLF001
+        full = house.scenario.house.wall_height
+        height = full if top is None else min(max(top, 0.05), full)
+        for body, _, _ in house._walls:  # noqa: SLF001
+            pybullet.removeBody(body, physicsClientId=client)
+        pieces = []
+        for wall in wall_boxes(house.scenario.house):
+            yaw = math.atan2(wall.axis[1], wall.axis[0])
+            n = max(1, math.ceil(2 * wall.half[0] / piece_m))
+            half = wall.half[0] / n
+            for k in range(n):
+                along = -wall.half[0] + (2 * k + 1) * half
+                centre = (wall.center[0] + along * wall.axis[0], wall.center[1] + along * wall.axis[1], height / 2)
+                extent = (half, wall.half[1], height / 2)
+                pieces.append((assets.box(client, centre, extent, WALL_COLOR, yaw=yaw),
+                               _box_corners(centre, extent, yaw)))
+        house._walls = []  # noqa: SLF001 (render_chase must not move the removed walls)
+        return pieces
+
+    def set_scene_state(self, pose, placements, held: str | None) -> None:
+        for house in (self.ego_house, self.chase_house):
+            house.set_scene_state(pose, placements, held)
+
+    def chase_camera(self, width: int, height: int, distance: float, height_m: float, pitch_deg: float,
+                     hfov_deg: float) -> tuple[list, list]:
+        """The chase camera's matrices, as :meth:`PyBulletHouse.chase_camera_matrices` gives them."""
+        return self.chase_house.chase_camera_matrices(width, height, distance, height_m, pitch_deg,
+                                                      hfov_deg, self.wall_cutaway)
+
+    def chase(self, width: int, height: int, distance: float, height_m: float, pitch_deg: float,
+              hfov_deg: float) -> np.ndarray:
+        camera = self.chase_camera(width, height, distance, height_m, pitch_deg, hfov_deg)
+        return self._render(self.chase_house, camera, width, height)
+
+    def ego(self, width: int, height: int) -> np.ndarray:
+        camera = self.ego_house._ego_camera(width, height)  # noqa: SLF001
+        return self._render(self.ego_house, camera, width, height)
+
+    def _render(self, house: PyBulletHouse, camera: tuple[list, list], width: int, height: int) -> np.ndarray:
+        self.calls += 1
+        self._culled[house._client].update(camera)  # noqa: SLF001
+        rgb, depth, _ = house._render(camera, width, height, segmentation=False)  # noqa: SLF001
+        rgb = np.array(rgb)  # writable, contiguous
+        empty = depth >= 1.0
+        if empty.any():
+            empty &= floor_mask(camera, width, height, self.floor_rect).view(bool)
+            rgb[empty] = self.floor_rgb
+        return rgb
+
+    def close(self) -> None:
+        self.ego_house.close()
+        self.chase_house.close()
+
+
+class HouseViews:
+    """The same views straight from a :class:`PyBulletHouse` (its own floor and walls): the
+    plain renderer, for a house already built (``fg-tea preview``)."""
+
+    def __init__(self, house: PyBulletHouse, wall_cutaway: float | None) -> None:
+        self.house, self.wall_cutaway, self.config = house, wall_cutaway, house.config
+        self.calls = 0
+
+    def set_scene_state(self, pose, placements, held: str | None) -> None:
+        self.house.set_scene_state(pose, placements, held)
+
+    def chase_camera(self, width: int, height: int, distance: float, height_m: float, pitch_deg: float,
+                     hfov_deg: float) -> tuple[list, list]:
+        return self.house.chase_camera_matrices(width, height, distance, height_m, pitch_deg, hfov_deg,
+                                                self.wall_cutaway)
+
+    def chase(self, width: int, height: int, distance: float, height_m: float, pitch_deg: float,
+              hfov_deg: float) -> np.ndarray:
+        self.calls += 1
+        return self.house.render_chase(width, height, distance, height_m, pitch_deg, hfov_deg, self.wall_cutaway)
+
+    def ego(self, width: int, height: int) -> np.ndarray:
+        self.calls += 1
+        return self.house.render_ego(width, height)[0]
+
+    def close(self) -> None:
+        self.house.close()
+
+
+def _box_corners(centre: Sequence[float], half: Sequence[float], yaw: float) -> np.ndarray:
+    """The 8 corners of a box turned by `yaw` (rad) about z, homogeneous, shape (8, 4)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    out = []
+    for dx in (-half[0], half[0]):
+        for dy in (-half[1], half[1]):
+            for dz in (-half[2], half[2]):
+                out.append((centre[0] + c * dx - s * dy, centre[1] + s * dx + c * dy, centre[2] + dz, 1.0))
+    return np.array(out)
+
+
+class _Cull:
+    """Static boxes outside a camera's view are moved away before it renders, and back after.
+
+    A box whose 8 corners all lie outside one plane of the view frustum (left, right, bottom,
+    top or near) cannot cover a pixel; the renderer would still scan its triangles, and one that
+    reaches behind the camera is scanned over the whole image.
+    """
+
+    def __init__(self, client: int, boxes: list[tuple[int, np.ndarray]]) -> None:
+        self.client = client
+        self.bodies = [b for b, _ in boxes]
+        self.corners = np.stack([c for _, c in boxes]) if boxes else np.zeros((0, 8, 4))
+        self.poses = [pybullet.getBasePositionAndOrientation(b, physicsClientId=client) for b in self.bodies]
+        self.shown = np.ones(len(self.bodies), bool)
+
+    def update(self, camera: tuple[Sequence[float], Sequence[float]]) -> None:
+        if not self.bodies:
+            return
+        view, proj = camera
+        clip_from_world = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T
+        clip = self.corners @ clip_from_world.T  # (boxes, 8, 4)
+        x, y, z, w = clip[..., 0], clip[..., 1], clip[..., 2], clip[..., 3]
+        outside = ((x < -w).all(1) | (x > w).all(1) | (y < -w).all(1) | (y > w).all(1) | (z < -w).all(1))
+        for i in np.nonzero(outside == self.shown)[0]:  # whose state changes
+            pos, orn = (PARKED_FAR, (0.0, 0.0, 0.0, 1.0)) if outside[i] else self.poses[i]
+            pybullet.resetBasePositionAndOrientation(self.bodies[i], pos, orn, physicsClientId=self.client)
+        self.shown = ~outside
+
+
+def floor_mask(camera: tuple[Sequence[float], Sequence[float]], width: int, height: int,
+               rect: tuple[float, float, float, float]) -> np.ndarray:
+    """The pixels that see the rectangle `rect` (x0, y0, x1, y1) of the plane z = 0: its corners
+    clipped to the camera's near plane, projected and filled (uint8, 1 inside)."""
+    view, proj = camera
+    v, m = np.reshape(view, (4, 4)).T, np.reshape(proj, (4, 4)).T
+    x0, y0, x1, y1 = rect
+    corners = v @ np.array([[x0, y0, 0, 1], [x1, y0, 0, 1], [x1, y1, 0, 1], [x0, y1, 0, 1]], float).T
+    eye = corners[:3].T  # camera space; in front means z < -near
+    near = -1.000001 * _near(m)
+    kept = []
+    for a, b in zip(eye, np.roll(eye, -1, axis=0)):
+        a_in, b_in = a[2] <= near, b[2] <= near
+        if a_in:
+            kept.append(a)
+        if a_in != b_in:
+            t = (near - a[2]) / (b[2] - a[2])
+            kept.append(a + t * (b - a))
+    mask = np.zeros((height, width), np.uint8)
+    if len(kept) < 3:
+        return mask
+    pts = np.array(kept)
+    clip = m @ np.vstack([pts.T, np.ones(len(pts))])
+    u = (clip[0] / clip[3] + 1) / 2 * width - 0.5
+    r = (1 - clip[1] / clip[3]) / 2 * height - 0.5
+    import cv2
+
+    poly = np.round(np.stack([u, r], axis=1) * 16).astype(np.int32)
+    cv2.fillPoly(mask, [poly], 1, lineType=cv2.LINE_8, shift=4)
+    return mask
+
+
+def _near(proj: np.ndarray) -> float:
+    """The near distance of an OpenGL perspective projection matrix (row-major)."""
+    a, b = proj[2, 2], proj[2, 3]
+    return b / (a - 1)
