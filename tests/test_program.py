@@ -153,10 +153,10 @@ def test_plan_names_variables_factors_methods_width_and_largest_table(scenario):
     assert "  capacity (mug, kettle, teabag): 512 entries, table" in text
     assert "1. mug, kettle, teabag: dense joint of 512 states" in text
     assert "kettle.contains_water: closed form" in text
-    assert text.rstrip().endswith("elimination width 2; largest table 512 entries")
+    assert text.rstrip().endswith("elimination width 2; largest table: 512 entries")
     forced = plan_text(m, method="elimination")
     assert "1. mug, kettle, teabag: variable elimination, min-fill order" in forced
-    assert "elimination width 2, largest table 512 entries" in forced
+    assert "elimination width 2, largest table: 512 entries" in forced
 
 
 def _fault(call) -> str:

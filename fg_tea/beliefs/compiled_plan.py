@@ -44,10 +44,10 @@ def plan_lines(model: Any, variables: Sequence[Any], factors: Sequence[Any]) -> 
             how = f"dense joint of {c.states:,} states"
         else:
             how = (f"variable elimination, min-fill order {', '.join(c.order)}; "
-                   f"elimination width {c.width}, largest table {c.largest:,} entries")
+                   f"elimination width {c.width}, largest table: {c.largest:,} entries")
         lines.append(f"  {n}. {names}: {how}")
     largest = max((c.largest for c in model.components), default=0)
     width_all = max((c.width if c.method == "elimination" else len(c.ids) - 1 for c in model.components),
                     default=0)
-    lines.append(f"elimination width {width_all}; largest table {largest:,} entries")
+    lines.append(f"elimination width {width_all}; largest table: {largest:,} entries")
     return lines
