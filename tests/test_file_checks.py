@@ -366,10 +366,9 @@ def _boundary_cases():
                     yield kind, source, path, new
 
 
-@pytest.mark.slow
-def test_every_number_of_every_bundled_file_at_its_boundaries(tmp_path):
+def _check_boundaries(tmp_path: Path, cases) -> None:
     faults = []
-    for n, (kind, source, path, new) in enumerate(_boundary_cases()):
+    for n, (kind, source, path, new) in enumerate(cases):
         doc = _read(source)
         parent = doc
         for key in path[:-1]:
@@ -379,3 +378,19 @@ def test_every_number_of_every_bundled_file_at_its_boundaries(tmp_path):
         if fault is not None:
             faults.append(f"{source.relative_to(ROOT)}: {'.'.join(map(str, path))} = {new!r}: {fault}")
     assert not faults, "\n".join(faults[:20]) + f"\n({len(faults)} faults)"
+
+
+#: The settings of the default model (its tables other than transitions and sensors).
+SETTINGS = ("beliefs", "detection", "perception", "planning", "recovery")
+
+
+def test_the_default_model_settings_at_their_boundaries(tmp_path):
+    """The quick form: every number of models/factorised.toml's settings at 0, 1 and 1e-320."""
+    cases = [c for c in _boundary_cases() if c[1].name == "factorised.toml" and c[2][0] in SETTINGS]
+    assert len(cases) > 30
+    _check_boundaries(tmp_path, cases)
+
+
+@pytest.mark.slow
+def test_every_number_of_every_bundled_file_at_its_boundaries(tmp_path):
+    _check_boundaries(tmp_path, _boundary_cases())
