@@ -56,7 +56,7 @@ _API = {
     "read_log": "fg_tea.episode.log",
     "Program": "fg_tea.model.program",
     "program_from_model": "fg_tea.model.program_bundled",
-    "model_program": "fg_tea.model.program_file",
+    "model_program": "fg_tea.model.program_bundled",
     "compile_program": "fg_tea.beliefs.compiled",
     "CompiledModel": "fg_tea.beliefs.compiled",
     "plan_text": "fg_tea.beliefs.compiled",
@@ -92,7 +92,7 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time the names load o
     from fg_tea.episode.runner import EpisodeRunner, RunConfig
     from fg_tea.model.program import Program
     from fg_tea.model.program_bundled import program_from_model
-    from fg_tea.model.program_file import model_program
+    from fg_tea.model.program_bundled import model_program
     from fg_tea.model.spec import load_model
     from fg_tea.planning import planner_names, register_planner
     from fg_tea.planning.base import Candidate, Decision, Planner

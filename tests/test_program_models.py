@@ -313,12 +313,12 @@ def test_an_entry_point_names_a_model(program_file, monkeypatch):
     import importlib.metadata
     import sys
 
-    from fg_tea.model import program_file as loader
+    from fg_tea.common import resources
 
     monkeypatch.syspath_prepend(str(program_file.parent))
     sys.modules.pop("my_model", None)
-    point = importlib.metadata.EntryPoint("tidy_house", "my_model:model", loader.ENTRY_POINT_GROUP)
-    monkeypatch.setattr(loader, "entry_points", lambda: {"tidy_house": point})
+    point = importlib.metadata.EntryPoint("tidy_house", "my_model:model", resources.MODEL_ENTRY_POINT_GROUP)
+    monkeypatch.setattr(resources, "model_entry_points", lambda: {"tidy_house": point})
     model = fg.load_model("tidy_house")
     assert model.name == "tidy_house" and model.program.base == "joint"
     graph = build_graph(fg.load_scenario("default_apartment"), model)
@@ -397,7 +397,7 @@ def test_beliefs_joint_prints_the_exact_joint_of_any_set(program_file):
 
 
 def test_which_references_name_a_program():
-    from fg_tea.model.program_file import is_program_ref
+    from fg_tea.common.resources import is_program_ref
 
     assert [is_program_ref(r) for r in ("my_model.py", "pkg.mod:model", "joint", "no_epistemic",
                                          "models/joint.toml", "a:b.toml", "nothing_here", "a\x00b")] == \

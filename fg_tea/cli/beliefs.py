@@ -59,7 +59,7 @@ def joint_text(scenario, model, names: list[str]) -> str:
     import numpy as np
 
     from fg_tea.beliefs.compiled import compile_program
-    from fg_tea.model.program_file import model_program
+    from fg_tea.model.program_bundled import model_program
 
     compiled = compile_program(model_program(scenario, model))
     table = compiled.joint(names)
@@ -81,7 +81,7 @@ def top_text(scenario, model, k: int) -> str:
     """The `k` most probable joint arrangements of the model's program over `scenario`, exactly
     (K-best MAP of the compiled program: every location, task state and variable of its own)."""
     from fg_tea.beliefs.compiled import compile_program
-    from fg_tea.model.program_file import model_program
+    from fg_tea.model.program_bundled import model_program
 
     compiled = compile_program(model_program(scenario, model))
     best = compiled.kbest(k)

@@ -56,7 +56,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from fg_tea.model.spec import load_model
     from fg_tea.world.scenario import load_scenario, parse_scenario
 
-    from fg_tea.model.program_file import is_program_ref
+    from fg_tea.common.resources import is_program_ref
 
     for path in [p for name in args.files for p in _validate_targets(name)]:
         if is_program_ref(path):

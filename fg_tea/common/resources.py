@@ -17,6 +17,7 @@ import difflib
 import importlib.resources
 from importlib.resources.abc import Traversable
 from pathlib import Path
+from typing import Any
 
 from fg_tea.common.errors import InputError
 
@@ -142,11 +143,39 @@ def resolve_scenario(name: str | Path) -> Path:
     return _resolve_named(name, "scenario", ("scenarios",))
 
 
+#: The entry-point group under which installed packages register model programs (docs/design.md §4.8).
+MODEL_ENTRY_POINT_GROUP = "fg_tea.models"
+
+
+def model_entry_points() -> dict[str, Any]:
+    """Model programs registered by installed packages: entry-point name -> entry point."""
+    from importlib import metadata
+
+    return {ep.name: ep for ep in metadata.entry_points(group=MODEL_ENTRY_POINT_GROUP)}
+
+
+def is_program_ref(ref: str | Path) -> bool:
+    """True when `ref` names a model program rather than a TOML model: a ``.py`` file,
+    ``module:attribute``, or a bare name registered in :data:`MODEL_ENTRY_POINT_GROUP` that is no
+    file (a bundled model's name wins over an entry point of the same name)."""
+    text = str(ref)
+    if text.endswith(".py"):
+        return True
+    if text.endswith(".toml") or _exists(Path(text)):
+        return False
+    module, colon, attribute = text.partition(":")
+    if colon:
+        return all(p.isidentifier() for p in module.split(".") + attribute.split("."))
+    if "/" in text or "\\" in text or "." in text or not text:
+        return False
+    if any(_bundled_file(kind, text, ".toml") for kind in ("models", "models/ablations")):
+        return False
+    return text in model_entry_points()
+
+
 def resolve_model(name: str | Path) -> Path:
     """A model path, or the bundled model of that name, or else the bundled ablation of that name; a
     model program's reference (``.py``, ``module:attribute``, entry point) is returned as it is."""
-    from fg_tea.model.program_file import is_program_ref
-
     if is_program_ref(name):
         return Path(name)
     return _resolve_named(name, "model or ablation", ("models", "ablations"))

@@ -128,6 +128,22 @@ def portable_ref(path: str | Path | None) -> str | None:
     return describe_file(path)["file"]
 
 
+def program_record(scenario: Any, model: Any) -> dict[str, Any] | None:
+    """The log's record of a program model (``episode_start``'s ``program``, docs/design.md §4.8):
+    its reference, file (named as :func:`portable_ref` names files), sha256, base model and every
+    factor with its scope; None for TOML models."""
+    from fg_tea.model.program_file import program_for
+
+    program = program_for(scenario, model)
+    if program is None:
+        return None
+    source = model.program
+    file = portable_ref(source.file) if source.spec.endswith(".py") else source.file
+    return {"spec": source.spec, "file": file, "sha256": source.sha256,
+            "base": source.base,
+            "factors": [{"name": f.name, "scope": list(f.scope)} for f in program.factors]}
+
+
 _CHAINS: dict[str, tuple[list[Path], list[tuple | None]]] = {}
 
 

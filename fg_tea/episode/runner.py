@@ -38,7 +38,7 @@ from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.env.camera import Camera, default_camera, load_camera
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
-from fg_tea.episode.provenance import episode_provenance, portable_ref
+from fg_tea.episode.provenance import episode_provenance, portable_ref, program_record
 from fg_tea.model.spec import Model
 from fg_tea.planning import Decision
 from fg_tea.tasks.executor import (
@@ -329,7 +329,6 @@ class EpisodeRunner:
             for v in self.scenario.viewpoints if v.name in views.names]
         self._viewpoints_logged = viewpoints
         from fg_tea.common.resources import _resolve, resolve_task
-        from fg_tea.model.program_file import program_record
 
         world = None if self.world is None else _resolve(self.world, "scenarios/worlds", ".json")
         provenance = episode_provenance(self.scenario.source, model.source,

@@ -114,7 +114,7 @@ class ProgramFactor:
         origin: ``"table"`` or ``"function"`` (how it was declared), for the compiled plan.
         form: None, or the structured form a bundled model's factor was made from and still has
             (``("pair", a, b, same_site, same_room)`` or ``("capacity", penalty)``); the belief
-            engine keeps such factors structured (:mod:`fg_tea.beliefs.from_program`).
+            engine keeps such factors structured (:func:`fg_tea.beliefs.graph.graph_from_program`).
     """
 
     __slots__ = ("name", "scope", "_table", "_build", "learnable", "origin", "form")

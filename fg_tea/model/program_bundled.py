@@ -13,7 +13,7 @@ declared task state, and the factors the belief engine starts from (docs/design.
 Learned relation weights (eq. 55) scale the first co-location factor of a pair, as the engine
 always did. The relational factors carry their structured form (``ProgramFactor.form``) and build
 their tables only when asked (the capacity table has K^N entries), so the belief engine keeps
-them structured while they stay unedited (:mod:`fg_tea.beliefs.from_program`). The program
+them structured while they stay unedited (:func:`fg_tea.beliefs.graph.graph_from_program`). The program
 remembers `model` (``program.model``): planning, detection, sensors and transitions come from it.
 
 Evidence and transitions are not part of a model file; they enter the compiled model
@@ -28,7 +28,9 @@ import numpy as np
 
 from fg_tea.common.errors import InputError
 from fg_tea.model.learning import location_weights
+from fg_tea.model.pairs import PairRelation, learned_pairs
 from fg_tea.model.program import Program, ProgramFactor
+from fg_tea.model.program_file import program_for
 from fg_tea.model.spec import Model
 
 #: Largest capacity table (K^N entries) built for a program.
@@ -71,8 +73,6 @@ def program_from_model(scenario: Any, model: Model) -> Program:
 
 
 def _relations(m: Program, scenario: Any, model: Model) -> None:
-    from fg_tea.beliefs.graph import PairRelation, learned_pairs
-
     objects = scenario.object_names
     categories = [o.category for o in scenario.objects]
     penalty = None
@@ -131,3 +131,10 @@ def _capacity(m: Program, scenario: Any, penalty: float) -> None:
         return table
     m._put(ProgramFactor("capacity", tuple(scenario.object_names), None, False, "table",
                          ("capacity", float(penalty)), build=build))
+
+
+def model_program(scenario: Any, model: Any) -> Any:
+    """The program of any model over `scenario`: a program model's own, or a TOML model's factors
+    as :func:`program_from_model` builds them."""
+    program = program_for(scenario, model)
+    return program_from_model(scenario, model) if program is None else program

@@ -13,7 +13,8 @@ scenario that returns a :class:`~fg_tea.model.program.Program` — the model's s
 
 Three kinds of reference name one, as plug-in planners are named (the import is
 :mod:`fg_tea.planning.plugins`'s): a ``.py`` file (its function ``model``); ``module:attribute``;
-or the name of an entry point in the group ``fg_tea.models`` (:data:`ENTRY_POINT_GROUP`).
+or the name of an entry point in the group ``fg_tea.models``
+(:data:`~fg_tea.common.resources.MODEL_ENTRY_POINT_GROUP`).
 
 :func:`load_program_model` returns a :class:`~fg_tea.model.spec.Model` that is the base model
 (the module's ``base``: a model name or file, default :data:`~fg_tea.common.resources.DEFAULT_MODEL`)
@@ -41,14 +42,15 @@ import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from importlib import metadata
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
 from fg_tea.common.errors import InputError
+from fg_tea.common.plugins import PluginSpecError, attribute, import_module
+from fg_tea.common import resources
+from fg_tea.common.resources import MODEL_ENTRY_POINT_GROUP, is_program_ref
 
 #: The entry-point group in which installed packages register model programs by name.
-ENTRY_POINT_GROUP = "fg_tea.models"
 #: The function a model program file defines.
 FUNCTION = "model"
 #: Default time limit, in seconds, on importing a program file and on building its program.
@@ -121,31 +123,6 @@ def _time_limit(spec: str, what: str) -> Iterator[None]:
             signal.setitimer(signal.ITIMER_REAL, max(outer - (time.monotonic() - started), 1e-3))
 
 
-def entry_points() -> dict[str, metadata.EntryPoint]:
-    """Model programs registered by installed packages: entry-point name -> entry point."""
-    return {ep.name: ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)}
-
-
-def is_program_ref(ref: str | Path) -> bool:
-    """True when `ref` names a model program rather than a TOML model: a ``.py`` file,
-    ``module:attribute``, or a bare name registered in :data:`ENTRY_POINT_GROUP` that is no file."""
-    text = str(ref)
-    if text.endswith(".py"):
-        return True
-    from fg_tea.common.resources import _bundled_file, _exists
-
-    if text.endswith(".toml") or _exists(Path(text)):
-        return False
-    module, colon, attribute = text.partition(":")
-    if colon:
-        return all(p.isidentifier() for p in module.split(".") + attribute.split("."))
-    if "/" in text or "\\" in text or "." in text or not text:
-        return False
-    if any(_bundled_file(kind, text, ".toml") for kind in ("models", "models/ablations")):
-        return False  # a bundled model's name wins over an entry point of the same name
-    return text in entry_points()
-
-
 def _first(exc: BaseException) -> str:
     return (str(exc).splitlines() or [""])[0]
 
@@ -181,27 +158,24 @@ def _from_file(spec: str) -> tuple[Any, Path]:
 
 
 def _from_module(spec: str) -> tuple[Any, Any]:
-    from fg_tea.planning.plugins import PlannerSpecError, _attribute, _import_module
-
-    module_name, _, attribute = spec.partition(":")
+    module_name, _, name = spec.partition(":")
     try:
         with _time_limit(spec, "importing the module"):
-            module = _import_module(spec, module_name)
-        return module, _attribute(spec, module, attribute)
-    except PlannerSpecError as exc:
-        raise InputError(spec, _FIELD, exc.fault.replace("planner module", "model module")
-                         .replace("mymod:MyPlanner", "mymod:model")) from None
+            module = import_module(spec, module_name, "model", "mymod:model")
+        return module, attribute(spec, module, name)
+    except PluginSpecError as exc:
+        raise InputError(spec, _FIELD, exc.fault) from None
 
 
 def _from_entry_point(spec: str) -> tuple[Any, Any]:
-    point = entry_points()[spec]
+    point = resources.model_entry_points()[spec]
     try:
         with _time_limit(spec, "loading the entry point"):
             target = point.load()
     except InputError:
         raise
     except Exception as exc:
-        raise InputError(spec, _FIELD, f"entry point {spec!r} ({point.value}) of group {ENTRY_POINT_GROUP!r} "
+        raise InputError(spec, _FIELD, f"entry point {spec!r} ({point.value}) of group {MODEL_ENTRY_POINT_GROUP!r} "
                          f"cannot be loaded: {type(exc).__name__}: {_first(exc)}") from None
     return sys.modules.get(getattr(target, "__module__", "") or ""), target
 
@@ -249,14 +223,16 @@ def _module_file(module: Any, path: Path) -> str:
     return name.replace(".", "/") + ("/__init__.py" if path.name == "__init__.py" else path.suffix or ".py")
 
 
-def load_program_model(ref: str | Path) -> Any:
+def load_program_model(ref: str | Path, load_model: Callable[[str], Any]) -> Any:
     """The model a program reference names: its base model's settings with ``program`` set.
+
+    Args:
+        ref: the program's reference.
+        load_model: loads the base model by name or path (:func:`fg_tea.model.spec.load_model`).
 
     Raises:
         InputError: see :func:`load_program_source`; or the base model does not load.
     """
-    from fg_tea.model.spec import load_model
-
     source = load_program_source(ref)
     if is_program_ref(source.base):
         raise InputError(source.spec, "base", "must name a TOML model, not another program")
@@ -307,17 +283,6 @@ def program_for(scenario: Any, model: Any) -> Any:
     return program
 
 
-def model_program(scenario: Any, model: Any) -> Any:
-    """The program of any model over `scenario`: a program model's own, or a TOML model's factors
-    as :func:`~fg_tea.model.program_bundled.program_from_model` builds them."""
-    program = program_for(scenario, model)
-    if program is None:
-        from fg_tea.model.program_bundled import program_from_model
-
-        program = program_from_model(scenario, model)
-    return program
-
-
 def _same_settings(a: Any, b: Any) -> bool:
     blank = {"name": "", "description": "", "source": "", "program": None}
     try:
@@ -326,20 +291,5 @@ def _same_settings(a: Any, b: Any) -> bool:
         return repr(replace(a, **blank)) == repr(replace(b, **blank))
 
 
-def program_record(scenario: Any, model: Any) -> dict[str, Any] | None:
-    """The log's record of a program model (``episode_start``'s ``program``); None for TOML models."""
-    program = program_for(scenario, model)
-    if program is None:
-        return None
-    from fg_tea.episode.provenance import portable_ref
-
-    source: ProgramSource = model.program
-    file = portable_ref(source.file) if source.spec.endswith(".py") else source.file
-    return {"spec": source.spec, "file": file, "sha256": source.sha256,
-            "base": source.base,
-            "factors": [{"name": f.name, "scope": list(f.scope)} for f in program.factors]}
-
-
-__all__ = ["BUILD_SECONDS", "ENTRY_POINT_GROUP", "ProgramSource", "SECONDS_VARIABLE", "build_seconds",
-           "is_program_ref", "load_program_model", "load_program_source", "program_for", "program_record",
-           "model_program"]
+__all__ = ["BUILD_SECONDS", "ProgramSource", "SECONDS_VARIABLE", "build_seconds",
+           "is_program_ref", "load_program_model", "load_program_source", "program_for"]

@@ -571,11 +571,11 @@ def _load_document(path: Path, seen: tuple[Path, ...],
 
 def load_model(path: str | Path) -> Model:
     """Load and validate a model TOML file (a path, or the name of a bundled model), or a model program."""
-    from fg_tea.common.resources import resolve_model
-    from fg_tea.model.program_file import is_program_ref, load_program_model
+    from fg_tea.common.resources import is_program_ref, resolve_model
+    from fg_tea.model.program_file import load_program_model
 
     if is_program_ref(path):  # a .py file, module:attribute or entry point (docs/design.md §4.8)
-        return load_program_model(path)
+        return load_program_model(path, load_model)
     path = Path(resolve_model(path))
     origins: dict[str, str] = {}
     try:

@@ -45,6 +45,7 @@ from importlib import metadata
 from typing import Any, Callable, Sequence
 
 from fg_tea.common.errors import InputError
+from fg_tea.common.plugins import PluginSpecError, attribute, import_module
 
 #: The entry-point group in which installed packages register planners by name.
 ENTRY_POINT_GROUP = "fg_tea.planners"
@@ -80,40 +81,17 @@ def entry_points() -> dict[str, metadata.EntryPoint]:
 
 
 def _import_module(spec: str, module: str):
-    parts = module.split(".")
-    if not all(p.isidentifier() for p in parts):
-        raise PlannerSpecError(spec, f"{spec!r}: {module!r} is not a module name "
-                               "(expected module:attribute, e.g. mymod:MyPlanner)")
-    cwd = os.getcwd()
-    if cwd not in sys.path and "" not in sys.path:  # the current directory, after everything else
-        sys.path.append(cwd)
     try:
-        return importlib.import_module(module)
-    except ModuleNotFoundError as exc:
-        if exc.name is not None and module.startswith(exc.name):
-            raise PlannerSpecError(spec, f"{spec!r}: no module named {exc.name!r} on sys.path or "
-                                   f"in the current directory ({cwd})") from None
-        raise PlannerSpecError(spec, f"{spec!r}: importing {module!r} failed: {exc}") from None
-    except SystemExit as exc:  # the user's module called exit(): it is not a planner module
-        raise PlannerSpecError(spec, f"{spec!r}: importing {module!r} called exit"
-                               f"({exc.code!r}); a planner module must not exit") from None
-    except Exception as exc:  # the user's module raised while importing: say so in one line
-        first = (str(exc).splitlines() or [""])[0]
-        raise PlannerSpecError(spec, f"{spec!r}: importing {module!r} raised "
-                               f"{type(exc).__name__}: {first}") from None
+        return import_module(spec, module, "planner", "mymod:MyPlanner")
+    except PluginSpecError as exc:
+        raise PlannerSpecError(spec, exc.fault) from None
 
 
-def _attribute(spec: str, module_obj, attribute: str):
-    value = module_obj
-    for part in attribute.split("."):
-        if not part.isidentifier():
-            raise PlannerSpecError(spec, f"{spec!r}: {attribute!r} is not an attribute name")
-        try:
-            value = getattr(value, part)
-        except AttributeError:
-            raise PlannerSpecError(spec, f"{spec!r}: module {module_obj.__name__!r} has no "
-                                   f"attribute {attribute!r}") from None
-    return value
+def _attribute(spec: str, module_obj, name: str):
+    try:
+        return attribute(spec, module_obj, name)
+    except PluginSpecError as exc:
+        raise PlannerSpecError(spec, exc.fault) from None
 
 
 def resolve(name: str, builtin: Sequence[str] = ()) -> Any:
