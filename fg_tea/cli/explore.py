@@ -79,8 +79,11 @@ def cmd_explore(args: argparse.Namespace) -> int:
     if len(logs) == 2:
         where = (f"; choices differ first at decision {divergence['decision'] + 1}" if divergence
                  else "; the same choices at every decision")
-    print(f"Wrote {out} ({size / 1e6:.2f} MB, {sum(len(ep['steps']) for ep in data['episodes'])} steps{where}); "
-          "open it in a browser (no server needed).")
+    counts = [len(ep["steps"]) for ep in data["episodes"]]
+    # The counts the page shows: its slider's positions, and each episode's steps.
+    steps = (f"{counts[0]} steps" if len(counts) == 1 else
+             f"{len(data.get('pairs') or [])} slider positions: A {counts[0]} steps, B {counts[1]} steps")
+    print(f"Wrote {out} ({size / 1e6:.2f} MB, {steps}{where}); open it in a browser (no server needed).")
     return 0
 
 

@@ -368,7 +368,8 @@ def _apply(e: Mapping[str, Any], i: int, look: dict, pose: list, locations: dict
                 "sites": list(viewpoint_sites.get(name) or [name])}
         decisions.append({"seq": e.get("seq", i), "step": i, "object": e.get("object"),
                           "viewpoint": name, "planner": e.get("planner"), "total": e.get("total"),
-                          "serving": e.get("serving"), "info": e.get("info"), **_candidate_table(e)})
+                          "serving": e.get("serving"), "objects": e.get("objects"), "info": e.get("info"),
+                          **_candidate_table(e)})
     elif kind == "observation":
         name = logged_viewpoint(e)
         look = {"viewpoint": name, "kind": e.get("viewpoint_kind", "site"),
@@ -421,12 +422,37 @@ def caption(e: Mapping[str, Any]) -> str:
         return f"look from {logged_viewpoint(e)}: found {what}"
     if kind == "state_reading":
         return f"read {e.get('state')}: {'true' if e.get('value') else 'false'} ({e.get('purpose')})"
+    if kind == "metrics":
+        return metrics_caption(e)
     if kind in CAPTIONS:
         return CAPTIONS[kind].format_map({k: e.get(k) for k in ("action", "reason", "object", "site")})
     if kind in ("fail", "reopen", "stuck", "alternative_site"):
         what = " ".join(str(e[k]) for k in ("action", "object", "site") if e.get(k))
         return kind.replace("_", " ") + (f" {what}" if what else "") + (f": {e['reason']}" if e.get("reason") else "")
     return kind.replace("_", " ")
+
+
+def _count(n: Any, what: str) -> str:
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
+def metrics_caption(e: Mapping[str, Any]) -> str:
+    """The episode's metrics in one line (the last step's caption)."""
+    outcome = "complete" if e.get("success") else f"not complete ({e.get('reason')})"
+    parts = [outcome, f"{e.get('actions_complete')} of {e.get('actions_total')} actions complete, "
+             f"{e.get('actions_skipped')} skipped"]
+    if e.get("inspections") is not None:
+        parts.append(_count(e["inspections"], "inspection") + f" ({e.get('repeated_sites', 0)} repeated)")
+    if isinstance(e.get("total_distance"), (int, float)):
+        parts.append(f"{e['total_distance']:.1f} m travelled")
+    if isinstance(e.get("spl"), (int, float)):
+        parts.append(f"SPL {e['spl']:.3f}")
+    for key, what in (("state_readings", "state reading"), ("failures", "failed action")):
+        if e.get(key) is not None:
+            parts.append(_count(e[key], what))
+    if e.get("frames") is not None:
+        parts.append(_count(e["frames"], "simulation frame"))
+    return "metrics: " + " · ".join(parts)
 
 
 # ------------------------------------------------------------------------------ two episodes

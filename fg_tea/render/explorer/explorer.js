@@ -315,9 +315,8 @@
       s('polygon', {points: wall.map(([x, y]) => X(x) + ',' + Y(y)).join(' ')}, gWalls);
     }
     const gRooms = s('g', {class: 'rooms'}, svg);
-    for (const room of house.rooms || []) {
-      s('text', {x: X(room.centre[0]), y: Y(room.centre[1]), 'text-anchor': 'middle'}, gRooms, pretty(room.name));
-    }
+    fitRoomLabels((house.rooms || []).map((room) =>
+      s('text', {x: X(room.centre[0]), y: Y(room.centre[1]), 'text-anchor': 'middle'}, gRooms, pretty(room.name))));
     plan.look = s('g', {class: 'look'}, svg);
     // The path walked so far: a prefix of the episode's path points.
     plan.points = (pane.ep.path || []).map(([x, y]) => X(x) + ',' + Y(y));
@@ -359,11 +358,10 @@
       const anchor = u[0] > 0 ? 'start' : u[0] < 0 ? 'end' : 'middle';
       const at = u[0] ? [cx + 14 * u[0], cy - 1] : [cx, u[1] > 0 ? cy + 23 : cy - 14];
       const block = s('g', {class: 'site-label', transform: 'translate(' + at + ')'}, g);
-      const short = site.room && site.name.indexOf(site.room + '_') === 0
-        ? site.name.slice(site.room.length + 1) : site.name;
+      // The site's own name, as the candidate table and the log write it (never shortened).
       const text = s('text', {class: 'site-p', 'data-site': site.name, x: 0, y: 0, 'text-anchor': anchor},
                      block, '0.000');
-      s('text', {class: 'site-name', x: 0, y: u[1] < 0 ? -12 : 11, 'text-anchor': anchor}, block, pretty(short));
+      s('text', {class: 'site-name', x: 0, y: u[1] < 0 ? -12 : 11, 'text-anchor': anchor}, block, pretty(site.name));
       // Objects found here are written above the site (labels beside it) or beside it (labels below/above).
       const found = u[0] ? {x: cx, y: cy - 15, anchor: 'middle'} : {x: cx + 13, y: cy + 4, anchor: 'start'};
       g.addEventListener('click', () => safe(() => openHistory(pane, site.name)));
@@ -386,6 +384,32 @@
     for (const [key, text] of [['covered', 'in view'], ['agent', 'agent'], ['room', 'room viewpoint'],
                                ['vantage', 'vantage'], ['truth', 'true place']]) {
       h('span', {class: 'key ' + key + '-key'}, legend, text);
+    }
+  }
+
+  /** Room names that would overlap another (two rooms whose centres are close: "DINING ROOM"
+   *  beside "LIVING ROOM") go on two lines, then smaller, then apart vertically, until none does. */
+  function fitRoomLabels(texts) {
+    const meet = (a, b) => a.x < b.x + b.width && b.x < a.x + a.width && a.y < b.y + b.height && b.y < a.y + a.height;
+    const clashing = () => texts.filter((t) => texts.some((o) => o !== t && meet(t.getBBox(), o.getBBox())));
+    for (const t of clashing()) {
+      const words = t.textContent.split(' ');
+      if (words.length < 2) continue;
+      const x = t.getAttribute('x');
+      t.textContent = '';
+      words.forEach((w, j) => s('tspan', {x, dy: (j ? 1.05 : -0.525 * (words.length - 1)) + 'em'}, t,
+                                w + (j < words.length - 1 ? ' ' : '')));
+    }
+    for (let size = 15; size >= 10 && clashing().length; size--) {
+      for (const t of clashing()) t.style.fontSize = size + 'px';
+    }
+    for (let round = 0; round < 8; round++) { // still clashing: move the later label down
+      const bad = clashing();
+      if (!bad.length) break;
+      const t = bad[bad.length - 1];
+      const other = bad.find((o) => o !== t && meet(t.getBBox(), o.getBBox())) || t;
+      const shift = other.getBBox().y + other.getBBox().height - t.getBBox().y + 2;
+      t.setAttribute('y', +t.getAttribute('y') + shift);
     }
   }
 
@@ -571,7 +595,7 @@
       ' (event ' + d.seq + ')' + (d.planner ? ' · ' + d.planner : '') +
       (d.serving ? ' · serving ' + d.serving : '') + ': look for the ' + d.object + ' from ' + d.viewpoint +
       (d.total !== null && d.total !== undefined ? ' (total ' + fmt(d.total) + ')' : '') +
-      '; the lowest total is chosen' + weights(d.info);
+      '; the lowest total is chosen' + weights(d.info) + serves(d);
     if (!d.rows || !d.rows.length) {
       cand.note.textContent = 'no candidates logged for this decision';
       return;
@@ -600,6 +624,14 @@
     return parts.length ? ' · weights: ' + parts.join(', ') : '';
   }
 
+  /** When one look serves the searches of several objects, say so (docs/design.md §6.1). */
+  function serves(d) {
+    const objs = Array.isArray(d.objects) ? d.objects.map(String) : [];
+    if (objs.length < 2) return '';
+    return ' · this SEARCH serves ' + objs.length + ' objects (' + objs.join(', ') + '): the look updates ' +
+      'each one\'s belief, and every object it finds has its search confirmed';
+  }
+
   function buildCandidateTable(pane, d, k) {
     const box = h('div', {class: 'cand-box'});
     const el = h('table', {class: 'candidates', 'data-decision': k}, box);
@@ -624,7 +656,12 @@
       const r = h('tr', {'data-row': i, class: i === d.chosen ? 'chosen' : null}, tbody);
       if (i === d.chosen) r.title = 'the chosen candidate';
       row.forEach((v, j) => {
-        h('td', {class: isNaN(num(v)) ? 'str' : 'num'}, r, fmt(v));
+        const td = h('td', {class: isNaN(num(v)) ? 'str' : 'num'}, r);
+        // A long name (a viewpoint) may wrap after an underscore, so the table fits a narrow pane.
+        String(fmt(v)).split('_').forEach((part, m) => {
+          if (m) { td.append('_'); h('wbr', null, td); }
+          td.append(part);
+        });
         // The raw value too, as data-<column> (e.g. data-total="-1.575", data-distance="inf").
         if (/^[a-z][a-z0-9_]*$/i.test(d.columns[j])) r.setAttribute('data-' + d.columns[j], v === null ? '' : String(v));
       });
@@ -724,6 +761,7 @@
 
   // ------------------------------------------------------------------------------- task graph
   const NW = 100, NH = 32, GX = 30, GY = 10, PAD = 8; // node size and gaps, SVG units = px
+  const BAND = 1; // rows left empty between two bands of a folded task graph
 
   function buildTasks(pane, parent) {
     h('h3', null, parent, 'Task graph');
@@ -737,12 +775,23 @@
         + 'actions in order' : 'task graph edges not available; actions in order');
     }
     const cols = 4;
-    const pos = layout ? layout.pos : ids.map((_, k) => [k % cols, Math.floor(k / cols)]);
+    const wrap = h('div', {class: 'tasks-wrap'}, parent);
+    let pos = layout ? layout.pos : ids.map((_, k) => [k % cols, Math.floor(k / cols)]);
+    // A graph too long for its box at 80 % of natural size is folded into bands of layers, one
+    // under the other (the last layer of a band leads to the first of the next), so that it fits
+    // half of a 1,400 px window instead of scrolling out of sight.
+    const layers = Math.max(1, ...pos.map((p) => p[0] + 1));
+    const fit = Math.max(2, Math.floor(((wrap.clientWidth || 1e9) / 0.8 - 2 * PAD + GX) / (NW + GX)));
+    const bands = layout && layers > fit ? Math.ceil(layers / fit) : 1;
+    const perBand = Math.ceil(layers / bands);
+    const tall = Math.max(1, ...pos.map((p) => p[1] + 1));
+    if (bands > 1) {
+      pos = pos.map(([c, r]) => [c % perBand, r + Math.floor(c / perBand) * (tall + BAND)]);
+    }
     const ncol = Math.max(1, ...pos.map((p) => p[0] + 1));
     const nrow = Math.max(1, ...pos.map((p) => p[1] + 1));
     const W = PAD * 2 + ncol * NW + (ncol - 1) * GX;
     const H = PAD * 2 + nrow * NH + (nrow - 1) * GY;
-    const wrap = h('div', {class: 'tasks-wrap'}, parent);
     const svg = s('svg', {class: 'tasks', viewBox: '0 0 ' + W + ' ' + H, role: 'img', 'aria-label': 'task graph'},
                   wrap);
     // Shrink to the pane down to 80 % of natural size; beyond that the box scrolls sideways.
@@ -758,9 +807,14 @@
       for (const [a, b] of layout.edges) {
         const [ax, ay] = at(a), [bx, by] = at(b);
         const x1 = ax + NW, y1 = ay + NH / 2, x2 = bx, y2 = by + NH / 2, mx = (x1 + x2) / 2;
+        // Into a later band: right, down into the gap above the target's band, left, then in.
+        const band = (k) => Math.floor(pos[k][1] / (tall + BAND));
+        const gap = PAD + (band(b) * (tall + BAND) - BAND / 2) * (NH + GY) - GY / 2;
+        const d = band(a) === band(b)
+          ? 'M' + x1 + ',' + y1 + 'C' + mx + ',' + y1 + ' ' + mx + ',' + y2 + ' ' + x2 + ',' + y2
+          : 'M' + x1 + ',' + y1 + 'H' + (x1 + GX / 2) + 'V' + gap + 'H' + (x2 - PAD / 2) + 'V' + y2 + 'H' + x2;
         s('path', {class: 'edge', 'data-from': ids[a], 'data-to': ids[b],
-                   'marker-end': 'url(#arrow-' + pane.i + ')',
-                   d: 'M' + x1 + ',' + y1 + 'C' + mx + ',' + y1 + ' ' + mx + ',' + y2 + ' ' + x2 + ',' + y2}, gEdges);
+                   'marker-end': 'url(#arrow-' + pane.i + ')', d}, gEdges);
       }
     }
     ids.forEach((id, k) => {
