@@ -16,7 +16,6 @@ from fg_tea.common.errors import InputError
 
 if TYPE_CHECKING:
     from fg_tea.common.inputs import Reader
-    from fg_tea.model.spec import Model
 
 #: Smallest absent_probability accepted. Zero is refused (the cost rule would never give up a
 #: search for an object that is not there); a rate below one in 10^12 houses is zero in all but
@@ -39,11 +38,12 @@ def _has(data: Any, *keys: str) -> bool:
     return True
 
 
-def check_model(model: "Model", r: "Reader") -> None:
+def check_model(model: Any, r: "Reader") -> None:
     """Refuse a model whose values are in their plain ranges but make it degenerate.
 
     Args:
-        model: the model just built from the document.
+        model: the model just built from the document (a :class:`~fg_tea.model.spec.Model`; not
+            imported here, as spec.py calls this module).
         r: the reader of the whole (merged) document; faults name the file that set the key.
 
     Raises:
