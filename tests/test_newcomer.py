@@ -92,3 +92,68 @@ def test_a_misspelt_required_key_names_the_typo_with_extends(tmp_path, capsys):
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith("$.beliefs.strcture: unknown field; did you mean 'structure'?"), err
+
+
+def test_the_summary_says_simulation_frames_and_counts_in_the_singular(tmp_path, capsys):
+    from fg_tea.cli.common import summary
+    from fg_tea.episode.run import run_episode
+
+    s, m = fg.load_scenario("default_apartment"), fg.load_model("factorised")
+    text = summary(run_episode(s, m, env="fake", seed=0).events)
+    assert "1 state reading," in text and "1 state readings" not in text
+    assert text.endswith(" simulation frames.") and " 1 inspections" not in text
+
+
+def test_the_video_line_says_why_it_has_more_frames(tmp_path, capsys):
+    from fg_tea.episode.run import run_episode
+
+    s, m = fg.load_scenario("default_apartment"), fg.load_model("factorised")
+    run_episode(s, m, env="fake", seed=0, log=tmp_path / "episode.jsonl")
+    assert main(["render", str(tmp_path / "episode.jsonl"), "--width", "64", "--height", "64",
+                 "--frame-stride", "100"]) == 0
+    line = capsys.readouterr().out.splitlines()[-1]
+    assert line.startswith("video: ") and " video frames: the episode's motion, with each decision" in line
+    assert "held a moment for reading" in line
+
+
+def _run_folder(tmp_path, monkeypatch, model: str) -> str:
+    from fg_tea.cli.run import default_run_folder
+
+    monkeypatch.chdir(tmp_path)
+    return default_run_folder(fg.load_scenario("default_apartment"), fg.load_model(model), 0).as_posix()
+
+
+def test_a_copied_model_keeping_a_bundled_name_gets_its_own_run_folder(tmp_path, monkeypatch):
+    from fg_tea.common.resources import resolve_model
+
+    text = Path(resolve_model("factorised")).read_text()
+    (tmp_path / "my_model.toml").write_text(text)
+    (tmp_path / "same").mkdir()
+    (tmp_path / "same" / "factorised.toml").write_text(text)
+    assert _run_folder(tmp_path, monkeypatch, "factorised") == "runs/default_apartment-factorised-seed0"
+    assert _run_folder(tmp_path, monkeypatch, "no_epistemic") == "runs/default_apartment-no_epistemic-seed0"
+    assert _run_folder(tmp_path, monkeypatch, "my_model.toml") == \
+        "runs/default_apartment-factorised-my_model-seed0"
+    assert _run_folder(tmp_path, monkeypatch, "same/factorised.toml") == \
+        "runs/default_apartment-factorised-local-seed0"
+
+
+def test_the_readme_common_errors_link_goes_to_the_errors(tmp_path):
+    import re
+
+    root = Path(__file__).parents[1]
+    readme = (root / "README.md").read_text()
+    links = re.findall(r"\[common errors\]\(([^)#]+)(#[^)]*)?\)", readme)
+    assert links, "the README links no 'common errors'"
+    for page, anchor in links:
+        text = (root / page).read_text()
+        assert "<!-- errors " in text and "fg-tea: error:" in text
+        if anchor:
+            assert f"## {anchor[1:].replace('-', ' ').capitalize()}" in text
+
+
+def test_the_commands_table_names_camera():
+    text = (Path(__file__).parents[1] / "docs" / "guide" / "commands.md").read_text()
+    table = [line for line in text.splitlines() if line.startswith("| `fg-tea run ") or
+             line.startswith("| `fg-tea preview ")]
+    assert len(table) == 2 and all("--camera CAMERA" in line for line in table)

@@ -296,11 +296,20 @@ def summary(events: list[dict]) -> str:
                      if n is not None else f"never the {obj}")
     skipped = ", ".join(m["skipped_actions"]) or "none"
     end = "The task is complete" if m["success"] else f"The episode ended without finishing ({m['reason']})"
-    return (f"Found {', '.join(found)} ({m['inspections']} inspections, {m['repeated_sites']} "
-            f"repeated, {m['total_distance']:.1f} m travelled, {m['state_readings']} state readings, "
-            f"{m['failures']} failed actions). Skipped actions: {skipped}. {end}: "
+    def count(n: int, what: str) -> str:
+        return f"{n} {what}{'' if n == 1 else 's'}"
+
+    # "simulation frames": the video holds each decision and observation for reading, so it
+    # has more frames than this (its own line says so).
+    return (f"Found {', '.join(found)} ({count(m['inspections'], 'inspection')}, {m['repeated_sites']} "
+            f"repeated, {m['total_distance']:.1f} m travelled, {count(m['state_readings'], 'state reading')}, "
+            f"{count(m['failures'], 'failed action')}). Skipped actions: {skipped}. {end}: "
             f"{m['actions_complete']} of {m['actions_total']} actions complete and "
-            f"{m['actions_skipped']} skipped, in {m['frames']} frames.")
+            f"{m['actions_skipped']} skipped, in {count(m['frames'], 'simulation frame')}.")
+
+
+#: After a video's frame count: why it is more than the episode's simulation frames.
+HELD = "the episode's motion, with each decision, observation and action held a moment for reading"
 
 
 def planner_size_fault(planner: str, scenario, graph, model) -> str | None:

@@ -9,6 +9,7 @@ from pathlib import Path
 from fg_tea.cli.common import (
     CAMERA_HELP,
     EXIT_STATUS,
+    HELD,
     MAX_SEED,
     MODEL_HELP,
     Failed,
@@ -48,6 +49,23 @@ RUN_EXIT_STATUS = ("Exit status: 0 when the task is complete; 1 when the episode
 RUN_OUTPUTS = ("episode.jsonl", "episode.mp4", "timings.json")
 
 
+def default_run_folder(scenario, model, seed: int) -> Path:
+    """``runs/SCENARIO-MODEL-seedN``. A model file that is not the bundled model of its name (a
+    copy that kept ``name = "factorised"``) adds its file stem, or ``local`` when the stem is the
+    name too, so that its runs never overwrite the bundled model's (docs/guide/commands.md)."""
+    from fg_tea.common.resources import KINDS, bundled
+
+    label = model.name
+    files = {p.name[: -len(suffix)]: p for folder, suffix, _ in (KINDS["models"], KINDS["ablations"])
+             for p in bundled(folder, suffix)}
+    if model.name in files and model.source:
+        own = Path(model.source)
+        if not own.exists() or own.resolve() != files[model.name].resolve():
+            stem = own.stem if own.suffix else safe_name(str(model.source))
+            label = f"{model.name}-{stem if stem != model.name else 'local'}"
+    return Path("runs") / safe_name(f"{scenario.name}-{label}-seed{seed}")
+
+
 @command("run")
 def cmd_run(args: argparse.Namespace) -> int:
     """Run one episode in the PyBullet house; write its log, and its video unless --no-video."""
@@ -77,8 +95,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     fault = planner_size_fault(args.planner, scenario, graph, model)
     if fault is not None:  # refused before any log is written
         raise InputError(scenario.source or scenario.name, f"--planner {args.planner}", fault)
-    out = Path(args.out) if args.out else \
-        Path("runs") / safe_name(f"{scenario.name}-{model.name}-seed{args.seed}")
+    out = Path(args.out) if args.out else default_run_folder(scenario, model, args.seed)
     check_out_dir(out)
     remove_outputs(out, RUN_OUTPUTS)
     config = RunConfig(seed=args.seed, planner=args.planner, task=args.task,
@@ -110,7 +127,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         result = render_video(runner.events, out / "episode.mp4", options, frames_progress())
         timings["video_s"] = time.perf_counter() - t2
         timings["video_frames"] = result["frames"]
-        print(f"video: {result['path']} ({result['frames']} frames, "
+        print(f"video: {result['path']} ({result['frames']} video frames: {HELD}; "
               f"{result['frames'] / max(timings['video_s'], 1e-9):.1f} frames/s rendered)")
     atomic_write_text(out / "timings.json", json.dumps(timings, indent=2) + "\n")
     return 0 if runner.reason == "complete" else 1
@@ -147,7 +164,7 @@ def cmd_render(args: argparse.Namespace) -> int:
               f"{result['caption']})")
         return 0
     result = render_video(events, out, options, frames_progress())
-    print(f"video: {result['path']} ({result['frames']} frames)")
+    print(f"video: {result['path']} ({result['frames']} video frames: {HELD})")
     return 0
 
 
@@ -197,7 +214,8 @@ def add_parser(sub) -> None:
     p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=0, help="episode seed (default: %(default)s)")
     p.add_argument("--out", type=out_path,
-                   help="output folder (default: runs/SCENARIO-MODEL-seedN)")
+                   help="output folder (default: runs/SCENARIO-MODEL-seedN; a model file that is not the "
+                   "bundled model of its name adds its file stem: runs/SCENARIO-MODEL-STEM-seedN)")
     p.add_argument("--no-video", action="store_true", help="headless: write the log only")
     p.add_argument("--max-frames", type=integer(1, 10_000_000), default=50_000, help="frame limit (default: %(default)s)")
     p.add_argument("--planner", default="efe", type=planner_name,
