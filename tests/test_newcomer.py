@@ -157,3 +157,15 @@ def test_the_commands_table_names_camera():
     table = [line for line in text.splitlines() if line.startswith("| `fg-tea run ") or
              line.startswith("| `fg-tea preview ")]
     assert len(table) == 2 and all("--camera CAMERA" in line for line in table)
+
+
+def test_the_video_says_when_a_search_serves_several_objects():
+    from fg_tea.episode.run import run_episode
+    from fg_tea.render.video import VideoOptions, plan_frames
+
+    s, m = fg.load_scenario("default_apartment"), fg.load_model("factorised")
+    events = run_episode(s, m, env="fake", seed=0).events
+    decisions = [e for e in events if e["event"] == "decision"]
+    several = next(e for e in decisions if len(e["objects"]) > 1)
+    captions = [o.caption for o in plan_frames(events, VideoOptions()).overlays if o.phase == "SEARCH"]
+    assert f"serves {', '.join(several['objects'])}; plan: look for the {several['object']}" in " | ".join(captions)

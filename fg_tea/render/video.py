@@ -198,7 +198,9 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
             ov.phase, ov.focus_object, ov.selected_site = "SEARCH", e["object"], logged_viewpoint(e)
             set_look(e, None)
             ov.found_at = {}
-            ov.caption = f"plan: look for the {e['object']} at {where()} ({e['planner']})"
+            several = e.get("objects") or []  # one look serves every search on the frontier (§6.1)
+            ov.caption = ((f"serves {', '.join(several)}; " if len(several) > 1 else "")  # first: never cut
+                          + f"plan: look for the {e['object']} at {where()} ({e['planner']})")
             ov.candidates = _top_candidates(e)
             emit([], repeat_last=hold)
         elif kind == "observation":
