@@ -82,12 +82,12 @@ def main(argv: list[str] | None = None) -> int:
         f"{' (quick: a small draft video, not the target)' if args.quick else ''}. CPU = user + system "
         "of the command and its rendering workers.",
         "",
-        "| run | CPU s | wall s |",
-        "|---|---|---|",
-        f"| `fg-tea run --no-video` (median of {args.repeats}) | {base:.2f} | "
-        f"{statistics.median(w for _, w in headless):.2f} |",
-        f"| `fg-tea run {' '.join(video)}` ({timings.get('video_frames', '?')} output frames) | "
-        f"{with_video[0]:.2f} | {with_video[1]:.2f} |",
+        "| run | command | CPU s | wall s | ratio |",
+        "|---|---|---|---|---|",
+        f"| headless | `fg-tea run --no-video` (median of {args.repeats}) | {base:.2f} | "
+        f"{statistics.median(w for _, w in headless):.2f} | 1 |",
+        f"| video | `fg-tea run {' '.join(video)}` ({timings.get('video_frames', '?')} output frames) | "
+        f"{with_video[0]:.2f} | {with_video[1]:.2f} | {ratio:.1f} |",
         "",
         f"**Ratio: {ratio:.1f}x** the CPU of the episode without video (target <= {TARGET:.0f}x: "
         f"{'met' if ratio <= TARGET else 'NOT met'}).",

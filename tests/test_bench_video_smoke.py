@@ -22,7 +22,7 @@ def test_bench_video_quick_measures_both_runs(tmp_path):
                           capture_output=True, text=True, timeout=600, env=env, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
     text = out.read_text()
-    rows = re.findall(r"\| `fg-tea run[^|]*\|[^|]*\| ([0-9.]+) \| ([0-9.]+) \|", text)
+    rows = re.findall(r"\| (?:headless|video) \| `fg-tea run[^|]*\| ([0-9.]+) \| ([0-9.]+) \|", text)
     assert len(rows) == 2, text
     assert all(float(cpu) > 0 for cpu, _ in rows)
     ratio = re.search(r"\*\*Ratio: ([0-9.]+)x\*\*", text)

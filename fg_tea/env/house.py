@@ -467,7 +467,7 @@ class PyBulletHouse(TruthBackedAdapter):
         side = (-math.sin(yaw) * CHASE_SIDE_CLEARANCE_M, math.cos(yaw) * CHASE_SIDE_CLEARANCE_M)
         frac = min(grid.clear_fraction((pose.x + s * side[0], pose.y + s * side[1]),
                                        (back[0] + s * side[0], back[1] + s * side[1]), grid.walls)
-                   for s in (-1.0, 0.0, 1.0))
+                   for s in (-1.0, 0.0, 1.0)) if avoid_walls else 1.0
         if frac < 1.0 and avoid_walls:
             distance = max(CHASE_MIN_DISTANCE_M, frac * distance - CHASE_WALL_GAP_M)
             back = (pose.x - distance * math.cos(yaw), pose.y - distance * math.sin(yaw))

@@ -1,21 +1,22 @@
-"""The video's 3D views at a fraction of their cost: the floor drawn once, walls cut once.
+"""The video's 3D views at a fraction of their cost: a render-only copy of the house.
 
-PyBullet's TinyRenderer (the renderer of record: EGL through Mesa's llvmpipe here is no cheaper
-in CPU and shows a different image; experiments/results/video/renderer.md) spends its time
-scanning each triangle's screen bounding box. The floor is two triangles that cover the whole
-chase image, so it cost about half of every chase frame, and the cut-away walls were full-height
-boxes sunk into the floor, drawn and then hidden by it. A :class:`SceneViews` renders the same
-pictures from two render-only copies of the house:
+PyBullet's TinyRenderer stays the renderer (EGL through Mesa's llvmpipe, the only OpenGL here,
+spends as much CPU on an image of an empty scene: experiments/results/video/renderers.md). Its
+time goes on scanning each triangle's screen bounding box and shading what it covers. The floor
+is two triangles that cover the whole chase image, about half of every chase frame's cost; long
+walls are thin triangles with screen-sized bounding boxes; and the cut-away walls were
+full-height boxes sunk into the floor, drawn and then hidden by it. A :class:`SceneViews`
+renders the same pictures from two render-only copies of the house:
 
 * neither copy has a floor body; the floor's top face is a plane of one colour (flat shading
-  under a directional light), so every pixel where the renderer drew nothing and whose ray meets
-  the floor's rectangle is filled with that colour, measured once from a floor-only rendering;
-* the chase copy's walls are boxes as tall as the cut-away (nothing lies below the floor to hide),
-  the first-person copy's walls are full height.
+  under a directional light), so every pixel where the renderer drew nothing and that sees the
+  floor's rectangle is filled with that colour, measured once from a floor-only rendering;
+* walls are drawn in pieces at most :data:`WALL_PIECE_M` long; the chase copy's are as tall as
+  the cut-away (nothing lies below the floor), the first-person copy's full height.
 
 The agent's own camera (detections, pixel counts) never uses these copies: episodes and their
-logs are unchanged. Frames agree with the plain renderer to within PSNR 40 dB
-(tests/test_video_speed.py); they differ only where the floor's thin edge faces would show.
+logs are unchanged. The images equal the plain renderer's on every frame measured
+(experiments/video_renderers.py; tests/test_video_speed.py asks PSNR >= 40 dB of whole frames).
 """
 
 from __future__ import annotations
@@ -36,8 +37,6 @@ from fg_tea.world.scenario import Scenario
 #: Walls are drawn in pieces at most this long (m): a long wall's faces are thin triangles whose
 #: screen bounding boxes the renderer scans whole.
 WALL_PIECE_M = 1.0
-#: Where culled boxes wait: far below the house, behind every camera's far plane.
-PARKED_FAR = (0.0, 0.0, -500.0)
 
 
 class SceneViews:
@@ -63,13 +62,8 @@ class SceneViews:
         self.floor_rect = (x0 - 0.3, y0 - 0.3, x1 + 0.3, y1 + 0.3)  # the floor box of PyBulletHouse
         for h in (self.ego_house, self.chase_house):
             pybullet.removeBody(h._static[0], physicsClientId=h._client)  # noqa: SLF001 (render-only copy)
-        furniture = [_box_corners((f.center[0], f.center[1], f.size[2] / 2), np.array(f.size) / 2, 0.0)
-                     for f in house.furniture]
-        self._culled: dict[int, _Cull] = {}
-        for h, top in ((self.chase_house, wall_cutaway), (self.ego_house, None)):
-            n = len(h._walls)  # noqa: SLF001
-            boxes = self._cut_walls(h, top) + list(zip(h._static[1 + n:], furniture))  # noqa: SLF001
-            self._culled[h._client] = _Cull(h._client, boxes)  # noqa: SLF001
+        self._cut_walls(self.chase_house, wall_cutaway)
+        self._cut_walls(self.ego_house, None)
         self.calls = 0
 
     def _floor_colour(self) -> np.ndarray:
@@ -91,16 +85,14 @@ class SceneViews:
         return rgb[8, 8].copy()
 
     @staticmethod
-    def _cut_walls(house: PyBulletHouse, top: float | None, piece_m: float = WALL_PIECE_M
-                   ) -> list[tuple[int, np.ndarray]]:
+    def _cut_walls(house: PyBulletHouse, top: float | None, piece_m: float = WALL_PIECE_M) -> None:
         """Replace `house`'s walls by pieces at most `piece_m` long, from the floor up to `top`
-        metres (None: full height); return each piece's body and corners."""
+        metres (None: full height)."""
         client = house._client  # noqa: SLF001
         full = house.scenario.house.wall_height
         height = full if top is None else min(max(top, 0.05), full)
         for body, _, _ in house._walls:  # noqa: SLF001
             pybullet.removeBody(body, physicsClientId=client)
-        pieces = []
         for wall in wall_boxes(house.scenario.house):
             yaw = math.atan2(wall.axis[1], wall.axis[0])
             n = max(1, math.ceil(2 * wall.half[0] / piece_m))
@@ -108,11 +100,8 @@ class SceneViews:
             for k in range(n):
                 along = -wall.half[0] + (2 * k + 1) * half
                 centre = (wall.center[0] + along * wall.axis[0], wall.center[1] + along * wall.axis[1], height / 2)
-                extent = (half, wall.half[1], height / 2)
-                pieces.append((assets.box(client, centre, extent, WALL_COLOR, yaw=yaw),
-                               _box_corners(centre, extent, yaw)))
+                assets.box(client, centre, (half, wall.half[1], height / 2), WALL_COLOR, yaw=yaw)
         house._walls = []  # noqa: SLF001 (render_chase must not move the removed walls)
-        return pieces
 
     def set_scene_state(self, pose, placements, held: str | None) -> None:
         for house in (self.ego_house, self.chase_house):
@@ -135,7 +124,6 @@ class SceneViews:
 
     def _render(self, house: PyBulletHouse, camera: tuple[list, list], width: int, height: int) -> np.ndarray:
         self.calls += 1
-        self._culled[house._client].update(camera)  # noqa: SLF001
         rgb, depth, _ = house._render(camera, width, height, segmentation=False)  # noqa: SLF001
         rgb = np.array(rgb)  # writable, contiguous
         empty = depth >= 1.0
@@ -176,46 +164,6 @@ class HouseViews:
 
     def close(self) -> None:
         self.house.close()
-
-
-def _box_corners(centre: Sequence[float], half: Sequence[float], yaw: float) -> np.ndarray:
-    """The 8 corners of a box turned by `yaw` (rad) about z, homogeneous, shape (8, 4)."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    out = []
-    for dx in (-half[0], half[0]):
-        for dy in (-half[1], half[1]):
-            for dz in (-half[2], half[2]):
-                out.append((centre[0] + c * dx - s * dy, centre[1] + s * dx + c * dy, centre[2] + dz, 1.0))
-    return np.array(out)
-
-
-class _Cull:
-    """Static boxes outside a camera's view are moved away before it renders, and back after.
-
-    A box whose 8 corners all lie outside one plane of the view frustum (left, right, bottom,
-    top or near) cannot cover a pixel; the renderer would still scan its triangles, and one that
-    reaches behind the camera is scanned over the whole image.
-    """
-
-    def __init__(self, client: int, boxes: list[tuple[int, np.ndarray]]) -> None:
-        self.client = client
-        self.bodies = [b for b, _ in boxes]
-        self.corners = np.stack([c for _, c in boxes]) if boxes else np.zeros((0, 8, 4))
-        self.poses = [pybullet.getBasePositionAndOrientation(b, physicsClientId=client) for b in self.bodies]
-        self.shown = np.ones(len(self.bodies), bool)
-
-    def update(self, camera: tuple[Sequence[float], Sequence[float]]) -> None:
-        if not self.bodies:
-            return
-        view, proj = camera
-        clip_from_world = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T
-        clip = self.corners @ clip_from_world.T  # (boxes, 8, 4)
-        x, y, z, w = clip[..., 0], clip[..., 1], clip[..., 2], clip[..., 3]
-        outside = ((x < -w).all(1) | (x > w).all(1) | (y < -w).all(1) | (y > w).all(1) | (z < -w).all(1))
-        for i in np.nonzero(outside == self.shown)[0]:  # whose state changes
-            pos, orn = (PARKED_FAR, (0.0, 0.0, 0.0, 1.0)) if outside[i] else self.poses[i]
-            pybullet.resetBasePositionAndOrientation(self.bodies[i], pos, orn, physicsClientId=self.client)
-        self.shown = ~outside
 
 
 def floor_mask(camera: tuple[Sequence[float], Sequence[float]], width: int, height: int,

@@ -2,9 +2,11 @@
 
 The frames were written by the renderer as it was before the video was made cheaper (commit
 4aafc1c), from the default episode (``fg-tea run --no-video``'s log) with ``fg-tea run``'s video
-options; the test renders the same frames with today's code and asks for PSNR >= 40 dB.
+options; the test renders the same frames with today's code and asks for PSNR >= 40 dB. To write
+them again, run this with that commit's package first on the path::
 
-    python tests/data/video_frames/make_references.py
+    mkdir /tmp/old && git archive 4aafc1c | tar -x -C /tmp/old
+    PYTHONPATH=/tmp/old python tests/data/video_frames/make_references.py
 """
 
 from __future__ import annotations
