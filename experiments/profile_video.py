@@ -24,6 +24,18 @@ sys.path.insert(0, str(ROOT / "tests"))
 from video_reference import default_episode, default_options  # noqa: E402
 
 
+def _relative(line: str) -> str:
+    """A profile line without this machine's paths (the checkout and the interpreter's)."""
+    import re
+    import sysconfig
+
+    for prefix, short in ((sysconfig.get_paths()["purelib"], "site-packages"),
+                          (sysconfig.get_paths()["stdlib"], "stdlib")):
+        line = line.replace(prefix, short)
+    line = line.replace(str(ROOT) + "/", "")
+    return re.sub(r"(?<![\w.])/\S*/(lib/python[\d.]+/)", r"\1", line)
+
+
 def _render_range(video, plan, options, lo: int, hi: int, path: Path) -> None:
     """Render and encode rendered frames [lo, hi) in this process, as a worker does."""
     if hasattr(video, "_render_segment"):  # the renderer before it was made cheaper
@@ -70,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
         stats = pstats.Stats(profile, stream=text)
         stats.sort_stats(key).print_stats(args.top)
     summary = text.getvalue()
-    summary = "\n".join(line.rstrip() for line in summary.splitlines()) + "\n"
+    summary = "\n".join(_relative(line.rstrip()) for line in summary.splitlines()) + "\n"
     if args.out:
         Path(args.out).write_text(summary)
     print(summary)
