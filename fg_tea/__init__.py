@@ -3,23 +3,37 @@
 The public API: everything a script needs is a name of this package (``import fg_tea as fg``).
 
 Inputs (docs/design.md §2):
-    load_scenario, load_model, load_task, load_world  -- read and check a file or bundled name.
+
+- `load_scenario`, `load_model`, `load_task`, `load_world`: read and check a file or bundled name.
+
 The agent (docs/design.md §1):
-    Agent            -- belief, planner and task executor; decide, observe, act.
-    Decision, Candidate, Planner, register_planner, planner_names  -- planning (§6).
+
+- `Agent`: belief, planner and task executor; decide, observe, act. Its belief, ``agent.belief``,
+  is a `BeliefEngine` (fg_tea.beliefs.engine: `location_map`, `entropy`, `joint`, ...).
+- `Decision`, `Candidate`, `Planner`, `register_planner`, `planner_names`: planning (§6).
+
 The world and the loop (docs/design.md §8-§9):
-    make_env         -- a PyBullet house or the fake house, its camera set by the model.
-    run_episode      -- one whole episode, as ``fg-tea run --no-video``.
-    EpisodeRunner, RunConfig, EventLog, read_log  -- stepping an episode; its JSONL log.
+
+- `make_env`: a PyBullet house or the fake house, its camera set by the model.
+- `run_episode`: one whole episode, as ``fg-tea run --no-video``.
+- `EpisodeRunner`, `RunConfig`, `EventLog`, `read_log`: stepping an episode; its JSONL log.
+
 Models as programs (docs/design.md §4.8):
-    Program          -- declare variables (locations, states, your own) and factors over them.
-    program_from_model -- a bundled model's factors over a scenario, as a program to edit.
-    model_program    -- the program of any loaded model (TOML, or a model program file) over a scenario.
-    compile_program, CompiledModel, plan_text  -- exact inference over a program; its plan.
+
+- `Program`: declare variables (locations, states, your own) and factors over them.
+- `program_from_model`: a bundled model's factors over a scenario, as a program to edit.
+- `model_program`: the program of any loaded model (TOML, or a model program file) over a scenario.
+- `compile_program`, `CompiledModel`, `plan_text`: exact inference over a program; its plan.
+
 Studies (docs/design.md §11-§12):
-    compare          -- models x planners over sampled worlds, paired, with a report.
-    learn            -- a learned model from episode logs (``fg-tea learn``).
-Errors: InputError (bad input: file, field, fault), PlannerRefused, ContradictionError.
+
+- `compare`: models x planners over sampled worlds, paired, with a report.
+- `learn`: a learned model from episode logs (``fg-tea learn``).
+
+Errors: `InputError` (bad input: file, field, fault), `PlannerRefused`, `ContradictionError`.
+
+The objects these return (a `Scenario`, a `Model`, a `WorldDistribution`, the belief and its
+update records `LookUpdate` and `StateUpdate`) are documented in docs/reference/api.md.
 
 Layers, in the order data flows (docs/design.md §1): common -> world -> model -> beliefs ->
 planning, tasks -> agent -> env -> episode -> render, study -> cli. The agent side never imports

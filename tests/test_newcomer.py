@@ -169,3 +169,36 @@ def test_the_video_says_when_a_search_serves_several_objects():
     several = next(e for e in decisions if len(e["objects"]) > 1)
     captions = [o.caption for o in plan_frames(events, VideoOptions()).overlays if o.phase == "SEARCH"]
     assert f"serves {', '.join(several['objects'])}; plan: look for the {several['object']}" in " | ".join(captions)
+
+
+def test_a_look_update_has_a_site_labelled_form():
+    s, m = fg.load_scenario("default_apartment"), fg.load_model("factorised")
+    from fg_tea.beliefs.engine import BeliefEngine
+
+    update = BeliefEngine(s, m).observe_site("sideboard", {"mug": True, "kettle": False})
+    labelled = update.after_by_site()
+    assert list(labelled["mug"]) == list(s.site_names)
+    assert labelled["mug"]["sideboard"] == pytest.approx(float(update.after["mug"][s.site_names.index("sideboard")]))
+    assert labelled["mug"]["sideboard"] > 0.9
+    assert update.before_by_site()["kettle"]["kitchen_counter"] == pytest.approx(
+        float(update.before["kettle"][s.site_names.index("kitchen_counter")]))
+
+
+def test_the_api_reference_documents_the_objects_it_hands_back(tmp_path):
+    import importlib.util
+
+    if importlib.util.find_spec("mkdocs") is None:
+        pytest.skip("mkdocs is not installed: pip install -e '.[docs]'")
+    root = Path(__file__).parents[1]
+    proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
+                          cwd=root, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    page = (tmp_path / "site" / "reference" / "api" / "index.html").read_text(encoding="utf-8")
+    for name in ["beliefs.engine.BeliefEngine", "beliefs.engine.BeliefEngine.location_map",
+                 "beliefs.engine.BeliefEngine.entropy", "beliefs.engine.BeliefEngine.joint",
+                 "world.scenario.Scenario", "model.spec.Model", "world.distributions.WorldDistribution",
+                 "beliefs.updates.LookUpdate", "beliefs.updates.LookUpdate.after_by_site",
+                 "beliefs.updates.StateUpdate"]:
+        assert f'id="fg_tea.{name}"' in page, name
+    # the package's docstring: its groups of names are lists, not one run-on paragraph
+    assert "<li><code>load_scenario</code>" in page and "<li><code>Agent</code>" in page

@@ -736,7 +736,7 @@ class BeliefEngine:
                                     if detections.get(o) is True])
             after = self.locations()
         detected = tuple(o for o in self.objects if detections.get(o) is True)
-        return LookUpdate(site, dict(detections), before, after, detected)
+        return LookUpdate(site, dict(detections), before, after, detected, tuple(self.sites))
 
     def observe_viewpoint(self, view, found: Mapping[str, str | None]) -> LookUpdate:
         """Absorb one look from a viewpoint (docs/design.md eq. 30 over every site in view).
@@ -789,7 +789,7 @@ class BeliefEngine:
             after = self.locations()
         detected = tuple(o for o in self.objects if found.get(o) is not None)
         return LookUpdate(view.name, {o: found[o] is not None for o in found}, before, after,
-                          detected)
+                          detected, tuple(self.sites))
 
     def observe_view(self, view, found: Mapping[str, str | None]) -> LookUpdate:
         """Deprecated name of :meth:`observe_viewpoint` (a viewpoint is called a viewpoint)."""

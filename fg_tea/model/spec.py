@@ -181,7 +181,21 @@ class Sensor:
 
 @dataclass(frozen=True)
 class Model:
-    """The agent's generative model."""
+    """The agent's generative model (:func:`load_model`): what it assumes about the house, its
+    detector, its sensors and its actions (docs/design.md §3-§5).
+
+    Attributes:
+        name, description: from the file; the run folder is named from `name`.
+        structure: ``"factorised"`` (independent location beliefs) or ``"joint"``.
+        prior_floor, miss_likelihood, false_positive_rate, positive_update: the location belief's
+            prior floor and detection terms (eqs. 2-6, 31).
+        sensors: the noisy state sensors by name (eqs. 23-24); ``sensor(name)``.
+        transitions: each action's belief transition (eq. 27); ``transition(name)``.
+        relations: co-location relations between objects (the joint model's factors).
+        planning: the planner's weights (w_d, w_p, w_e, w_a, lambda; eq. 12-16).
+        detector, detection_curve: the detector the agent assumes (eqs. 29-30).
+        source: the file read (or the bundled name).
+    """
 
     name: str
     description: str

@@ -150,7 +150,20 @@ class ObjectSpec:
 
 @dataclass(frozen=True)
 class Scenario:
-    """A validated house and its objects. Site order is the order of belief vectors."""
+    """A validated house and its objects (:func:`load_scenario`). Site order is the order of
+    belief vectors.
+
+    Attributes:
+        name, description: from the file (``fg-tea list`` shows the description).
+        sites: every site (name, room, position, vantage), in the order of belief vectors;
+            ``site_names`` lists their names, ``rooms`` the rooms in order.
+        objects: every object with its location prior and state priors; ``object_names``.
+        house: the floor plan (walls, doorways, furniture) the simulator builds.
+        start_position, start_yaw_deg: the agent's start pose.
+        preparation_site: where the tea is made.
+        room_vantages: the room glances' viewpoints.
+        source: the file read (or the bundled name).
+    """
 
     name: str
     schema_version: int
