@@ -125,3 +125,51 @@ def test_held_frames_are_rendered_once(default_events, tmp_path):
         assert renderer.views.calls == 2 * (hi - lo)
     finally:
         renderer.close()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not __import__("sys").platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux only")
+def test_killed_render_leaves_no_workers(default_events, tmp_path):
+    """kill -9 of `fg-tea render --workers 2` once its workers run: they and the resource tracker go too."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    log = tmp_path / "episode.jsonl"
+    log.write_text("".join(json.dumps(e) + "\n" for e in default_events))
+    root = Path(__file__).resolve().parents[1]
+    parent = subprocess.Popen([sys.executable, "-m", "fg_tea.cli", "render", str(log), "--workers", "2",
+                               "--out", str(tmp_path / "v.mp4")], cwd=root,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    children: set[int] = set()
+    deadline = time.monotonic() + 600  # a hang guard (a loaded machine is slow to start workers)
+    try:
+        while time.monotonic() < deadline:  # the tracker and two workers
+            children = {int(p) for p in subprocess.run(["ps", "-o", "pid=", "--ppid", str(parent.pid)],
+                                                       capture_output=True, text=True).stdout.split()}
+            if len(children) >= 3:
+                time.sleep(1.0)  # the workers are past their initializer
+                break
+            time.sleep(0.2)
+        else:
+            pytest.fail(f"render did not start its workers in time (children {children})")
+    finally:
+        parent.kill()
+        parent.wait()
+    left = set(children)
+    for _ in range(1200):  # up to a minute (a dead worker leaves at once)
+        for pid in list(left):
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                left.discard(pid)
+        if not left:
+            return
+        time.sleep(0.05)
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    pytest.fail(f"processes {sorted(left)} outlived the killed render")
