@@ -46,7 +46,7 @@ class Mp4Writer:
         self._stream = self._container.add_stream("libx264", rate=fps)
         self._stream.width, self._stream.height = width, height
         self._stream.pix_fmt = "yuv420p"
-        options = {"preset": preset, "crf": str(crf)}
+        options: dict[str, str] = {"preset": preset, "crf": str(crf)}
         if bframes is not None:
             options["bframes"] = str(bframes)
         if threads is not None:
@@ -54,7 +54,7 @@ class Mp4Writer:
             # Same pictures, same bytes: x264's macroblock tree gave different bytes from run to
             # run in a process that also renders (tests/test_video_speed.py), so it is off.
             options["x264-params"] = f"threads={threads}:lookahead-threads=1:sync-lookahead=0:mbtree=0"
-        self._stream.options = options
+        self._stream.options = dict(options)
         self._stream.codec_context.time_base = Fraction(1, fps)
         self._durations: dict[int, int] = {}  # pts -> frames shown
         self.frames = 0  # output frames (frame times) written
@@ -104,7 +104,7 @@ def probe(path: str | Path) -> dict:
         for frame in container.decode(stream):
             frames, last = frames + 1, float(frame.time or 0)
         # The last picture is shown until the stream's end (a held picture, for its hold).
-        end = float(stream.duration * stream.time_base) if stream.duration else 0.0
+        end = float(stream.duration * stream.time_base) if stream.duration and stream.time_base else 0.0
         shown = max(end, last) if frames else 0.0
         return {"codec": stream.codec_context.name, "width": stream.width, "height": stream.height,
                 "fps": float(stream.guessed_rate or stream.average_rate or 0), "frames": frames,

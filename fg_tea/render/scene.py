@@ -57,8 +57,7 @@ class SceneViews:
         for house in (self.ego_house, self.chase_house):
             house.reset(seed)
         self.floor_rgb = self._floor_colour()
-        house = scenario.house
-        (x0, y0), (x1, y1) = house.floor_min, house.floor_max
+        (x0, y0), (x1, y1) = scenario.house.floor_min, scenario.house.floor_max
         self.floor_rect = (x0 - 0.3, y0 - 0.3, x1 + 0.3, y1 + 0.3)  # the floor box of PyBulletHouse
         for h in (self.ego_house, self.chase_house):
             pybullet.removeBody(h._static[0], physicsClientId=h._client)  # noqa: SLF001 (render-only copy)
