@@ -452,7 +452,8 @@ def render_video(events: list[dict], out: str | Path, options: VideoOptions = Vi
         events: the episode's log events.
         out: the MP4 to write.
         options: rendering options.
-        progress: called about once a second with (output frames done, total output frames).
+        progress: called after each piece of rendered frames (:mod:`fg_tea.render.frames`) with
+            (output frames done, total output frames).
 
     Returns:
         {"path", "frames" (output frames), "rendered" (distinct rendered frames), "workers"}.
