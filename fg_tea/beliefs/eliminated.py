@@ -178,9 +178,10 @@ class EliminationPlan:
             raise self.refusal(tuple(range(n)), n - 1, size, "the site-local (capacity, company) factor")
         counts = np.array([bin(s).count("1") for s in range(1 << n)])
         weights = np.ones((len(sites), 1 << n))
+        rate = 1.0 if penalty is None else float(penalty)
         for pos, j in enumerate(sites):
             if j in cap:
-                weights[pos] *= np.where(counts > cap[j], float(penalty) ** np.maximum(counts - cap[j], 0), 1.0)
+                weights[pos] *= np.where(counts > cap[j], rate ** np.maximum(counts - cap[j], 0), 1.0)
             if site_weights is not None:
                 weights[pos] *= site_weights[j]
         link = np.full((k, len(sites) + 1), -np.inf)
