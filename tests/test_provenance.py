@@ -136,7 +136,8 @@ def test_git_state_outside_a_checkout_is_none(monkeypatch, tmp_path):
 
 def test_render_and_analysis_read_the_new_episode_start(tmp_path, monkeypatch):
     from fg_tea.cli import main
-    from fg_tea.render.video import VideoOptions, _load_scenario, plan_frames
+    from fg_tea.render.compose import load_plan_scenario
+    from fg_tea.render.video import VideoOptions, plan_frames
 
     work = tmp_path / "work"
     (work / "mine").mkdir(parents=True)
@@ -152,13 +153,13 @@ def test_render_and_analysis_read_the_new_episode_start(tmp_path, monkeypatch):
     assert (out / "episode.mp4").stat().st_size > 0
     options = VideoOptions(width=128, height=96, frame_stride=50)
     plan = plan_frames(events, options)
-    assert _load_scenario(plan).name == "milk_sugar_apartment"  # the user's file, as given
+    assert load_plan_scenario(plan).name == "milk_sugar_apartment"  # the user's file, as given
     monkeypatch.chdir(tmp_path)  # elsewhere, the relative path is gone: fall back by name
-    assert _load_scenario(plan_frames(events, options)).name == "milk_sugar_apartment"
+    assert load_plan_scenario(plan_frames(events, options)).name == "milk_sugar_apartment"
     (work / "mine" / "house.json").write_text((work / "mine" / "house.json").read_text() + "\n")
     monkeypatch.chdir(work)
     with pytest.warns(UserWarning, match="sha256 differs"):
-        _load_scenario(plan_frames(events, options))
+        load_plan_scenario(plan_frames(events, options))
     assert score(events)["frames"] == events[-1]["frames"]  # metrics still score the log
     assert without_git(events)[0].get("git", "gone") == "gone" and "git" in events[0]
 

@@ -177,7 +177,7 @@ def cmd_preview(args: argparse.Namespace) -> int:
     from fg_tea.model.spec import load_model
     from fg_tea.render.floorplan import MiniMap, write_floor_plan
     from fg_tea.render.overlay import OverlayState
-    from fg_tea.render.video import _compose
+    from fg_tea.render.compose import compose_frame
     from fg_tea.world.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
@@ -193,8 +193,8 @@ def cmd_preview(args: argparse.Namespace) -> int:
         pose = house.reset(args.seed)
         overlay = OverlayState(phase="preview", caption=f"{scenario.name}: start pose "
                                f"({pose.x:.2f}, {pose.y:.2f}, {pose.yaw_deg:.0f} deg)")
-        frame = _compose(house, options, (pose, house.placements(), None), overlay,
-                         MiniMap(scenario, config.ego_hfov_deg), {s.name: s.position for s in scenario.sites})
+        frame = compose_frame(house, options, (pose, house.placements(), None), overlay,
+                              MiniMap(scenario, config.ego_hfov_deg), {s.name: s.position for s in scenario.sites})
     finally:
         house.close()
     write_png(out, frame)

@@ -51,10 +51,10 @@ class FrameRenderer:
         from fg_tea.env.base import EnvConfig
         from fg_tea.render.floorplan import MiniMap
         from fg_tea.render.scene import SceneViews
-        from fg_tea.render.video import _load_scenario
+        from fg_tea.render.compose import load_plan_scenario
 
         self.plan, self.options = plan, options
-        scenario = _load_scenario(plan)
+        scenario = load_plan_scenario(plan)
         env_fields = {k: v for k, v in plan.env.items() if k in EnvConfig.__dataclass_fields__}
         config = replace(EnvConfig(), **env_fields)
         self.views = SceneViews(scenario, config, plan.seed, options.wall_cutaway)
@@ -64,10 +64,10 @@ class FrameRenderer:
 
     def frame(self, index: int) -> np.ndarray:
         """The picture of rendered frame `index` of the plan."""
-        from fg_tea.render.video import _compose
+        from fg_tea.render.compose import compose_frame
 
         spec = self.plan.frames[index]
-        return _compose(self.views, self.options, (spec.pose, self.plan.placements[spec.placements], spec.held),
+        return compose_frame(self.views, self.options, (spec.pose, self.plan.placements[spec.placements], spec.held),
                         self.plan.overlays[spec.overlay], self.minimap, self.sites)
 
     def encode(self, lo: int, hi: int, path: str | Path) -> int:
