@@ -45,10 +45,10 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from fg_tea._gym_id import install as _register_gym_id
+from fg_tea.episode.gym_id import install as _register_gym_id
 from fg_tea._version import __version__
 
-_register_gym_id()  # gymnasium.make("fg_tea/TeaMaking-v0") after import fg_tea (fg_tea/_gym_id.py)
+_register_gym_id()  # gymnasium.make("fg_tea/TeaMaking-v0") after import fg_tea (fg_tea/episode/gym_id.py)
 
 #: Public name -> the module that defines it.
 _API = {

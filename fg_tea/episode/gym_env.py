@@ -7,7 +7,7 @@ it owns the house and its hidden truth and never holds a belief. Any agent can a
 :class:`~fg_tea.episode.runner.EpisodeRunner`, which then writes the same log as ``fg-tea run``.
 
 Needs the optional ``gym`` extra (``pip install "fg-tea[gym]"``): the core does not use Gymnasium.
-``import fg_tea`` registers the id ``"fg_tea/TeaMaking-v0"`` (fg_tea/_gym_id.py; Gymnasium 1.x
+``import fg_tea`` registers the id ``"fg_tea/TeaMaking-v0"`` (fg_tea/episode/gym_id.py; Gymnasium 1.x
 loads no plug-ins), so either import order works::
 
     import fg_tea, gymnasium
@@ -22,7 +22,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from fg_tea._gym_id import ENV_ID, register
+from fg_tea.episode.gym_id import ENV_ID, register
 from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import MAX_COORDINATE
 from fg_tea.env.base import EnvAdapter
