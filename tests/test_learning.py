@@ -269,11 +269,11 @@ def test_learned_detection_converges_to_the_camera(tmp_path):
 def _doc(name):
     import tomllib
 
-    from fg_tea.model.spec import _load_document
+    from fg_tea.model.documents import load_document
     from fg_tea.common.resources import resolve_model
 
     path = Path(resolve_model(name))
-    return _load_document(path, (path.resolve(),))
+    return load_document(path, (path.resolve(),))
 
 
 def test_learning_table_is_strict(tmp_path):

@@ -164,7 +164,7 @@ def model_chain(path: str | Path) -> list[Path]:
 
 def _walk_chain(path: str | Path) -> list[Path]:
     from fg_tea.common.inputs import read_toml
-    from fg_tea.model.spec import MAX_EXTENDS_DEPTH, _parent_path
+    from fg_tea.model.documents import MAX_EXTENDS_DEPTH, extended_file
 
     chain = [Path(path)]
     current = Path(path)
@@ -173,7 +173,7 @@ def _walk_chain(path: str | Path) -> list[Path]:
             parent = read_toml(current).get("extends")
             if parent is None:
                 break
-            current = _parent_path(current, parent)
+            current = extended_file(current, parent)
         except (ValueError, OSError):
             break
         if any(current.resolve() == c.resolve() for c in chain):

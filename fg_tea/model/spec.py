@@ -17,8 +17,9 @@ from types import MappingProxyType
 from typing import Any, Mapping
 
 from fg_tea.common.errors import InputError
-from fg_tea.common.inputs import Reader, read_toml
+from fg_tea.common.inputs import Reader
 from fg_tea.model.checks import check_model
+from fg_tea.model.documents import load_document, origin_lookup
 from fg_tea.model.learning import Learning, apply_to_sensors, read_learning
 from fg_tea.world.visibility import DETECTORS, VisibilityCurve, read_curve
 
@@ -27,7 +28,6 @@ STRUCTURES = ("factorised", "joint")
 CAMERA_KEY_MOVED = ("the camera is configured by a camera file (--camera; bundled: cameras/), "
                     "the model says only what the agent assumes (docs/design.md §1.3)")
 #: Longest chain of ``extends`` (the bundled ablations use two levels).
-MAX_EXTENDS_DEPTH = 32
 RELATION_KINDS = ("capacity", "co_location", "exclusivity")
 #: The roles a transition's state templates may name, filled in from a task action
 #: (docs/design.md §7.3); ``{object}.contains_water`` becomes ``kettle.contains_water``.
@@ -248,18 +248,6 @@ class Model:
         return replace(self, **changes)
 
 
-def _merge(base: dict, override: dict) -> dict:
-    out = dict(base)
-    for key, value in override.items():
-        if isinstance(value, dict) and isinstance(out.get(key), dict):
-            out[key] = _merge(out[key], value)
-        else:
-            out[key] = value
-    return out
-
-
-#: How a detection updates q(L_o) (docs/design.md §3.2): ``"collapse"`` onto the site seen, with
-#: the floor elsewhere (eq. 4); ``"likelihood"``, a plain detection likelihood (eq. 31).
 POSITIVE_UPDATES = ("collapse", "likelihood")
 #: The earlier name of ``"collapse"``, still read from older model files.
 _OLD_POSITIVE_UPDATE = "blue" "print"
@@ -359,7 +347,7 @@ def parse_model(data: dict, file: str | Path = "<model>",
         origins: key path (``$.beliefs.structure``) -> the file of the chain that set it, so a
             fault is reported against the file that holds the key.
     """
-    r = Reader(data, file, origins=_origin_lookup(origins) if origins else None)
+    r = Reader(data, file, origins=origin_lookup(origins) if origins else None)
     beliefs = r.child("beliefs")
     detection = r.child("detection")
     perception = r.child("perception", required=False) or Reader({}, file, "$.perception")
@@ -496,93 +484,6 @@ def parse_model(data: dict, file: str | Path = "<model>",
     return model
 
 
-def _origin_lookup(origins: Mapping[str, str]):
-    def lookup(path: str) -> str | None:
-        while path:
-            if path in origins:
-                return origins[path]
-            cut = max(path.rfind("."), path.rfind("["))
-            path = path[:cut] if cut > 0 else ""
-        return None
-    return lookup
-
-
-def _record(data: dict, file: str, path: str, origins: dict[str, str]) -> None:
-    """Note `file` as the origin of every key path in `data` (tables and values)."""
-    stack = [(data, path)]
-    while stack:
-        table, base = stack.pop()
-        for key, value in table.items():
-            sub = f"{base}.{key}"
-            origins[sub] = file
-            if isinstance(value, dict):
-                stack.append((value, sub))
-
-
-def _parent_path(path: Path, parent: object) -> Path:
-    """The file that `extends = parent` in model `path` names, or an :class:`InputError`."""
-    from fg_tea.common.resources import resolve_model
-
-    if not isinstance(parent, str):
-        raise InputError(path, "$.extends", "expected the name or path of another model")
-    if not parent.strip() or parent.strip() in (".", "..") or parent.endswith(("/", "\\")) \
-            or "\0" in parent:
-        raise InputError(path, "$.extends", f"{parent!r} does not name a model file")
-    if len(parent) > 255:
-        raise InputError(path, "$.extends", f"a model name of {len(parent)} characters is too long")
-    hint = ""
-    try:
-        candidate = path.parent / f"{parent}.toml"
-        named = Path(parent)
-        if candidate.is_file():  # a model beside this one wins over a bundled model
-            parent_path = candidate
-        elif named.suffix or len(named.parts) > 1:  # a path: relative to the extending file
-            parent_path = named if named.is_absolute() else path.parent / named
-        else:
-            try:
-                parent_path = Path(resolve_model(parent))
-            except InputError as exc:
-                parent_path, hint = named, exc.fault.partition(";")[2].rstrip("?")
-                hint = f" ({hint.strip()}?)" if hint else ""
-        exists = parent_path.exists()
-    except OSError as exc:
-        raise InputError(path, "$.extends", f"model {parent!r} cannot be read: {exc.strerror}") from None
-    if not exists:
-        raise InputError(path, "$.extends", f"model {parent!r} is referenced but not found{hint}")
-    if not parent_path.is_file():
-        raise InputError(path, "$.extends", f"{parent!r} is not a model file")
-    return parent_path
-
-
-def _load_document(path: Path, seen: tuple[Path, ...],
-                   origins: dict[str, str] | None = None) -> dict:
-    """The merged document of `path` and its ``extends`` chain (walked without recursion)."""
-    chain: list[tuple[Path, dict]] = []
-    current = path
-    while True:
-        data = read_toml(current)
-        parent = data.pop("extends", None)
-        chain.append((current, data))
-        if parent is None:
-            break
-        if len(chain) > MAX_EXTENDS_DEPTH:
-            raise InputError(current, "$.extends", f"the extends chain is longer than "
-                             f"{MAX_EXTENDS_DEPTH} models")
-        parent_path = _parent_path(current, parent)
-        if parent_path.resolve() in seen:
-            raise InputError(current, "$.extends",
-                             f"models extend each other in a cycle through {parent!r}")
-        seen = seen + (parent_path.resolve(),)
-        current = parent_path
-    merged: dict = {}
-    for file, data in reversed(chain):  # the root model first; each child overrides
-        if origins is not None:
-            _record(data, str(file), "$", origins)
-        # Lists of tables (relations) replace rather than merge.
-        merged = _merge(merged, data)
-    return merged
-
-
 def load_model(path: str | Path) -> Model:
     """Load and validate a model TOML file (a path, or the name of a bundled model), or a model program."""
     from fg_tea.common.resources import is_program_ref, resolve_model
@@ -596,7 +497,7 @@ def load_model(path: str | Path) -> Model:
         seen: tuple[Path, ...] = (path.resolve(),)
     except (OSError, RuntimeError):  # a symlink loop
         seen = ()
-    return parse_model(_load_document(path, seen, origins), path, origins)
+    return parse_model(load_document(path, seen, origins), path, origins)
 
 
 def apply_learning(model: "Model", learning: Learning) -> "Model":
