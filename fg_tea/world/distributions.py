@@ -12,6 +12,9 @@ declares how the environment's hidden truth is drawn — never what the agent be
   ``prior_violation`` knob and ``violation`` is ``"inverse"`` (∝ 1 / prior) or ``"uniform"``;
 - a ``co_location`` rule puts an object on its anchor's site with probability ``same_site``,
   else in the anchor's room with probability ``same_room`` (drawn within that room), else as above;
+- a ``together`` rule draws its objects jointly when the first of them comes in the order: an
+  arrangement with every two of them within ``within`` metres weighs ``weight`` times one without
+  (:mod:`fg_tea.world.together`, exact);
 - a site never receives more objects than its capacity (full sites are removed before drawing);
 - task-state truths: a state listed as ``"prior"`` in ``states`` is drawn from the scenario's
   state prior, a state listed as true/false is pinned, and every other state keeps the base
@@ -33,6 +36,7 @@ import numpy as np
 from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import Reader, read_json, refuse_null
 from fg_tea.world.scenario import Scenario, load_scenario, parse_scenario
+from fg_tea.world.together import Together, check_positive, draw_together
 
 #: Entropy tag of the random stream that draws a generated world's room count.
 _ROOMS_STREAM = 0x726F6F6D73
@@ -89,6 +93,7 @@ class WorldDistribution:
     drawn_states: frozenset[str] = frozenset()
     source: str = ""
     generate: GeneratedHouses | None = None
+    together: tuple[Together, ...] = ()
 
     def with_knobs(self, prior_violation: float | None = None, same_site: float | None = None,
                    same_room: float | None = None) -> "WorldDistribution":
@@ -103,6 +108,9 @@ class WorldDistribution:
         out = {"world": self.name, "prior_violation": self.prior_violation,
                "co_location": [{"object": r.object, "anchor": r.anchor, "same_site": r.same_site,
                                 "same_room": r.same_room} for r in self.co_location]}
+        if self.together:
+            out["together"] = [{"objects": list(r.objects), "within": r.within, "weight": r.weight}
+                               for r in self.together]
         if self.generate is not None:
             out["generate"] = {"rooms": list(self.generate.rooms), "objects": list(self.generate.objects)}
         return out
@@ -134,12 +142,27 @@ class WorldDistribution:
         capacity = np.array([s.capacity if s.capacity is not None else 10 ** 9 for s in sites])
         placed: dict[str, int] = {}
         rules = {r.object: r for r in self.co_location}
-        for name in self.order:
+        groups = {o: g for g in self.together for o in g.objects}
+
+        def placement_base(name: str) -> np.ndarray:
             spec = scenario.object(name)
             prior = np.array([max(s.affordances.get(spec.category, 0.0), 0.0) for s in sites]) + 1e-9
             prior /= prior.sum()
             alt = np.full(k, 1.0 / k) if self.violation == "uniform" else (1.0 / prior) / (1.0 / prior).sum()
-            base = (1.0 - self.prior_violation) * prior + self.prior_violation * alt
+            return (1.0 - self.prior_violation) * prior + self.prior_violation * alt
+
+        for name in self.order:
+            if name in placed:
+                continue  # drawn with its together rule
+            group = groups.get(name)
+            if group is not None:
+                drawn = draw_together(group, [s.position for s in sites],
+                                      [placement_base(o) for o in group.objects], capacity - load, rng)
+                for o, j in zip(group.objects, drawn):
+                    placed[o] = j
+                    load[j] += 1
+                continue
+            base = placement_base(name)
             free = load < capacity
             weights = base * free
             rule = rules.get(name)
@@ -245,6 +268,25 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         if same_site + same_room > 1:
             raise c.fail("same_site + same_room must not exceed 1", "same_room")
         rules.append(CoLocation(obj, anchor, same_site, same_room))
+    together: list[Together] = []
+    for c in placement.items("together", required=False):
+        members = c.req("objects", list)
+        if len(members) < 2 or not all(isinstance(m, str) for m in members):
+            raise c.fail("expected a list of at least two object names", "objects")
+        for m in members:
+            if m not in object_names:
+                raise c.fail(f"object {m!r} is referenced but not defined in {what}", "objects")
+            if members.count(m) > 1 or any(m in g.objects for g in together):
+                raise c.fail(f"object {m!r} is listed twice (an object is in at most one rule)", "objects")
+            if any(rule.object == m for rule in rules):
+                raise c.fail(f"object {m!r} already has a co_location rule; a together rule places it", "objects")
+        numbers = {}
+        for key in ("within", "weight"):
+            numbers[key] = float(c.req(key, float))
+            fault = check_positive(numbers[key])
+            if fault:
+                raise c.fail(fault, key)
+        together.append(Together(tuple(members), numbers["within"], numbers["weight"]))
     pinned, drawn = {}, set()
     states = r.child("states", required=False)
     if states is not None:
@@ -261,7 +303,7 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         order=tuple(order), prior_violation=placement.probability("prior_violation", 0.0),
         violation=placement.choice("violation", ("inverse", "uniform"), "inverse"),
         co_location=tuple(rules), pinned_states=MappingProxyType(pinned),
-        drawn_states=frozenset(drawn), source=str(file), generate=generate)
+        drawn_states=frozenset(drawn), source=str(file), generate=generate, together=tuple(together))
     r.finish()
     return world
 
