@@ -33,16 +33,16 @@ import numpy as np
 from fg_tea.agent.agent import Agent
 from fg_tea.beliefs.detection import ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, entropy
-from fg_tea.common.errors import InputError, PlannerFault
+from fg_tea.common.errors import PlannerFault
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.env.camera import Camera, default_camera, load_camera
+from fg_tea.episode.config import RunConfig, logged_run
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.episode.provenance import episode_provenance, portable_ref, program_record
 from fg_tea.model.spec import Model
 from fg_tea.planning import Decision
 from fg_tea.tasks.executor import (
-    MAX_REOPENINGS,
     NOT_FOUND,
     PreconditionError,
     TaskExecutor,
@@ -52,64 +52,6 @@ from fg_tea.world.scenario import Scenario
 
 REASON_COMPLETE = "complete"
 REASON_FRAME_LIMIT = "frame_limit"
-
-
-@dataclass(frozen=True)
-class RunConfig:
-    """Episode parameters (defaults: docs/design.md §8.6 where it applies)."""
-
-    seed: int = 0
-    planner: str = "efe"
-    task: str = "make_tea"
-    preparation_site: str | None = None
-    max_frames: int = 50_000
-    #: The exact belief solver, ``"numpy"`` or ``"gtsam"``: ``Agent(solver=)``, ``--solver``.
-    #: (``belief_backend=``, its former name, still works with a DeprecationWarning.)
-    solver: str = "numpy"
-    snapshot_every_event: bool = True
-    #: Task-level reopenings allowed per episode (``fg_tea.tasks.executor.MAX_REOPENINGS``).
-    max_reopenings: int = MAX_REOPENINGS
-    #: Cross-check the final belief against gtsam at the episode's end (docs/design.md §4.7). It
-    #: is the costliest step of a many-object episode; sweeps that keep only metrics may skip it,
-    #: and the log then records ``"gtsam_agreement": null``.
-    gtsam_check: bool = True
-
-    @property
-    def belief_backend(self) -> str:
-        """Deprecated: :attr:`solver`."""
-        _renamed()
-        return self.solver
-
-
-def _logged_run(config: RunConfig) -> dict[str, Any]:
-    """`config` as the log's ``parameters.run``: the solver keeps the key logs have always given
-    it, ``belief_backend``, so that a log stays byte for byte what it was (tests/golden)."""
-    return {("belief_backend" if k == "solver" else k): v for k, v in asdict(config).items()}
-
-
-def _renamed() -> None:
-    import warnings
-
-    warnings.warn("RunConfig's belief_backend is now called solver (as Agent(solver=) and --solver)",
-                  DeprecationWarning, stacklevel=3)
-
-
-def _accept_former_name(init: Callable) -> Callable:
-    """`init` that also takes ``belief_backend=`` (the former name of ``solver=``), with a warning."""
-    import functools
-
-    @functools.wraps(init)
-    def __init__(self, *args, belief_backend: str | None = None, **kwargs) -> None:
-        if belief_backend is not None:
-            _renamed()
-            if kwargs.setdefault("solver", belief_backend) != belief_backend:
-                raise TypeError("RunConfig: give solver= or belief_backend= (its former name), not both")
-        init(self, *args, **kwargs)
-
-    return __init__
-
-
-RunConfig.__init__ = _accept_former_name(RunConfig.__init__)  # type: ignore[method-assign]
 
 
 def env_config_for(model: Model, camera: "str | Path | Camera | None" = None,
@@ -351,7 +293,7 @@ class EpisodeRunner:
             "task": self.graph.name, "planner": self.config.planner, "seed": self.config.seed,
             "versions": provenance["versions"], "git": provenance["git"],
             "inputs": provenance["inputs"],
-            "parameters": {"run": _logged_run(self.config), "env": _env_params(self.env.config),
+            "parameters": {"run": logged_run(self.config), "env": _env_params(self.env.config),
                            "render": provenance["render"],
                            "planning": asdict(model.planning),
                            "detection": {"miss_likelihood": model.miss_likelihood,
