@@ -16,27 +16,13 @@ readings, so a sweep's CSV stays a pure function of its jobs.
 from __future__ import annotations
 
 import sys
-import time
-from typing import Any, Sequence, TextIO
+from typing import Sequence, TextIO
 
 #: Sweeps of more than this many episodes (still to run) print their size and a CPU-time estimate.
 ESTIMATE_ABOVE = 1_000
 
 #: The estimate is the mean CPU time of the first this many jobs submitted, times the job count.
 TIMING_EPISODES = 24
-
-
-def run_job_timed(job: Any) -> tuple[dict[str, Any], float]:
-    """:func:`fg_tea.study.sweep.run_job` and the CPU seconds it took in this process.
-
-    A module-level function, so process pools (pickle) and Ray (by reference) ship it as they
-    ship ``run_job``.
-    """
-    from fg_tea.study.sweep import run_job
-
-    start = time.process_time()
-    row = run_job(job)
-    return row, time.process_time() - start
 
 
 def cpu_hours_text(hours: float) -> str:
@@ -96,4 +82,4 @@ class CostEstimate:
         self.stream.flush()
 
 
-__all__ = ["ESTIMATE_ABOVE", "TIMING_EPISODES", "CostEstimate", "run_job_timed", "cpu_hours_text"]
+__all__ = ["ESTIMATE_ABOVE", "TIMING_EPISODES", "CostEstimate", "cpu_hours_text"]

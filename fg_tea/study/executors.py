@@ -16,7 +16,7 @@ from typing import Any, Callable, Iterator, Mapping, Sequence
 from fg_tea.common.errors import InputError
 
 #: Runs one sweep job (a :class:`fg_tea.study.sweep.Job`) and returns its CSV row (or what the
-#: caller asks for: :func:`fg_tea.study.cost.run_job_timed` returns the row and its CPU seconds).
+#: caller asks for: :func:`fg_tea.study.sweep.run_job_timed` returns the row and its CPU seconds).
 Run = Callable[[Any], Any]
 
 

@@ -39,13 +39,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import time
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 from fg_tea.common.errors import InputError, PlannerRefused
-from fg_tea.study.cost import ESTIMATE_ABOVE, CostEstimate, run_job_timed
+from fg_tea.study.cost import ESTIMATE_ABOVE, CostEstimate
 from fg_tea.study.executors import _BACKENDS
 from fg_tea.study.rows import CsvSink, Progress, read_rows
 from fg_tea.study.seeds import EPISODE_SEEDS, check_episode_seeds, episode_seed
@@ -488,6 +489,15 @@ def run_job(job: Job, log_path: str | Path | None = None) -> dict[str, Any]:
     if events:  # a planner that refused at construction leaves no log to re-score
         row.update(_quality_columns(events, scenario, job.model_overrides))
     return row
+
+
+def run_job_timed(job: Job) -> tuple[dict[str, Any], float]:
+    """:func:`run_job` and the CPU seconds it took in this process (for the cost estimate,
+    :mod:`fg_tea.study.cost`). A module-level function, so process pools (pickle) and Ray (by
+    reference) ship it as they ship ``run_job``."""
+    start = time.process_time()
+    row = run_job(job)
+    return row, time.process_time() - start
 
 
 def add_execution_arguments(parser, csv_name: str) -> None:
