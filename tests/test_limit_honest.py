@@ -33,6 +33,15 @@ def test_run_help_lists_every_registered_planner_and_family(capsys):
     assert " exact," in text and "exact:cap=N" in text
 
 
+def test_the_help_names_and_the_registry_are_the_same_planners():
+    """The parser's list (fg_tea.common.planner_names, no numpy) against the registry itself."""
+    from fg_tea.common.planner_names import FAMILY_FORMS, PLAIN
+    from fg_tea.planning import _FAMILIES, is_family_spec, planner_names
+
+    assert PLAIN == tuple(n for n in planner_names() if not is_family_spec(n))
+    assert set(FAMILY_FORMS) == set(_FAMILIES)
+
+
 def test_exact_on_a_house_too_large_for_its_default_cap_refuses_in_one_line():
     """13 sites: cap 3 would need tables of tens of gigabytes; the planner refuses, naming the
     house's size and the cap that fits, instead of planning at cap 1 without a word."""

@@ -205,7 +205,7 @@ def cmd_preview(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub) -> None:
-    from fg_tea.planning import planner_help
+    from fg_tea.common.planner_names import planner_help
 
     p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)",
                        epilog=RUN_EXIT_STATUS)

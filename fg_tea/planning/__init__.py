@@ -29,6 +29,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from fg_tea.common.planner_names import planner_help
 from fg_tea.model.spec import Model
 from fg_tea.planning import plugins
 from fg_tea.planning.base import (
@@ -101,20 +102,6 @@ _FAMILIES: dict[str, Callable[[str, Model, np.random.Generator | None], Planner]
     "pouct": lambda spec, model, rng: _peer("pouct", spec, model, rng),
     "pomcp": lambda spec, model, rng: _peer("pomcp", spec, model, rng),
 }
-
-
-#: How each family's settings are written, for help texts (:func:`planner_help`).
-_FAMILY_FORMS = {"lookahead": "lookahead:depth=2,width=3,...", "exact": "exact:cap=N",
-                 "pouct": "pouct:N", "pomcp": "pomcp:N"}
-
-
-def planner_help() -> str:
-    """The built-in planners for a ``--planner`` help text, from the registry and the families
-    (so the list cannot go stale): the plain names, then each family's settings form."""
-    plain = [n for n in _REGISTRY if not is_family_spec(n)]
-    forms = [_FAMILY_FORMS.get(f, f + ":...") for f in _FAMILIES]
-    return (f"{', '.join(plain)}, or a family with settings: {', '.join(forms)} "
-            "(pouct and pomcp with the [peers] extra)")
 
 
 #: Most simulations per decision a POUCT/POMCP spec may ask for (about three hours a decision at
