@@ -10,8 +10,9 @@ About a minute of wall time on 2 idle cores.
     python experiments/bench_video.py [--repeats 3] [--workers 0] [--out FILE]
     python experiments/bench_video.py --quick      # a small draft video: a smoke run, not the target
 
-Writes a Markdown summary (default: experiments/results/video/bench_video.md; with --quick,
-under runs/) with the command that made it.
+Writes a Markdown summary with the command that made it (default:
+runs/experiments/bench_video/bench_video.md; the committed one is made with
+--out experiments/results/video/bench_video.md).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from fg_tea.common.files import atomic_write_text
+from fg_tea.common.files import atomic_write_text, out_file
 from fg_tea.common.options import experiment_parser
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,12 +46,16 @@ def measure(args: list[str]) -> tuple[float, float]:
     return cpu, wall
 
 
+DEFAULT_OUT = Path("runs") / "experiments" / "bench_video" / "bench_video.md"
+
+
 def build_parser():
     parser = experiment_parser(__doc__, __file__, "§9")
     parser.add_argument("--repeats", type=int, default=3, help="headless runs (median reported)")
     parser.add_argument("--workers", type=int, default=0, help="rendering processes (0: one per core)")
     parser.add_argument("--quick", action="store_true", help="small draft video (smoke run)")
-    parser.add_argument("--out", default=None, help="summary file")
+    parser.add_argument("--out", type=out_file, default=DEFAULT_OUT,
+                        help="summary file (committed: experiments/results/video/bench_video.md)")
     return parser
 
 
@@ -59,8 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     video = ["--workers", str(args.workers)]
     if args.quick:
         video += ["--width", "192", "--height", "108", "--frame-stride", "40", "--hold", "0.1"]
-    out = Path(args.out) if args.out else (ROOT / "runs" / "bench_video_quick.md" if args.quick else
-                                           ROOT / "experiments" / "results" / "video" / "bench_video.md")
+    out = args.out
     with tempfile.TemporaryDirectory() as tmp:
         headless = []
         for r in range(args.repeats):

@@ -5,6 +5,8 @@ rendered frames [start, start + frames) of its video with ``fg-tea run``'s video
 process, under cProfile, and writes the top functions by cumulative and by own time.
 
     python experiments/profile_video.py [--frames 200] [--start 0] [--out FILE]
+
+It writes runs/experiments/profile_video/profile.txt unless --out names another file.
 """
 
 from __future__ import annotations
@@ -22,6 +24,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
 from video_reference import default_episode, default_options  # noqa: E402
+
+from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
+from fg_tea.common.options import experiment_parser  # noqa: E402
 
 
 def _relative(line: str) -> str:
@@ -50,13 +55,21 @@ def _render_range(video, plan, options, lo: int, hi: int, path: Path) -> None:
         renderer.close()
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+DEFAULT_OUT = Path("runs") / "experiments" / "profile_video" / "profile.txt"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = experiment_parser(__doc__, __file__, "§9")
     parser.add_argument("--frames", type=int, default=200, help="rendered frames to profile")
     parser.add_argument("--start", type=int, default=0, help="first rendered frame")
     parser.add_argument("--top", type=int, default=25, help="functions listed")
-    parser.add_argument("--out", default=None, help="write the summary here (default: stdout)")
-    args = parser.parse_args(argv)
+    parser.add_argument("--out", type=out_file, default=DEFAULT_OUT,
+                        help="the summary (committed: experiments/results/video/profile_after.txt)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
     from fg_tea.render import video
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -83,8 +96,7 @@ def main(argv: list[str] | None = None) -> int:
         stats.sort_stats(key).print_stats(args.top)
     summary = text.getvalue()
     summary = "\n".join(_relative(line.rstrip()) for line in summary.splitlines()) + "\n"
-    if args.out:
-        Path(args.out).write_text(summary)
+    atomic_write_text(args.out, summary)
     print(summary)
     return 0
 

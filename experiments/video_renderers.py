@@ -9,6 +9,8 @@ sizes (PSNR of the frame's inset region after scaling up, against the chosen siz
 CPU of one EGL (Mesa) image of an empty scene.
 
     python experiments/video_renderers.py [--out experiments/results/video/renderers.md]
+
+It writes runs/experiments/video_renderers/renderers.md unless --out names another file.
 """
 
 from __future__ import annotations
@@ -26,6 +28,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from video_reference import default_episode, default_options  # noqa: E402
 
+from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
+from fg_tea.common.options import experiment_parser  # noqa: E402
+
 
 def cpu_ms(fn, n: int = 5) -> float:
     fn()
@@ -40,6 +45,16 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
     return float("inf") if mse == 0 else 10 * np.log10(255.0 ** 2 / mse)
 
 
+DEFAULT_OUT = Path("runs") / "experiments" / "video_renderers" / "renderers.md"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = experiment_parser(__doc__, __file__, "§9")
+    parser.add_argument("--out", type=out_file, default=DEFAULT_OUT,
+                        help="markdown output (committed: experiments/results/video/renderers.md)")
+    return parser
+
+
 def main(argv: list[str] | None = None) -> int:
     import cv2
 
@@ -49,9 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     from fg_tea.render.scene import SceneViews
     from fg_tea.render.video import plan_frames
 
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default=str(ROOT / "experiments" / "results" / "video" / "renderers.md"))
-    args = parser.parse_args(argv)
+    args = build_parser().parse_args(argv)
     options = default_options(workers=1)
     with tempfile.TemporaryDirectory() as tmp:
         plan = plan_frames(default_episode(Path(tmp)), options)
@@ -114,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
     renderer.close()
     plain.close()
     text = "\n".join(lines)
-    Path(args.out).write_text(text)
+    atomic_write_text(args.out, text)
     print(text)
     return 0
 

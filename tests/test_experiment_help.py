@@ -35,7 +35,7 @@ def _module(name: str):
 
 def _uses_argparse(name: str) -> bool:
     text = (EXPERIMENTS / name).read_text()
-    return "def main" in text and ("argparse" in text or "fg_tea.cli" in text)
+    return "def main" in text and ("argparse" in text or "experiment_parser" in text or "fg_tea.cli" in text)
 
 
 def test_every_script_is_checked():

@@ -126,8 +126,8 @@ def test_inspect_marginals_without_out_writes_only_under_runs(tmp_path):
 
 
 #: Scripts whose --out is one file (the others take a folder).
-FILE_OUTPUT = {"bench_inference.py", "bench_program_scale.py", "bench_sweep_driver.py", "derive_relations.py",
-               "inspect_marginals.py"}
+FILE_OUTPUT = {"bench_inference.py", "bench_program_scale.py", "bench_sweep_driver.py", "bench_video.py",
+               "derive_relations.py", "inspect_marginals.py", "profile_video.py", "video_renderers.py"}
 
 
 @pytest.mark.parametrize("name", sorted(set(SCRIPTS) - PRINT_ONLY))
