@@ -218,9 +218,13 @@ def test_counts_never_read_world_truth(logs):
 
 
 def test_sensor_counts_need_readings_settled_by_others():
-    start = {"event": "episode_start", "sites": [{"name": "a", "position": [0, 0]}]}
-    reading = lambda v: {"event": "state_reading", "state": "kettle.contains_water", "value": v}  # noqa: E731
-    fill = {"event": "action", "transition": {"effects": [{"state": "kettle.contains_water"}]}}
+    start = {"event": "episode_start", "sites": [{"name": "a", "position": [0, 0]}],
+             "belief": {"states": {"kettle.contains_water": 0.5}}}
+    reading = lambda v: {"event": "state_reading", "state": "kettle.contains_water", "value": v,  # noqa: E731
+                         "sensitivity": 0.95, "specificity": 0.95}
+    fill = {"event": "action", "parameters": {"transition": "fill"}, "outcome": {"ok": True},
+            "transition": {"effects": [{"state": "kettle.contains_water", "value": True,
+                                        "success": 0.995, "requires": []}]}}
     events = [start, reading(True), reading(True), reading(False), fill, reading(True), reading(True)]
     counts = counts_from_events(events).sensors["state"]
     # first slice: the False reading is settled True by the two others (a false negative); each

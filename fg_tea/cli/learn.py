@@ -18,12 +18,17 @@ def cmd_learn(args: argparse.Namespace) -> int:
 
     out, learning = learn_files(args.logs, args.base, args.out, name=args.name,
                                 forgetting=args.forgetting, prior_strength=args.prior_strength)
-    info = summary(learning)
+    from fg_tea.model.spec import load_model
+
+    base = load_model(args.base)
+    info = summary(learning, base.declared_transitions or base.transitions)
     where = _shares(info["sites"]) or "no objects found"
     together = _shares({pair: {k.replace("_", " "): v for k, v in shares.items()}
                         for pair, shares in info["co_location"].items() if shares})
     print(f"learned: {out} ({len(args.logs)} new log(s), {info['sources']} in all; found at: {where}"
-          + (f"; kept together: {together}" if together else "") + ")")
+          + (f"; kept together: {together}" if together else "")
+          + "".join(f"; {row} success {t['declared']:g} -> {t['learned']:.3f} (95 % {t['interval_95'][0]:.3f}-"
+                    f"{t['interval_95'][1]:.3f})" for row, t in info["transitions"].items()) + ")")
     return 0
 
 
@@ -34,11 +39,14 @@ def _shares(groups: dict[str, dict[str, float]]) -> str:
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("learn", help="learn site priors, co-location, detector and sensor reliability from logs",
+    p = sub.add_parser("learn", help="learn site priors, co-location, detector and sensor reliability and action "
+                       "effect successes from logs",
                        description="Count, from episode logs and only from what the agent observed, "
                        "where it found each object, which objects it found together (same site, same "
                        "room, apart), the looks that saw or missed an object at the site where it "
-                       "stood, and state readings that other readings settled; write "
+                       "stood, state readings that other readings settled, and, for every effect of "
+                       "every action, the likelihood of its success probability given the state "
+                       "readings (exact under the agent's own model of the episode); write "
                        "a model file that extends --base and holds the counts (docs/design.md §12). "
                        "Learning from A then B (with the first result as --base) equals learning "
                        "from A and B at once.")

@@ -36,7 +36,10 @@ class EnvConfig:
     is above zero, so runs with the defaults draw exactly as before and stay byte-identical.
     ``unfindable`` names objects (comma-separated) the camera never reports, wherever they stand: a stand-in for an
     object that is not in the house or out of reach, to measure what a search costs before it is
-    given up (docs/design.md §7.8). It draws nothing.
+    given up (docs/design.md §7.8). It draws nothing. ``effect_success`` (truth effect -> P(the
+    effect happens)) makes an action that *reports success* leave its states unchanged with
+    probability 1 - p (``{"boil": 0.6}``: the kettle heats in 60 % of boils; docs/design.md §12.5);
+    one draw per such action, only for the effects named, never reported to the agent.
 
     The camera's fields (``min_visible_pixels``, ``site_association``, its radius and
     ``camera_curve``) come from a camera file (``fg_tea.env.camera``, docs/design.md §1.3).
@@ -60,6 +63,7 @@ class EnvConfig:
     failure_rates: Mapping[str, float] = field(default_factory=dict)  # verb -> P(fail), injected
     detection_miss_rate: float = 0.0  # P(a would-be detection is dropped), injected
     unfindable: str = ""  # "mug,teabag": objects the camera never reports (absent), injected
+    effect_success: Mapping[str, float] = field(default_factory=dict)  # effect -> P(happens), injected
     camera_curve: VisibilityCurve | None = None  # None: threshold detector (eq. 29)
     #: The camera file these camera fields came from (``fg_tea.env.camera``), for provenance.
     camera_source: str = ""

@@ -566,5 +566,7 @@ def _env_params(config: EnvConfig) -> dict:
 
     out = {f.name: getattr(config, f.name) for f in fields(config) if f.name != "camera_source"}
     out["failure_rates"] = dict(config.failure_rates)
+    if out.pop("effect_success"):  # logged only when set, so other logs stay byte for byte
+        out["effect_success"] = dict(config.effect_success)
     out["camera_curve"] = config.camera_curve.to_json() if config.camera_curve else None
     return out

@@ -36,6 +36,7 @@ import numpy as np
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import Reader
+from fg_tea.model import learned_transitions as lt
 
 #: A sensor's (sensitivity, specificity) record: :class:`fg_tea.model.spec.Sensor`, which imports
 #: this module; the equations below only read and replace its two fields.
@@ -92,18 +93,21 @@ class Counts:
         sensors: sensor -> {true_positive, false_negative, true_negative, false_positive} (eq. 52).
         co_location: category a -> category b -> (same site, same room, apart), pairs of
             objects of categories a < b (alphabetical) found together (eq. 54).
+        transitions: row (``boil.effect0``) -> the mixture of eq. (61) over the episodes counted
+            (:mod:`fg_tea.model.learned_transitions`).
     """
 
     sites: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     detection: Mapping[str, Mapping[str, tuple[float, float]]] = field(default_factory=dict)
     sensors: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     co_location: Mapping[str, Mapping[str, tuple[float, float, float]]] = field(default_factory=dict)
+    transitions: Mapping[str, lt.Terms] = field(default_factory=dict)
 
     def is_empty(self) -> bool:
         return not (any(v for c in self.sites.values() for v in c.values())
                     or any(h or m for c in self.detection.values() for h, m in c.values())
                     or any(v for s in self.sensors.values() for v in s.values())
-                    or self.relations_active)
+                    or self.relations_active or any(self.transitions.values()))
 
     @property
     def relations_active(self) -> bool:
@@ -126,7 +130,8 @@ class Counts:
                        for c, row in self.detection.items()},
                       {s: {k: n * gamma for k, n in row.items()} for s, row in self.sensors.items()},
                       {a: {b: tuple(n * gamma for n in v) for b, v in row.items()}  # type: ignore[misc]
-                       for a, row in self.co_location.items()})
+                       for a, row in self.co_location.items()},
+                      {k: lt.scaled(t, gamma) for k, t in self.transitions.items()})
 
     def plus(self, other: "Counts") -> "Counts":
         """The sum of two sets of counts (keys sorted, so the result does not depend on order)."""
@@ -152,7 +157,9 @@ class Counts:
                 for b, cell in rrow.items():
                     old = rel.get(a, {}).get(b, (0.0, 0.0, 0.0))
                     rel.setdefault(a, {})[b] = tuple(x + float(y) for x, y in zip(old, cell))  # type: ignore[assignment]
-        return Counts(_sorted(sites), _sorted(det), _sorted(sensors), _sorted(rel))
+        trans = {k: lt.combine(self.transitions.get(k, ()), other.transitions.get(k, ()))
+                 for k in set(self.transitions) | set(other.transitions)}
+        return Counts(_sorted(sites), _sorted(det), _sorted(sensors), _sorted(rel), _sorted(trans))
 
     def without_relations(self) -> "Counts":
         """These counts without the co-location counts (hand-set correlations, learned sites)."""
@@ -164,6 +171,8 @@ class Counts:
                "sensors": {s: dict(r) for s, r in self.sensors.items()}}
         if self.co_location:
             out["co_location"] = {a: {b: list(v) for b, v in r.items()} for a, r in self.co_location.items()}
+        if self.transitions:
+            out["transitions"] = {k: [list(t) for t in terms] for k, terms in self.transitions.items()}
         return out
 
 
@@ -184,6 +193,9 @@ class Learning:
         house: the site names of the house the counts were gathered in (empty: none yet).
         sources: the logs counted, in the order they were added.
         relation_strength: S_r, pseudo-counts of the hand-set relation frequencies (eq. 54).
+        transition_strength: S_t, pseudo-trials of a declared effect success (eq. 62).
+        transition_states: row -> the effect's state template the file's counts were written
+            for (checked against the model; empty for counts learned in memory).
     """
 
     prior_strength: float = DEFAULT_PRIOR_STRENGTH
@@ -194,6 +206,8 @@ class Learning:
     house: tuple[str, ...] = ()
     sources: tuple[Source, ...] = ()
     relation_strength: float = DEFAULT_RELATION_STRENGTH
+    transition_strength: float = lt.DEFAULT_TRANSITION_STRENGTH
+    transition_states: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def active(self) -> bool:
@@ -211,6 +225,7 @@ class Learning:
                 "sensor_strength": self.sensor_strength, "forgetting": self.forgetting,
                 "relation_strength": self.relation_strength,
                 "sources": [{"file": s.file, "sha256": s.sha256} for s in self.sources],
+                **({"transition_strength": self.transition_strength} if self.counts.transitions else {}),
                 **self.counts.to_json()}
 
 
@@ -392,7 +407,9 @@ def read_learning(r: Reader) -> Learning:
     d_strength = r.positive("detection_strength", DEFAULT_DETECTION_STRENGTH)
     s_strength = r.positive("sensor_strength", DEFAULT_SENSOR_STRENGTH)
     r_strength = r.positive("relation_strength", DEFAULT_RELATION_STRENGTH)
-    for key, value in (("prior_strength", strength), ("detection_strength", d_strength),
+    t_strength = r.positive("transition_strength", lt.DEFAULT_TRANSITION_STRENGTH)
+    for key, value in (("transition_strength", t_strength),
+                       ("prior_strength", strength), ("detection_strength", d_strength),
                        ("sensor_strength", s_strength), ("relation_strength", r_strength)):
         if value <= 0:
             raise r.fail("must be positive (the declared assumption's weight in pseudo-counts)", key)
@@ -447,11 +464,29 @@ def read_learning(r: Reader) -> Learning:
                 cell = row.child(second)
                 co_location.setdefault(first, {})[second] = tuple(  # type: ignore[assignment]
                     cell.positive(k, allow_zero=True) for k in RELATION_CLASSES)
+    rows = lt.read_transition_counts(r)
     return Learning(prior_strength=strength, detection_strength=d_strength,
                     sensor_strength=s_strength, forgetting=forgetting,
                     counts=Counts(_sorted(sites), _sorted(detection), _sorted(sensors),
-                                  _sorted(co_location)),
-                    house=tuple(house), sources=tuple(sources), relation_strength=r_strength)
+                                  _sorted(co_location), {k: v["terms"] for k, v in sorted(rows.items())}),
+                    house=tuple(house), sources=tuple(sources), relation_strength=r_strength,
+                    transition_strength=t_strength,
+                    transition_states={k: v["state"] for k, v in rows.items()})
+
+
+def apply_to_transitions(learning: Learning, transitions: Mapping[str, Any],
+                         r: Reader) -> Mapping[str, Any]:
+    """The model's transitions with eq. (63) applied where there are counts (the file's state
+    templates checked against the model's)."""
+    rows = {k: {"state": learning.transition_states.get(k) or _declared_state(transitions, k),
+                "terms": t} for k, t in learning.counts.transitions.items()}
+    return lt.apply_to_transitions(rows, learning.transition_strength, transitions, r)
+
+
+def _declared_state(transitions: Mapping[str, Any], key: str) -> str | None:
+    name, _, k = key.rpartition(".effect")
+    spec = transitions.get(name)
+    return spec.effects[int(k)].state if spec is not None and int(k) < len(spec.effects) else None
 
 
 def apply_to_sensors(learning: Learning, sensors: Mapping[str, Sensor], r: Reader) -> dict:

@@ -20,7 +20,7 @@ from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import Reader
 from fg_tea.model.checks import check_model
 from fg_tea.model.documents import load_document, origin_lookup
-from fg_tea.model.learning import Learning, apply_to_sensors, read_learning
+from fg_tea.model.learning import Learning, apply_to_sensors, apply_to_transitions, read_learning
 from fg_tea.world.visibility import DETECTORS, VisibilityCurve, read_curve
 
 STRUCTURES = ("factorised", "joint")
@@ -226,6 +226,8 @@ class Model:
     learning: Learning | None = None
     #: The declared sensors before eq. 52 was applied (None when no learning changed them).
     declared_sensors: Mapping[str, Sensor] | None = None
+    #: The declared transitions before eq. 63 was applied (None when no learning changed them).
+    declared_transitions: Mapping[str, TransitionSpec] | None = None
     #: A model program's source (:class:`fg_tea.model.program_file.ProgramSource`): the graph's starting factors.
     program: Any = None
 
@@ -441,6 +443,7 @@ def parse_model(data: dict, file: str | Path = "<model>",
     viewpoints = r.child("viewpoints", required=False) or Reader({}, file, "$.viewpoints")
     learning = None
     declared_sensors = None
+    declared_transitions = None
     learning_r = r.child("learning", required=False)
     if learning_r is not None:
         learning = read_learning(learning_r)
@@ -451,6 +454,9 @@ def parse_model(data: dict, file: str | Path = "<model>",
         if learned != sensors:
             declared_sensors = MappingProxyType(dict(sensors))
             sensors = learned
+        if learning.counts.transitions:
+            declared_transitions = MappingProxyType(dict(transitions))
+            transitions = dict(apply_to_transitions(learning, transitions, learning_r))
     floor = beliefs.probability("prior_floor")
     name = r.req("name", str)
     if not name.strip():
@@ -478,6 +484,7 @@ def parse_model(data: dict, file: str | Path = "<model>",
         retries=retries,
         learning=learning,
         declared_sensors=declared_sensors,
+        declared_transitions=declared_transitions,
     )
     r.finish()
     check_model(model, r)
@@ -501,12 +508,17 @@ def load_model(path: str | Path) -> Model:
 
 
 def apply_learning(model: "Model", learning: Learning) -> "Model":
-    """`model` with `learning` as its experience (sensors updated by eq. 52), for code that learns
-    in memory (the lifelong sweep) rather than through files."""
+    """`model` with `learning` as its experience (sensors updated by eq. 52, transitions by eq. 63),
+    for code that learns in memory (the lifelong sweep) rather than through files."""
     from fg_tea.common.inputs import Reader
 
-    sensors = apply_to_sensors(learning, _declared_sensors(model), Reader({}, model.source, "$.learning"))
-    return replace(model, learning=learning, sensors=MappingProxyType(sensors))
+    where = Reader({}, model.source, "$.learning")
+    sensors = apply_to_sensors(learning, _declared_sensors(model), where)
+    declared = model.declared_transitions if model.declared_transitions is not None else model.transitions
+    if not learning.counts.transitions:
+        return replace(model, learning=learning, sensors=MappingProxyType(sensors))
+    return replace(model, learning=learning, sensors=MappingProxyType(sensors), declared_transitions=declared,
+                   transitions=apply_to_transitions(learning, declared, where))
 
 
 def _declared_sensors(model: "Model") -> Mapping[str, "Sensor"]:

@@ -83,6 +83,10 @@ class HouseholdSpec:
         log_dir: when given, every learned arm's episode log is written to
             ``log_dir/MODEL/ARM/householdH/episodeKK.jsonl`` and named (with its sha256) as the
             source of the counts, so ``fg-tea learn`` on those files rebuilds the arm's model.
+        learn_transitions: the learned arms apply learned transition successes too (eq. 63); off,
+            transition counts are gathered but the declared successes are kept.
+        effect_success: environment only, (truth effect, P(it happens)) pairs
+            (:attr:`fg_tea.env.base.EnvConfig.effect_success`); never given to the agent.
     """
 
     source: str
@@ -97,6 +101,8 @@ class HouseholdSpec:
     focus: str = "mug"
     relation_pairs: tuple[tuple[str, str], ...] = ()
     log_dir: str | None = None
+    learn_transitions: bool = False
+    effect_success: tuple[tuple[str, float], ...] = ()
 
 
 def relation_pairs(models: Iterable[Any]) -> tuple[tuple[str, str], ...]:
@@ -138,7 +144,8 @@ def _episode(spec: HouseholdSpec, model, scenario, seed: int, path: Path | None 
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
     from fg_tea.study.sweep import _make_env
 
-    env = _make_env(spec.env, scenario, env_config_for(model))
+    extra = {"effect_success": dict(spec.effect_success)} if spec.effect_success else {}
+    env = _make_env(spec.env, scenario, env_config_for(model, **extra))
     log = EventLog(path) if path is not None else None
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=spec.planner),
@@ -211,8 +218,11 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
     before k (:func:`fg_tea.study.learn.learn`, one log at a time, eq. 53 between logs).
 
     Returns:
-        One row per (arm, episode): the :data:`FIELDS` columns plus ``_calibration`` (the start
-        belief's (probability, outcome) pairs, for the pooled calibration error; not written).
+        One row per (arm, episode): the :data:`FIELDS` columns plus ``state_readings``,
+        ``goals_true`` (evaluation: the task's goals hold in truth), ``_learning`` (the counts the
+        episode's model was learned from; None for the first and for ``hand-set``) and
+        ``_calibration`` (the start belief's (probability, outcome) pairs, for the pooled
+        calibration error); these four are not written.
     """
     from fg_tea.model.learning import Learning, Source
     from fg_tea.model.spec import apply_learning, load_model
@@ -228,6 +238,8 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
             if learning is not None:
                 applied = learning if kind == LEARNED_CORRELATIONS else replace(
                     learning, counts=learning.counts.without_relations())
+                if not spec.learn_transitions:
+                    applied = replace(applied, counts=replace(applied.counts, transitions={}))
                 model = apply_learning(base, applied)
             path = None
             if spec.log_dir is not None and kind != HAND_SET:
@@ -253,6 +265,9 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
                 "log_loss": scores["log_loss"], "brier": scores["brier"],
                 "relation_log_loss": scores["relation_log_loss"],
                 "learned_logs": 0 if learning is None else len(learning.sources),
+                "state_readings": sum(e["event"] == "state_reading" for e in events),
+                "goals_true": m.get("goals_true"),
+                "_learning": learning,
                 "_calibration": scores["calibration"]})
             if kind != HAND_SET:
                 # in memory the source is named by household and episode, and its "sha256" is the

@@ -86,6 +86,11 @@ def counts_from_events(events: Sequence[Mapping], file: str = "<log>") -> Counts
        1's sites, where each stood at the start), one count of their relation: the same site,
        the same room on different sites (``episode_start.sites[].room``), or apart; keyed by the
        two categories in alphabetical order. A pair with an object never found carries no count.
+    5. **Transitions.** For every effect of every transition the episode ran, the likelihood of its
+       success probability given the episode's state readings, under the agent's own model of the
+       episode as logged: eq. (61), a mixture over the numbers of successes and failures
+       (:func:`fg_tea.study.transition_counts.transition_terms`). An effect the readings say
+       nothing about has no count.
 
     Raises:
         InputError: the log lacks a field a rule needs (file and event named).
@@ -177,7 +182,10 @@ def counts_from_events(events: Sequence[Mapping], file: str = "<log>") -> Counts
             cell = rel.setdefault(cat_lo, {}).setdefault(cat_hi, [0.0, 0.0, 0.0])
             cell[k] += 1.0
     co_location = {a: {b: tuple(v) for b, v in row.items()} for a, row in rel.items()}
-    return Counts(_sorted(site_counts), _sorted(det), sensors, _sorted(co_location))
+    from fg_tea.study.transition_counts import transition_terms
+
+    return Counts(_sorted(site_counts), _sorted(det), sensors, _sorted(co_location),
+                  _sorted(transition_terms(events, file)))
 
 
 def _distance(view: Mapping | None, site_position: Any) -> float:
@@ -234,8 +242,10 @@ def _num(x: float) -> str:
     return str(int(x)) + ".0" if x.is_integer() else repr(x)
 
 
-def model_text(learning: Learning, base_ref: str, name: str, base_name: str) -> str:
-    """The TOML of a learned model that ``extends`` `base_ref` and holds every count."""
+def model_text(learning: Learning, base_ref: str, name: str, base_name: str,
+               transitions: Mapping[str, Any] | None = None) -> str:
+    """The TOML of a learned model that ``extends`` `base_ref` and holds every count (`transitions`:
+    the base model's, whose effects' state templates and declared successes label the rows)."""
     lines = [
         "# Written by `fg-tea learn`: the base model plus counts from the agent's own logs",
         "# (docs/design.md §12). Counts are totals over every source log listed below.",
@@ -249,6 +259,8 @@ def model_text(learning: Learning, base_ref: str, name: str, base_name: str) -> 
         f"sensor_strength = {_num(learning.sensor_strength)}         # S_s, eq. 52",
         f"relation_strength = {_num(learning.relation_strength)}       # S_r, eq. 54",
         f"forgetting = {_num(learning.forgetting)}              # gamma, eq. 53",
+        *([f"transition_strength = {_num(learning.transition_strength)}     # S_t, eq. 62"]
+          if learning.counts.transitions else []),
         "house = [" + ", ".join(json.dumps(s) for s in learning.house) + "]",
         "sources = [",
         *[f"  {{ file = {json.dumps(s.file)}, sha256 = \"{s.sha256}\" }}," for s in learning.sources],
@@ -268,7 +280,32 @@ def model_text(learning: Learning, base_ref: str, name: str, base_name: str) -> 
         lines += ["", f"[learning.co_location.{_toml_key(first)}]   # pairs found together: same site, same room, apart (rule 4)"]
         lines += [f"{_toml_key(second)} = {{ " + ", ".join(f"{k} = {_num(n)}" for k, n in zip(RELATION_CLASSES, cell)) + " }"
                   for second, cell in rrow.items()]
+    lines += _transition_lines(learning, transitions or {})
     return "\n".join(lines) + "\n"
+
+
+def _transition_lines(learning: Learning, transitions: Mapping[str, Any]) -> list[str]:
+    """``[learning.transitions.<name>.effect<k>]`` per row (rule 5): the state template and eq. (61)'s
+    terms, with the learned success (eq. 63) and its 95 % interval as a comment."""
+    from fg_tea.model import learned_transitions as lt
+
+    lines: list[str] = []
+    for key, terms in learning.counts.transitions.items():
+        name, _, k = key.rpartition(".effect")
+        spec = transitions.get(name)
+        if spec is None or int(k) >= len(spec.effects):
+            raise InputError("<command line>", "--base", f"the logs ran transition {name!r} effect {k}, "
+                             "which the base model does not declare; learn with the model the episodes used")
+        effect = spec.effects[int(k)]
+        mean = lt.posterior_mean(effect.success, learning.transition_strength, terms)
+        lo, hi = lt.interval(effect.success, learning.transition_strength, terms)
+        succ, fail = lt.expected_counts(effect.success, learning.transition_strength, terms)
+        lines += ["", f"[learning.transitions.{_toml_key(name)}.effect{k}]   # eq. 61 (rule 5): declared "
+                  f"{effect.success:g}, learned {mean:.4f} (95 % interval {lo:.3f}-{hi:.3f}); "
+                  f"expected {succ:.2f} successes, {fail:.2f} failures",
+                  f"state = {json.dumps(effect.state)}",
+                  "terms = [" + ", ".join(f"[{_num(a)}, {_num(b)}, {_num(w)}]" for a, b, w in terms) + "]"]
+    return lines
 
 
 def base_reference(base_path: Path, out: Path, bundled_name: str | None) -> str:
@@ -282,11 +319,26 @@ def base_reference(base_path: Path, out: Path, bundled_name: str | None) -> str:
     return rel[:-5] if rel.endswith(".toml") else rel
 
 
-def summary(learning: Learning) -> dict:
+def summary(learning: Learning, transitions: Mapping[str, Any] | None = None) -> dict:
     """What was learned, as numbers: per category the learned site shares (without the declared
-    prior) and per detector cell the posterior interval of the hit rate under a flat prior."""
+    prior), per detector cell the posterior interval of the hit rate under a flat prior, and with
+    the base model's declared `transitions`, per counted effect the declared and learned success
+    (eq. 63) with its 95 % interval and the expected successes and failures (eq. 62)."""
+    from fg_tea.model import learned_transitions as lt
+
     out: dict[str, Any] = {"sources": len(learning.sources), "sites": {}, "detection": {},
-                           "co_location": {}}
+                           "co_location": {}, "transitions": {}}
+    for key, terms in learning.counts.transitions.items():
+        name, _, k = key.rpartition(".effect")
+        spec = (transitions or {}).get(name)
+        if spec is None or int(k) >= len(spec.effects):
+            continue
+        p0, strength = spec.effects[int(k)].success, learning.transition_strength
+        succ, fail = lt.expected_counts(p0, strength, terms)
+        out["transitions"][f"{name}:{spec.effects[int(k)].state}"] = {
+            "declared": p0, "learned": round(lt.posterior_mean(p0, strength, terms), 4),
+            "interval_95": [round(x, 3) for x in lt.interval(p0, strength, terms)],
+            "expected_successes": round(succ, 3), "expected_failures": round(fail, 3)}
     for first, rrow in learning.counts.co_location.items():
         for second, cell in rrow.items():
             total = sum(cell)
@@ -390,7 +442,8 @@ def learn_files(logs: Sequence[str | Path], base: str | Path, out: str | Path,
                          f"model {bundled!r} (extends looks beside the file first); write the "
                          "learned model under another name or folder")
     stem = base_model.name if base_model.name.endswith("_learned") else f"{base_model.name}_learned"
-    text = model_text(learning, ref, name or stem, base_model.name)
+    declared = base_model.declared_transitions or base_model.transitions
+    text = model_text(learning, ref, name or stem, base_model.name, declared)
     try:
         with atomic_path(out) as tmp:
             tmp.write_text(text, encoding="utf-8")
