@@ -173,3 +173,21 @@ def test_the_experiment_script_runs_small(tmp_path):
     assert (out / "seeds.json").is_file()
     rows = (out / "episodes.csv").read_text().splitlines()
     assert len(rows) == 1 + 2 * 2 * 2  # header + 2 households x 2 arms x 2 episodes
+
+
+@pytest.mark.parametrize("on", [True, False])
+def test_the_lifelong_sweep_applies_learned_transitions_only_when_asked(tmp_path, on):
+    import json
+
+    from fg_tea.study.households import HouseholdSpec, run_household
+
+    spec = HouseholdSpec("default_apartment", True, str(CHECK_MODEL), 0, 3, log_dir=str(tmp_path),
+                         learn_transitions=on, effect_success=(("boil", 0.0),))
+    rows = run_household(spec)
+    last = next(r for r in rows if r["arm"] == "learned" and r["episode"] == 3)
+    assert "boil.effect0" in last["_learning"].counts.transitions  # counted either way
+    log = next(tmp_path.glob("*/learned/household0/episode03.jsonl"))
+    boils = [e for e in map(json.loads, log.read_text().splitlines())
+             if e.get("event") == "action" and (e.get("parameters") or {}).get("transition") == "boil"]
+    used = boils[0]["parameters"]["effects"][0]["success"]
+    assert (used < 0.9) if on else (used == 0.995)
