@@ -18,7 +18,7 @@ import numpy as np
 from fg_tea.env.company import company_from_alone, facing_offsets
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.env.motion import held_position, motion_of
-from fg_tea.env.truth import EFFECTS, TeaTruth
+from fg_tea.env.truth import EFFECTS, TeaTruth, effect_happens
 from fg_tea.world.interface import (
     ActionRequest,
     ActionResult,
@@ -69,10 +69,6 @@ class TruthBackedAdapter(EnvAdapter):
     def __init__(self, scenario: Scenario, config: EnvConfig = EnvConfig()) -> None:
         if config.distance not in ("geodesic", "euclidean"):
             raise ValueError(f"EnvConfig.distance must be 'geodesic' or 'euclidean', got {config.distance!r}")
-        for name, p in config.effect_success.items():
-            if name not in EFFECTS or not 0.0 <= float(p) <= 1.0:
-                raise ValueError(f"EnvConfig.effect_success: expected a truth effect "
-                                 f"({', '.join(EFFECTS)}) -> probability in [0, 1], got {name!r}: {p!r}")
         if not 0.0 <= float(config.detection_miss_rate) <= 1.0:
             raise ValueError(f"EnvConfig.detection_miss_rate must lie in [0, 1], got "
                              f"{config.detection_miss_rate!r}")
@@ -471,10 +467,7 @@ class TruthBackedAdapter(EnvAdapter):
         return frames, True, ""
 
     def _finish(self, effect: str | None, request: ActionRequest, frames: list[Pose]) -> ActionResult:
-        p = self.config.effect_success.get(effect) if effect is not None else None
-        if p is not None and float(self._rng.random()) >= float(p):  # the effect silently fails
-            return self._result(True, "", frames)
-        if effect is not None:
+        if effect is not None and effect_happens(self.config.effect_success, effect, self._rng):
             self._truth.apply_effect(effect, request.object, request.destination, self._rng)
         return self._result(True, "", frames)
 

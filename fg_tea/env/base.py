@@ -68,6 +68,11 @@ class EnvConfig:
     #: The camera file these camera fields came from (``fg_tea.env.camera``), for provenance.
     camera_source: str = ""
 
+    def __post_init__(self) -> None:
+        from fg_tea.env.truth import check_effect_success
+
+        check_effect_success(self.effect_success)
+
 
 class EnvAdapter(abc.ABC):
     """Turns declarative verbs into motion and observations. Never hands truth to the agent."""

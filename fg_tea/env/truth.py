@@ -18,13 +18,28 @@ Truth is environment-only: agent-side code must never read a :class:`TeaTruth`.
 
 from __future__ import annotations
 
-from typing import Iterable
+from typing import Any, Iterable
 
 import numpy as np
 
 from fg_tea.world.scenario import ObjectSpec
 
 EFFECTS = ("fill", "boil", "pour", "steep", "serve", "add_milk", "add_sugar")
+
+
+def effect_happens(success: "dict[str, float] | Any", effect: str, rng: np.random.Generator) -> bool:
+    """Whether an action reported done has its truth `effect` (``EnvConfig.effect_success``):
+    always for an effect not named, else with its probability (one draw from `rng`)."""
+    p = success.get(effect)
+    return p is None or float(rng.random()) < float(p)
+
+
+def check_effect_success(success: "dict[str, float] | Any") -> None:
+    """Raise ValueError unless `success` maps truth effects to probabilities in [0, 1]."""
+    for name, p in success.items():
+        if name not in EFFECTS or not 0.0 <= float(p) <= 1.0:
+            raise ValueError(f"EnvConfig.effect_success: expected a truth effect ({', '.join(EFFECTS)}) "
+                             f"-> probability in [0, 1], got {name!r}: {p!r}")
 
 
 class TeaTruth:
