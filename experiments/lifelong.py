@@ -5,7 +5,9 @@ uses the model learned (docs/design.md §12) from that household's episodes 0..k
 the same placements and seeds: a hand-set control, and for joint models an arm that learns the
 co-location weights too (eqs. 54-55) where the ``learned`` arm keeps the hand-set ones. The
 logic is :mod:`fg_tea.study.households` (also ``fg-tea compare --lifelong K``); this script adds fixed
-scenarios, several forgetting factors and moving an object.
+scenarios, several forgetting factors, moving an object, learned action effects
+(``--learn-transitions``, docs/design.md §12.5) and worlds whose effects fail
+(``--effect-success boil 0.6``, environment only).
 
 Placements are drawn, episode by episode, from a world distribution whose habits differ from the
 agent's priors (default ``contrary_household``: every object placed from the inverse of the
@@ -61,6 +63,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--move", nargs=3, metavar=("OBJECT", "SITE", "AFTER"), default=None,
                    help="from episode AFTER+1 on, OBJECT always stands at SITE (recovery experiment)")
     p.add_argument("--focus", default="mug", help="the object whose inspections are reported")
+    p.add_argument("--learn-transitions", action="store_true",
+                   help="the learned arms also use learned action effect successes (docs/design.md §12.5)")
+    p.add_argument("--effect-success", nargs=2, action="append", metavar=("EFFECT", "P"), default=None,
+                   help="environment only: a truth EFFECT (boil, fill, ...) happens with probability P "
+                   "when its action reports success; repeatable")
     p.add_argument("--logs", default=None, metavar="DIR",
                    help="write every learned arm's episode logs under DIR/MODEL/ARM/householdH/ "
                    "(then `fg-tea learn` on them rebuilds that arm's learned model)")
@@ -114,8 +121,17 @@ def _specs(args) -> list[HouseholdSpec]:
         check_move(move, house, args.episodes)
     models = [load_model(m) for m in args.models]
     pairs = relation_pairs(models)
+    from fg_tea.env.truth import check_effect_success
+
+    effects = []
+    for name, value in args.effect_success or []:
+        try:
+            effects.append((name, float(value)))
+            check_effect_success(dict(effects))
+        except ValueError as exc:
+            raise InputError("<command line>", "--effect-success", str(exc)) from None
     return [HouseholdSpec(source, fixed, ref, h, args.episodes, args.env, args.planner, gammas,
-                          move, args.focus, pairs, args.logs)
+                          move, args.focus, pairs, args.logs, args.learn_transitions, tuple(effects))
             for ref in args.models
             for h in range(args.first_household, args.first_household + args.households)]
 

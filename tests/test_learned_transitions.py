@@ -191,3 +191,18 @@ def test_the_lifelong_sweep_applies_learned_transitions_only_when_asked(tmp_path
              if e.get("event") == "action" and (e.get("parameters") or {}).get("transition") == "boil"]
     used = boils[0]["parameters"]["effects"][0]["success"]
     assert (used < 0.9) if on else (used == 0.995)
+
+
+def test_the_lifelong_script_takes_learned_transitions_and_true_effect_success():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("lifelong", ROOT / "experiments" / "lifelong.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    args = module.build_parser().parse_args(["--scenario", "default_apartment", "--households", "1",
+                                             "--learn-transitions", "--effect-success", "boil", "0.6"])
+    (household,) = [s for s in module._specs(args) if s.model == "factorised"]
+    assert household.learn_transitions and household.effect_success == (("boil", 0.6),)
+    bad = module.build_parser().parse_args(["--scenario", "default_apartment", "--effect-success", "brew", "1"])
+    with pytest.raises(InputError, match="--effect-success"):
+        module._specs(bad)
