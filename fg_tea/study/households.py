@@ -144,7 +144,7 @@ def _episode(spec: HouseholdSpec, model, scenario, seed: int, path: Path | None 
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
     from fg_tea.study.sweep import _make_env
 
-    extra = {"effect_success": dict(spec.effect_success)} if spec.effect_success else {}
+    extra: dict[str, Any] = {"effect_success": dict(spec.effect_success)} if spec.effect_success else {}
     env = _make_env(spec.env, scenario, env_config_for(model, **extra))
     log = EventLog(path) if path is not None else None
     try:
