@@ -30,6 +30,7 @@ def _check_spl(rows):
         assert 0.0 <= r["spl"] <= 1.0
 
 
+@pytest.mark.slow
 def test_compare_at_scale_tiny_fake_run_writes_every_table_and_resumes(tmp_path):
     table = tmp_path / "houses"  # each table writes into OUT/TABLE
     args = ("experiments/compare_at_scale.py", "--table", "houses", "--worlds", "2", "--sizes", "small",
@@ -120,6 +121,7 @@ def test_every_flag_is_checked_before_anything_is_written(tmp_path):
     assert not any((tmp_path / "out").rglob("*"))  # the folder is made and probed at parse time, empty
 
 
+@pytest.mark.slow
 def test_detectability_table_changes_camera_and_agent_curves(tmp_path):
     table = tmp_path / "detectability"
     _run("experiments/compare_at_scale.py", "--table", "detectability", "--worlds", "2", "--sizes",
@@ -182,6 +184,7 @@ def test_generated_medium_quick_compare_in_the_pybullet_house(tmp_path):
     _check_spl(rows)
 
 
+@pytest.mark.slow
 def test_a_replicated_run_declares_its_seed_sets_first_and_judges_every_cell(tmp_path):
     """--confirmation-first-seed: seed_sets.json before any episode, a replication section and CSV
     with both sets, the lookahead among the planners, decision times with p95 and CPU; a later run

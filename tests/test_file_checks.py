@@ -384,6 +384,7 @@ def _check_boundaries(tmp_path: Path, cases) -> None:
 SETTINGS = ("beliefs", "detection", "perception", "planning", "recovery")
 
 
+@pytest.mark.slow
 def test_the_default_model_settings_at_their_boundaries(tmp_path):
     """The quick form: every number of models/factorised.toml's settings at 0, 1 and 1e-320."""
     cases = [c for c in _boundary_cases() if c[1].name == "factorised.toml" and c[2][0] in SETTINGS]

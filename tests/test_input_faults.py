@@ -723,6 +723,7 @@ def _fuzz_cases(n_json: int, n_toml: int, seed: int = 20240601):
         yield "scenario", "bytes", raw[:cut].encode() + bytes([rng.randrange(256)]) + raw[cut + 1:].encode()
 
 
+@pytest.mark.slow
 def test_fuzzed_files_end_in_ok_or_one_line(tmp_path):
     """Seeded mutations of every bundled file kind: exit 0, or exit 2 with one error line."""
     counts = {0: 0, 2: 0}

@@ -147,6 +147,7 @@ def test_hostile_names_in_a_log_stay_text(browser, episode, shift, tmp_path):
     page.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shift", range(len(PAYLOADS)))
 def test_the_page_writer_is_safe_whatever_reaches_it(browser, episode, shift, tmp_path):
     """The writer alone, with names no reader would pass (lone surrogates included)."""

@@ -126,6 +126,7 @@ def _refuses_each(script, cases, tmp_path):
     assert not any(tmp_path.iterdir())  # nothing run, nothing written
 
 
+@pytest.mark.slow
 def test_budget_rule_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
     _refuses_each("lookahead_budget.py", (
         (["--houses", "nowhere:3"], "nowhere"), (["--houses", "correlated:x"], "--houses"),
@@ -133,6 +134,7 @@ def test_budget_rule_refuses_bad_input_with_one_line_before_any_episode(tmp_path
         (["--models", "no_such_model"], "no_such_model")), tmp_path)
 
 
+@pytest.mark.slow
 def test_frontier_refuses_bad_input_with_one_line_before_any_episode(tmp_path):
     _refuses_each("planner_frontier.py", (
         (["--world", "nowhere"], "--world"), (["--planners", "nope"], "nope"),

@@ -28,6 +28,7 @@ def test_a_correlated_belief_is_refused_before_the_episode():
                  task="find_three")
 
 
+@pytest.mark.slow
 def test_the_exact_policy_is_the_limit_and_the_lookahead_is_not():
     """Evaluated exactly (every outcome enumerated, a give-up finished by a sweep), the exact
     planner's policy costs the limit; the lookahead's costs more."""

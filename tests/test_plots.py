@@ -61,6 +61,7 @@ def test_the_paired_figure_draws_every_planner_with_its_interval_and_a_zero_line
     assert "intervals are wide" not in fig._suptitle.get_text()  # noqa: SLF001
 
 
+@pytest.mark.slow
 def test_a_comparison_report_lists_the_paired_figure_first(tmp_path):
     from fg_tea.cli.main import main
 

@@ -75,6 +75,7 @@ def test_a_single_comparison_says_how_many_pairs_would_resolve_it():
     assert len(lines) == 1 and "over 20 pairs" in lines[0] and "pairs would resolve 3% of search_distance" in lines[0]
 
 
+@pytest.mark.slow
 def test_fg_tea_compare_runs_a_declared_confirmation_set(tmp_path, capsys):
     from fg_tea.cli.main import main
 

@@ -106,6 +106,7 @@ def _committed_rows(path: Path) -> dict[str, dict]:
         return {r["key"]: r for r in csv.DictReader(fh)}
 
 
+@pytest.mark.slow
 def test_the_committed_detectability_table_is_reusable_for_its_own_jobs(cas, tmp_path, monkeypatch, capsys):
     """Its recorded command, planned into another --out (files written, nothing run): every
     committed row stands for one of the jobs, and is the committed row but for key and model_ref."""

@@ -463,6 +463,7 @@ def _script(name: str, *argv: str, timeout: float = 300) -> subprocess.Completed
     return proc
 
 
+@pytest.mark.slow
 def test_compare_beliefs_smoke(tmp_path):
     _script("compare_beliefs.py", "--worlds", "2", "--planners", "efe", "optimal", "--workers", "2",
             "--out", str(tmp_path))
