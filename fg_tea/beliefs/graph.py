@@ -53,8 +53,7 @@ from fg_tea.beliefs.factors import (
 )
 from fg_tea.beliefs.structured import MAX_OBJECTS, PairWeights
 from fg_tea.common.errors import InputError
-from fg_tea.model.learning import location_weights
-from fg_tea.model.pairs import PairRelation, learned_pairs
+from fg_tea.model.pairs import PairRelation, learned_pairs, model_relations
 from fg_tea.model.program import Program, ProgramFactor
 from fg_tea.model.spec import Model
 from fg_tea.world.scenario import Scenario
@@ -163,20 +162,7 @@ def assemble_graph(model: Model, sites: Sequence[str], rooms: Sequence[str],
     pairs: list[PairRelation] = []
     penalty: float | None = None
     if model.structure == "joint":
-        for rel in model.relations:
-            if rel.kind == "capacity":
-                penalty = rel.penalty if penalty is None else penalty * rel.penalty
-            elif rel.kind == "co_location":
-                a_cat, b_cat = rel.categories
-                for a, ca in zip(objects, categories):
-                    for b, cb in zip(objects, categories):
-                        if ca == a_cat and cb == b_cat and a != b:
-                            pairs.append(PairRelation(a, b, rel.same_site, rel.same_room,
-                                                      f"co_location {a}~{b}"))
-            elif rel.kind == "exclusivity":
-                for i, a in enumerate(objects):
-                    for b in objects[i + 1:]:
-                        pairs.append(PairRelation(a, b, rel.weight, 1.0, f"exclusivity {a}|{b}"))
+        pairs, penalty = model_relations(model, objects, categories)
         if model.learning is not None and model.learning.counts.relations_active:
             pairs = learned_pairs(model, pairs, objects, categories, [f.table for f in priors], rooms)
     states = tuple(state_prior(name, p) for name, p in (state_priors or {}).items())

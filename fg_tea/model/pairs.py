@@ -66,3 +66,26 @@ def learned_pairs(model: Model, pairs: list[PairRelation], objects: Sequence[str
                                   first.same_room * r / r0 if r0 > 0 else r,
                                   first.label + " (learned)")
     return out
+
+
+def model_relations(model: Model, objects: Sequence[str],
+                    categories: Sequence[str]) -> tuple[list[PairRelation], float | None]:
+    """A joint model's relations over a house's objects: the pair factors (co-location between
+    objects of the related categories, exclusivity between every two objects, eqs. 34-35) and the
+    capacity penalty (the product of its capacity relations; None without one)."""
+    pairs: list[PairRelation] = []
+    penalty: float | None = None
+    for rel in model.relations:
+        if rel.kind == "capacity":
+            penalty = rel.penalty if penalty is None else penalty * rel.penalty
+        elif rel.kind == "co_location":
+            a_cat, b_cat = rel.categories
+            for a, ca in zip(objects, categories):
+                for b, cb in zip(objects, categories):
+                    if ca == a_cat and cb == b_cat and a != b:
+                        pairs.append(PairRelation(a, b, rel.same_site, rel.same_room, f"co_location {a}~{b}"))
+        elif rel.kind == "exclusivity":
+            for i, a in enumerate(objects):
+                for b in objects[i + 1:]:
+                    pairs.append(PairRelation(a, b, rel.weight, 1.0, f"exclusivity {a}|{b}"))
+    return pairs, penalty

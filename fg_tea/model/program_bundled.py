@@ -28,7 +28,7 @@ import numpy as np
 
 from fg_tea.common.errors import InputError
 from fg_tea.model.learning import location_weights
-from fg_tea.model.pairs import PairRelation, learned_pairs
+from fg_tea.model.pairs import learned_pairs, model_relations
 from fg_tea.model.program import Program, ProgramFactor
 from fg_tea.model.program_file import program_for
 from fg_tea.model.spec import Model
@@ -75,21 +75,7 @@ def program_from_model(scenario: Any, model: Model) -> Program:
 def _relations(m: Program, scenario: Any, model: Model) -> None:
     objects = scenario.object_names
     categories = [o.category for o in scenario.objects]
-    penalty = None
-    pairs: list[Any] = []
-    for rel in model.relations:
-        if rel.kind == "capacity":
-            penalty = rel.penalty if penalty is None else penalty * rel.penalty
-        elif rel.kind == "co_location":
-            a_cat, b_cat = rel.categories
-            for a, ca in zip(objects, categories):
-                for b, cb in zip(objects, categories):
-                    if ca == a_cat and cb == b_cat and a != b:
-                        pairs.append(PairRelation(a, b, rel.same_site, rel.same_room, f"co_location {a}~{b}"))
-        elif rel.kind == "exclusivity":
-            for i, a in enumerate(objects):
-                for b in objects[i + 1:]:
-                    pairs.append(PairRelation(a, b, rel.weight, 1.0, f"exclusivity {a}|{b}"))
+    pairs, penalty = model_relations(model, objects, categories)
     if model.learning is not None and model.learning.counts.relations_active:
         priors = [m.factor_named(f"prior {o}").table for o in objects]
         pairs = learned_pairs(model, pairs, objects, categories, priors, [s.room for s in scenario.sites])
