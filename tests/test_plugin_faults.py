@@ -197,3 +197,20 @@ def test_an_error_that_cannot_cross_processes_keeps_its_type_and_message(monkeyp
 
     with pytest.raises(SweepError, match=r"job j1 failed: Unpicklable: left and right"):
         list(_process(raise_unpicklable, [FakeJob("j1")], 1, None))
+
+
+def test_the_agent_takes_a_planner_object_without_check():
+    """A planner object handed to the Agent directly needs only ``choose`` (as a plug-in named by a
+    string does): no ``check`` means no limits, not an AttributeError."""
+    import fg_tea as fg
+    from fg_tea.planning import make_planner
+
+    class Nearest:
+        def choose(self, belief, objects, relevance, distances, inspected, excluded_sites, views=None):
+            return make_planner("nearest", model).choose(belief, objects, relevance, distances,
+                                                        inspected, excluded_sites, views)
+
+    scenario, model = fg.load_scenario("default_apartment"), fg.load_model("factorised")
+    agent = fg.Agent(scenario, model, Nearest())
+    assert agent.planner_spec == "Nearest"
+

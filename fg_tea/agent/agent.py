@@ -106,7 +106,9 @@ class Agent:
         self.planner_spec = planner if isinstance(planner, str) else type(planner).__name__
         self.planner: Planner = (make_planner(planner, model, rng=np.random.default_rng([seed, 0x9E7]))
                                  if isinstance(planner, str) else planner)
-        self.planner.check(self.belief, self.executor.pending_search_objects())
+        check = getattr(self.planner, "check", None)  # optional: a planner without one states no limits
+        if check is not None:
+            check(self.belief, self.executor.pending_search_objects())
         #: Looks per viewpoint that missed something (the repeat term of eq. 12).
         self.inspected: dict[str, int] = {}
         self.last_decision: Decision | None = None
