@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -41,3 +44,23 @@ def browser():
         b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
         yield b
         b.close()
+
+
+def run_cli(*args, cwd):
+    """``python -m fg_tea.cli ARGS`` in `cwd`; asserts it succeeded and returns the process."""
+    proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return proc
+
+
+def open_explorer(browser, path: Path, width: int = 1400):
+    """An explorer page opened and ready, and the console errors, warnings and page errors seen."""
+    page = browser.new_page(viewport={"width": width, "height": 1000})
+    problems: list[str] = []
+    page.on("console", lambda m: problems.append(f"{m.type}: {m.text}") if m.type in ("error", "warning") else None)
+    page.on("pageerror", lambda e: problems.append(f"pageerror: {e}"))
+    page.goto(path.as_uri())
+    page.wait_for_function("document.body.dataset.ready === '1'", timeout=10_000)
+    return page, problems
+

@@ -14,20 +14,11 @@ Locally these tests skip with a one-line reason when Chromium or Playwright is m
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
+from conftest import open_explorer, run_cli
 from fg_tea.episode.log import read_log
-
-def _cli(*args, cwd):
-    proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    return proc
-
 
 @pytest.fixture(scope="module")
 def pages(tmp_path_factory):
@@ -37,13 +28,13 @@ def pages(tmp_path_factory):
 
     tmp = tmp_path_factory.mktemp("browser")
     for model in ("factorised", "joint"):
-        _cli("run", "--no-video", "--model", model, "--out", tmp / model, cwd=tmp)
+        run_cli("run", "--no-video", "--model", model, "--out", tmp / model, cwd=tmp)
     run_job(Job("generated_medium_milk_sugar", 3, "factorised", "efe", task="make_tea_milk_sugar"),
             tmp / "milk" / "episode.jsonl")
-    _cli("explore", tmp / "factorised" / "episode.jsonl", "--out", tmp / "one.html", cwd=tmp)
-    _cli("explore", tmp / "factorised" / "episode.jsonl", tmp / "joint" / "episode.jsonl",
+    run_cli("explore", tmp / "factorised" / "episode.jsonl", "--out", tmp / "one.html", cwd=tmp)
+    run_cli("explore", tmp / "factorised" / "episode.jsonl", tmp / "joint" / "episode.jsonl",
          "--out", tmp / "two.html", cwd=tmp)
-    _cli("explore", tmp / "milk" / "episode.jsonl", "--out", tmp / "milk.html", cwd=tmp)
+    run_cli("explore", tmp / "milk" / "episode.jsonl", "--out", tmp / "milk.html", cwd=tmp)
     return tmp
 
 
@@ -67,16 +58,6 @@ def expected_states(events: list[dict]) -> list[tuple[dict, dict]]:
             states.update(e["belief_after"])
         out.append(({o: list(p) for o, p in loc.items()}, dict(states)))
     return out
-
-
-def _open(browser, path: Path):
-    page = browser.new_page(viewport={"width": 1400, "height": 1000})
-    problems: list[str] = []
-    page.on("console", lambda m: problems.append(f"{m.type}: {m.text}") if m.type in ("error", "warning") else None)
-    page.on("pageerror", lambda e: problems.append(f"pageerror: {e}"))
-    page.goto(path.as_uri())
-    page.wait_for_function("document.body.dataset.ready === '1'", timeout=10_000)
-    return page, problems
 
 
 def _read(page, pane: int) -> tuple[dict[str, str], dict[str, str]]:
@@ -124,7 +105,7 @@ def _not_blank(png: bytes) -> None:
 
 def test_one_episode_every_step_shows_the_logs_probabilities(browser, pages):
     events = read_log(pages / "factorised" / "episode.jsonl")
-    page, problems = _open(browser, pages / "one.html")
+    page, problems = open_explorer(browser, pages / "one.html")
     assert _check_every_step(page, [events]) > 500
     n = len(page.evaluate("explorer.data.pairs"))
     for i in (0, n // 2, n - 1):  # three steps, three screenshots
@@ -162,7 +143,7 @@ def test_two_episodes_side_by_side_mark_where_choices_part(browser, pages):
     logs = [read_log(pages / m / "episode.jsonl") for m in ("factorised", "joint")]
     decisions = [[(e["object"], e["viewpoint"]) for e in ev if e["event"] == "decision"] for ev in logs]
     first = next(k for k in range(min(map(len, decisions))) if decisions[0][k] != decisions[1][k])
-    page, problems = _open(browser, pages / "two.html")
+    page, problems = open_explorer(browser, pages / "two.html")
     assert page.get_attribute("#divergence", "data-decision") == str(first)
     page.click("#goto-divergence")
     pair = page.evaluate("explorer.data.pairs[explorer.index()]")
@@ -179,7 +160,7 @@ def test_a_27_site_five_object_page(browser, pages):
     events = read_log(pages / "milk" / "episode.jsonl")
     assert len(events[0]["sites"]) >= 20 and len(events[0]["objects"]) == 5
     assert (pages / "milk.html").stat().st_size < 5e6
-    page, problems = _open(browser, pages / "milk.html")
+    page, problems = open_explorer(browser, pages / "milk.html")
     assert _check_every_step(page, [events]) > 1000
     _not_blank(page.screenshot(full_page=True))
     assert problems == []
@@ -192,8 +173,8 @@ def test_a_page_that_lacks_its_house_says_so(browser, pages, tmp_path):
     start["scenario"], start["scenario_file"], start["inputs"]["scenario"] = "gone#1", "gone.json", None
     log = tmp_path / "old.jsonl"
     log.write_text("\n".join([json.dumps(start)] + text[1:len(text) // 2]) + "\n")
-    _cli("explore", log, "--out", tmp_path / "old.html", cwd=tmp_path)
-    page, problems = _open(browser, tmp_path / "old.html")
+    run_cli("explore", log, "--out", tmp_path / "old.html", cwd=tmp_path)
+    page, problems = open_explorer(browser, tmp_path / "old.html")
     notices = page.inner_text("#notices")
     assert "gone.json" in notices and "episode_end" in notices
     _not_blank(page.screenshot(full_page=True))
@@ -207,14 +188,14 @@ def test_the_video_is_seeked_to_each_steps_last_frame(browser, tmp_path):
     last frame in the frame plan (docs/design.md §8.6)."""
     from fg_tea.render.video import VideoOptions, plan_frames
 
-    _cli("run", "--width", "160", "--height", "96", "--scene-scale", "0.5", "--frame-stride", "10",
+    run_cli("run", "--width", "160", "--height", "96", "--scene-scale", "0.5", "--frame-stride", "10",
          "--fps", "10", "--hold", "0.5", "--out", tmp_path / "v", cwd=tmp_path)
-    _cli("explore", tmp_path / "v" / "episode.jsonl", "--video", tmp_path / "v" / "episode.mp4",
+    run_cli("explore", tmp_path / "v" / "episode.jsonl", "--video", tmp_path / "v" / "episode.mp4",
          "--out", tmp_path / "page" / "v.html", cwd=tmp_path)
     events = read_log(tmp_path / "v" / "episode.jsonl")
     plan = plan_frames(events, VideoOptions(width=160, height=96, scene_scale=0.5, frame_stride=10, fps=10,
                                             hold_seconds=0.5))
-    page, problems = _open(browser, tmp_path / "page" / "v.html")
+    page, problems = open_explorer(browser, tmp_path / "page" / "v.html")
     page.wait_for_function("document.getElementById('video').readyState >= 1", timeout=10_000)
     assert page.get_attribute("#video", "src") == "../v/episode.mp4"
     starts = [plan.event_frames[e["seq"]] for e in events] + [plan.output_frames]

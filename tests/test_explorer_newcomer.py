@@ -5,20 +5,11 @@ serves several objects said so. Also the counts ``fg-tea explore`` prints."""
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
 
 import pytest
 
+from conftest import open_explorer, run_cli
 from fg_tea.episode.log import read_log
-
-
-def _cli(*args, cwd):
-    proc = subprocess.run([sys.executable, "-m", "fg_tea.cli", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    return proc
 
 
 @pytest.fixture(scope="module")
@@ -32,20 +23,10 @@ def pages(tmp_path_factory):
     for model in ("factorised", "joint"):
         (tmp / model).mkdir()
         fg.run_episode(scenario, fg.load_model(model), env="fake", log=tmp / model / "episode.jsonl")
-    one = _cli("explore", tmp / "factorised" / "episode.jsonl", "--out", tmp / "one.html", cwd=tmp)
-    two = _cli("explore", tmp / "factorised" / "episode.jsonl", tmp / "joint" / "episode.jsonl",
+    one = run_cli("explore", tmp / "factorised" / "episode.jsonl", "--out", tmp / "one.html", cwd=tmp)
+    two = run_cli("explore", tmp / "factorised" / "episode.jsonl", tmp / "joint" / "episode.jsonl",
                "--out", tmp / "two.html", cwd=tmp)
     return tmp, one.stdout, two.stdout
-
-
-def _open(browser, path, width=1400):
-    page = browser.new_page(viewport={"width": width, "height": 1000})
-    problems: list[str] = []
-    page.on("console", lambda m: problems.append(f"{m.type}: {m.text}") if m.type in ("error", "warning") else None)
-    page.on("pageerror", lambda e: problems.append(f"pageerror: {e}"))
-    page.goto(path.as_uri())
-    page.wait_for_function("document.body.dataset.ready === '1'", timeout=10_000)
-    return page, problems
 
 
 def _first_decision_with_several_objects(events) -> int:
@@ -55,7 +36,7 @@ def _first_decision_with_several_objects(events) -> int:
 
 @pytest.mark.parametrize("name", ["one.html", "two.html"])
 def test_room_names_do_not_overlap(browser, pages, name):
-    page, problems = _open(browser, pages[0] / name)
+    page, problems = open_explorer(browser, pages[0] / name)
     boxes = page.evaluate("""() => [...document.querySelectorAll('.pane')].map(p =>
         [...p.querySelectorAll('svg.plan .rooms text')].map(t => {
           const r = t.getBoundingClientRect(); return [t.textContent, r.left, r.top, r.right, r.bottom]; }))""")
@@ -70,7 +51,7 @@ def test_room_names_do_not_overlap(browser, pages, name):
 
 @pytest.mark.parametrize("name", ["one.html", "two.html"])
 def test_the_candidate_table_and_the_task_graph_fit_1400_px(browser, pages, name):
-    page, problems = _open(browser, pages[0] / name)
+    page, problems = open_explorer(browser, pages[0] / name)
     n_decisions = page.evaluate("explorer.data.episodes[0].decisions.length")
     for _ in range(n_decisions):
         page.keyboard.press("PageDown")
@@ -85,7 +66,7 @@ def test_the_candidate_table_and_the_task_graph_fit_1400_px(browser, pages, name
 
 def test_the_last_step_shows_the_episodes_metrics(browser, pages):
     metrics = read_log(pages[0] / "factorised" / "episode.jsonl")[-1]
-    page, problems = _open(browser, pages[0] / "one.html")
+    page, problems = open_explorer(browser, pages[0] / "one.html")
     page.keyboard.press("End")
     caption = page.evaluate("document.querySelector('.pane .caption').textContent")
     assert f"{metrics['actions_complete']} of {metrics['actions_total']} actions complete" in caption
@@ -96,7 +77,7 @@ def test_the_last_step_shows_the_episodes_metrics(browser, pages):
 
 def test_site_labels_are_the_sites_names(browser, pages):
     events = read_log(pages[0] / "factorised" / "episode.jsonl")
-    page, problems = _open(browser, pages[0] / "one.html")
+    page, problems = open_explorer(browser, pages[0] / "one.html")
     shown = page.evaluate("[...document.querySelectorAll('.pane svg.plan text.site-name')].map(t => t.textContent)")
     assert sorted(shown) == sorted(s["name"].replace("_", " ") for s in events[0]["sites"])
     assert not problems, problems
@@ -106,7 +87,7 @@ def test_a_search_serving_several_objects_is_said_on_the_page(browser, pages):
     events = read_log(pages[0] / "factorised" / "episode.jsonl")
     k = _first_decision_with_several_objects(events)
     decision = [e for e in events if e["event"] == "decision"][k]
-    page, problems = _open(browser, pages[0] / "one.html")
+    page, problems = open_explorer(browser, pages[0] / "one.html")
     for _ in range(k + 1):
         page.keyboard.press("PageDown")
     head = page.evaluate("document.querySelector('.pane .decision-head').textContent")
@@ -119,7 +100,7 @@ def test_explore_prints_the_counts_the_page_shows(browser, pages):
     tmp, one, two = pages
     steps = [len(read_log(tmp / m / "episode.jsonl")) for m in ("factorised", "joint")]  # a step per event
     assert f", {steps[0]} steps)" in one
-    page, problems = _open(browser, tmp / "two.html")
+    page, problems = open_explorer(browser, tmp / "two.html")
     page.keyboard.press("End")
     label = page.evaluate("document.getElementById('step-label').textContent")
     positions = page.evaluate("explorer.data.pairs.length")
