@@ -49,15 +49,13 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
-from fg_tea.beliefs.detection import ViewModel, slot_pixels  # noqa: E402
-from fg_tea.episode.runner import env_config_for  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_file, out_folder  # noqa: E402
-from fg_tea.common.options import MODEL_HELP, SEED_HELP, experiment_parser  # noqa: E402
-from fg_tea.model.spec import load_model  # noqa: E402
-from fg_tea.world.scenario import Scenario, load_scenario  # noqa: E402
+from fg_tea.beliefs.detection import ViewModel, slot_pixels
+from fg_tea.episode.runner import env_config_for
+from fg_tea.common.files import atomic_write_text, out_file, out_folder
+from fg_tea.common.options import MODEL_HELP, SEED_HELP, experiment_parser
+from fg_tea.model.spec import load_model
+from fg_tea.world.scenario import Scenario, load_scenario
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
 DEFAULT_OUT = Path("runs") / "experiments" / "check_detector_calibration"

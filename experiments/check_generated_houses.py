@@ -27,14 +27,11 @@ import traceback
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
 DEFAULT_OUT = Path("runs") / "experiments" / "check_generated_houses"
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.files import out_folder, atomic_path, atomic_write_text  # noqa: E402
-from fg_tea.common.options import MODEL_HELP, WORKERS_HELP, experiment_parser  # noqa: E402
+from fg_tea.common.files import out_folder, atomic_path, atomic_write_text
+from fg_tea.common.options import MODEL_HELP, WORKERS_HELP, experiment_parser
 
 COLUMNS = ("rooms", "seed", "ok", "stage", "error", "sites", "room_vantages", "success", "reason",
            "frames", "inspections", "generate_s", "build_s", "episode_s")

@@ -73,28 +73,25 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
 from fg_tea.study.analysis import (markdown_table, paired_differences, save_figure,
     summary_markdown, summary_table)
-from fg_tea.common.errors import run_script  # noqa: E402
-from fg_tea.common.errors import InputError  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
-from fg_tea.common.options import experiment_parser  # noqa: E402
-from fg_tea.env.camera import load_camera  # noqa: E402
-from fg_tea.planning import check_planner  # noqa: E402
-from fg_tea.study.relations import (DERIVE_FIRST_SEED, RELATED_ORDER, derive,  # noqa: E402
+from fg_tea.common.errors import run_script
+from fg_tea.common.errors import InputError
+from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.common.options import experiment_parser
+from fg_tea.env.camera import load_camera
+from fg_tea.planning import check_planner
+from fg_tea.study.relations import (DERIVE_FIRST_SEED, RELATED_ORDER, derive,
                                     model_text, related_world)
-from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,  # noqa: E402
+from fg_tea.study.replication import (SeedSet, adjust, check_seed_sets,
                                       declare_seed_sets, read_seed_sets, replication_cells,
                                       replication_markdown, ESTABLISHED)
-from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.study.reuse import copy_rows, match as match_reuse  # noqa: E402
-from fg_tea.study.seeds import (add_episode_seed_argument, check_episode_seeds,  # noqa: E402
+from fg_tea.study.rows import parse_cell, read_rows, write_csv_atomic
+from fg_tea.study.reuse import copy_rows, match as match_reuse
+from fg_tea.study.seeds import (add_episode_seed_argument, check_episode_seeds,
                                check_resumable, episode_seed_scheme, recorded_argv)
-from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
-from fg_tea.world.housegen import CATEGORIES  # noqa: E402
+from fg_tea.study.sweep import Job, add_execution_arguments, plan_sweep, run_sweep
+from fg_tea.world.housegen import CATEGORIES
 
 SIZES = {"small": "generated_small", "medium": "generated_medium", "large": "generated_large"}
 TASKS = {"make_tea": "", "make_tea_milk_sugar": "_milk_sugar"}
@@ -434,16 +431,16 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
     new.
     """
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.study.sweep import _make_env, _model, _world
+    from fg_tea.study.sweep import job_env, job_model, job_world
     from fg_tea.study.frontier import DecisionClock
 
     first = min(j.world_seed for j in jobs) if jobs else 0
     picked = [j for j in jobs if j.world_seed < first + worlds]
     samples: dict[tuple, list[tuple[float, float]]] = {}
     for job in picked:
-        world, model = _world(job.world, job.knobs), _model(job.model, job.model_overrides)
+        world, model = job_world(job.world, job.knobs), job_model(job.model, job.model_overrides)
         scenario = world.sample(job.world_seed)
-        env = _make_env(job.env, scenario, env_config_for(model, **dict(job.env_overrides)))
+        env = job_env(job.env, scenario, env_config_for(model, **dict(job.env_overrides)))
         try:
             runner = EpisodeRunner(scenario, model, env, RunConfig(seed=job.seed, planner=job.planner,
                                                                     max_frames=job.max_frames,

@@ -22,20 +22,15 @@ is this script's output with the defaults and ``--out models/joint_derived.toml`
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.errors import run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
-from fg_tea.common.options import WORLD_HELP, experiment_parser  # noqa: E402
-from fg_tea.common.resources import resolve_world  # noqa: E402
-from fg_tea.model.spec import load_model  # noqa: E402
-from fg_tea.study.relations import derive, model_text  # noqa: E402
-from fg_tea.world.distributions import load_world  # noqa: E402
+from fg_tea.common.errors import run_script
+from fg_tea.common.files import atomic_write_text, out_file
+from fg_tea.common.options import WORLD_HELP, experiment_parser
+from fg_tea.common.resources import resolve_world
+from fg_tea.model.spec import load_model
+from fg_tea.study.relations import derive, model_text
+from fg_tea.world.distributions import load_world
 
 DEFAULT_OUT = Path("runs") / "experiments" / "derive_relations" / "joint_derived.toml"
 

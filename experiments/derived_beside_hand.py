@@ -29,12 +29,8 @@ import shlex
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import atomic_write_text, out_folder
 
 HAND, DERIVED = "joint", "joint_derived"
 SIZES = {"generated_small": "small", "generated_medium": "medium", "generated_large": "large"}

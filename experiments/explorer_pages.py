@@ -25,10 +25,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
-from fg_tea.study.rows import write_csv_atomic  # noqa: E402
+from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.study.rows import write_csv_atomic
 
 #: Chromium's flags on a machine with no network and no display.
 ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",

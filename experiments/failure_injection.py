@@ -17,14 +17,12 @@ from __future__ import annotations
 import argparse
 import csv
 import re
-import sys
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from fg_tea.common.files import atomic_path, atomic_write_text, out_folder  # noqa: E402
-from fg_tea.common.options import ENV_HELP, MODELS_HELP, WORKERS_HELP, WORLD_HELP, experiment_parser  # noqa: E402
+from fg_tea.common.files import atomic_path, atomic_write_text, out_folder
+from fg_tea.common.options import ENV_HELP, MODELS_HELP, WORKERS_HELP, WORLD_HELP, experiment_parser
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
 DEFAULT_OUT = Path("runs") / "experiments" / "failure_injection"
@@ -33,13 +31,13 @@ VERBS = ("PICK", "NAVIGATE", "PLACE", "INSERT", "FILL", "POUR", "USE", "WAIT")
 
 def run_one(args: tuple[str, int, str, float, str]) -> dict:
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.study.sweep import _make_env, _model, _world
+    from fg_tea.study.sweep import job_env, job_model, job_world
 
     world_name, seed, model_name, rate, env_kind = args
-    world, model = _world(world_name, ()), _model(model_name, ())
+    world, model = job_world(world_name, ()), job_model(model_name, ())
     scenario = world.sample(seed)
     config = env_config_for(model, failure_rates={v: rate for v in VERBS})
-    env = _make_env(env_kind, scenario, config)
+    env = job_env(env_kind, scenario, config)
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed))
     try:
         for _ in range(2_000):

@@ -33,15 +33,13 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.errors import run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
-from fg_tea.common.options import experiment_parser  # noqa: E402
-from fg_tea.common.stats import wilson_interval  # noqa: E402
-from fg_tea.study.analysis import excluded, markdown_table  # noqa: E402
-from fg_tea.study.rows import read_rows, write_csv_atomic  # noqa: E402
+from fg_tea.common.errors import run_script
+from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.common.options import experiment_parser
+from fg_tea.common.stats import wilson_interval
+from fg_tea.study.analysis import excluded, markdown_table
+from fg_tea.study.rows import read_rows, write_csv_atomic
 
 RESULTS = ROOT / "experiments" / "results"
 SOURCES = {"PyBullet house (houses table)": RESULTS / "joint_vs_factorised" / "houses" / "episodes.csv",

@@ -28,11 +28,8 @@ import shlex
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import atomic_write_text, out_folder
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -29,15 +29,13 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_path, atomic_write_text, out_folder  # noqa: E402
-from fg_tea.common.options import OUT_HELP, experiment_parser  # noqa: E402
-from fg_tea.common.stats import t_interval  # noqa: E402
-from fg_tea.model import learned_transitions as lt  # noqa: E402
-from fg_tea.study.households import LEARNED, HouseholdSpec, run_lifelong  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import atomic_path, atomic_write_text, out_folder
+from fg_tea.common.options import OUT_HELP, experiment_parser
+from fg_tea.common.stats import t_interval
+from fg_tea.model import learned_transitions as lt
+from fg_tea.study.households import LEARNED, HouseholdSpec, run_lifelong
 
 #: The models compared: the bundled one, and one that verifies the kettle before pouring.
 MODELS = ("factorised", "experiments/models/factorised_check_kettle.toml")

@@ -30,12 +30,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.files import out_folder  # noqa: E402
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.options import (ENV_HELP, MODELS_HELP, OUT_HELP, PLANNER_HELP,  # noqa: E402
+from fg_tea.common.files import out_folder
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.options import (ENV_HELP, MODELS_HELP, OUT_HELP, PLANNER_HELP,
                                    WORKERS_HELP, experiment_parser)
 from fg_tea.study.households import (HouseholdSpec, check_move, relation_pairs, run_lifelong,
     write_outputs)

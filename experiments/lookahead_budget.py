@@ -21,18 +21,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import out_folder, atomic_write_text  # noqa: E402
-from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio  # noqa: E402
-from fg_tea.study.frontier import run_frontier, summarise  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import out_folder, atomic_write_text
+from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio
+from fg_tea.study.frontier import run_frontier, summarise
 
 LADDER = (10, 20, 40, 60, 120, 240)
 HOUSES = ("correlated:100", "generated_small:30", "generated_medium:30")
@@ -85,17 +81,17 @@ def check(args: argparse.Namespace) -> None:
     Raises:
         InputError: the first bad value, named by its flag.
     """
-    from fg_tea.study.sweep import _model, _world
+    from fg_tea.study.sweep import job_model, job_world
 
     for house in args.houses:
         world, _, count = house.partition(":")
         if count and not (count.isdigit() and int(count) >= 1):
             raise InputError("<command line>", "--houses", f"{house!r}: WORLDS must be a positive integer")
-        _world(world, ())
+        job_world(world, ())
     if len(set(args.ladder)) < 2 or min(args.ladder) < 1:
         raise InputError("<command line>", "--ladder", "give at least two different budgets, each >= 1")
     for m in args.models:
-        _model(m, ())
+        job_model(m, ())
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -29,15 +29,13 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
-from fg_tea.common.options import experiment_parser  # noqa: E402
-from fg_tea.study.analysis import excluded, given_up_by_probability, markdown_table  # noqa: E402
-from fg_tea.study.rows import read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.common.stats import t_interval  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.common.options import experiment_parser
+from fg_tea.study.analysis import excluded, given_up_by_probability, markdown_table
+from fg_tea.study.rows import read_rows, write_csv_atomic
+from fg_tea.common.stats import t_interval
 
 RESULTS = ROOT / "experiments" / "results"
 DEFAULT_BEFORE = RESULTS / "lookahead_scale" / "before_grouping.csv"

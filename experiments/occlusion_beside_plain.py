@@ -27,12 +27,8 @@ import shlex
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import atomic_write_text, out_folder
 
 PAIRS = (("factorised", "factorised_occlusion"), ("joint", "joint_occlusion"))
 COLUMNS = ["world", "task", "planner", "seed_set", "worlds", "model", "plain_model",

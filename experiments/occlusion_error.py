@@ -37,12 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.errors import run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
+from fg_tea.common.errors import run_script
+from fg_tea.common.files import atomic_write_text, out_folder
 
 WORLDS = ["generated_small", "generated_small_milk_sugar", "generated_medium"]
 MODELS = ["factorised_occlusion", "joint_occlusion"]

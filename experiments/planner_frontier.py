@@ -52,13 +52,10 @@ import shlex
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.files import check_out_dir, out_folder  # noqa: E402
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.study import yardstick  # noqa: E402
-from fg_tea.study.frontier import (  # noqa: E402
+from fg_tea.common.files import check_out_dir, out_folder
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.study import yardstick
+from fg_tea.study.frontier import (
     DEFAULT_PLANNERS,
     check_inputs,
     run_frontier,

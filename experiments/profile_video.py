@@ -21,12 +21,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
 
-from video_reference import default_episode, default_options  # noqa: E402
-
-from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
-from fg_tea.common.options import experiment_parser  # noqa: E402
+from fg_tea.cli.defaults import default_episode, default_options
+from fg_tea.common.files import atomic_write_text, out_file
+from fg_tea.common.options import experiment_parser
 
 
 def _relative(line: str) -> str:

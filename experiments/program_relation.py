@@ -44,21 +44,18 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.errors import run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
-from fg_tea.common.options import experiment_parser  # noqa: E402
-from fg_tea.common.resources import resolve_world  # noqa: E402
-from fg_tea.study.analysis import (markdown_table, paired_differences,  # noqa: E402
+from fg_tea.common.errors import run_script
+from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.common.options import experiment_parser
+from fg_tea.common.resources import resolve_world
+from fg_tea.study.analysis import (markdown_table, paired_differences,
                                    summary_markdown, summary_table)
-from fg_tea.study.replication import (SeedSet, check_seed_sets, declare_seed_sets,  # noqa: E402
+from fg_tea.study.replication import (SeedSet, check_seed_sets, declare_seed_sets,
                                       replication_cells, replication_markdown)
-from fg_tea.study.rows import read_rows, write_csv_atomic  # noqa: E402
-from fg_tea.study.seeds import (add_episode_seed_argument, check_resumable,  # noqa: E402
+from fg_tea.study.rows import read_rows, write_csv_atomic
+from fg_tea.study.seeds import (add_episode_seed_argument, check_resumable,
                                 episode_seed_scheme, recorded_argv)
-from fg_tea.study.sweep import add_execution_arguments, plan_sweep, run_sweep  # noqa: E402
+from fg_tea.study.sweep import add_execution_arguments, plan_sweep, run_sweep
 
 PROGRAM = "experiments/programs/kept_together.py"
 SIZES = {"small": "generated_small", "medium": "generated_medium"}

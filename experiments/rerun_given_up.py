@@ -30,10 +30,9 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import atomic_write_text, out_folder
 
 #: Tables this script leaves as they are, and why.
 KEPT = {"lookahead_scale/before_grouping.csv": "rows of an earlier planner, kept as they ran",
@@ -99,7 +98,7 @@ def splice(path: Path, fresh: dict[str, dict[str, str]]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from fg_tea.study.rows import _read_good_lines, read_rows, write_csv_atomic
+    from fg_tea.study.rows import read_good_lines, read_rows, write_csv_atomic
     from fg_tea.study.keys import job_from_key
     from fg_tea.study.sweep import run_sweep
 
@@ -123,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     fresh_csv = out / "fresh.csv"
     run_sweep(list(jobs.values()), fresh_csv, "process", workers=args.workers, label="rerun_given_up")
-    header, lines, _ = _read_good_lines(fresh_csv)
+    header, lines, _ = read_good_lines(fresh_csv)
     fresh = {row["key"]: row for row in (dict(zip(header, line)) for line in lines)}
     for name, path, _, pending in tables:
         if pending:

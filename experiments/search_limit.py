@@ -25,12 +25,9 @@ import shlex
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import out_folder  # noqa: E402
-from fg_tea.study import yardstick  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import out_folder
+from fg_tea.study import yardstick
 
 
 def build_parser() -> argparse.ArgumentParser:

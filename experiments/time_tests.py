@@ -25,11 +25,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.errors import run_script  # noqa: E402
-from fg_tea.common.files import atomic_path, out_folder  # noqa: E402
-from fg_tea.common.options import experiment_parser  # noqa: E402
+from fg_tea.common.errors import run_script
+from fg_tea.common.files import atomic_path, out_folder
+from fg_tea.common.options import experiment_parser
 
 DEFAULT_OUT = Path("runs") / "experiments" / "time_tests"
 RUNS = {"quick": ["-m", "pytest", "-q", "-m", "not slow"], "full": ["-m", "pytest", "-q"]}

@@ -24,14 +24,12 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
-from fg_tea.common.errors import InputError, run_script  # noqa: E402
-from fg_tea.common.files import atomic_write_text, out_folder  # noqa: E402
-from fg_tea.common.options import experiment_parser  # noqa: E402
-from fg_tea.study.analysis import markdown_table  # noqa: E402
-from fg_tea.study.rows import read_rows, write_csv_atomic  # noqa: E402
+from fg_tea.common.errors import InputError, run_script
+from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.common.options import experiment_parser
+from fg_tea.study.analysis import markdown_table
+from fg_tea.study.rows import read_rows, write_csv_atomic
 
 DEFAULT_CSV = ROOT / "experiments" / "results" / "joint_vs_factorised" / "houses" / "episodes.csv"
 DEFAULT_OUT = "runs/experiments/trace_give_ups"
@@ -58,13 +56,13 @@ def trace(row: dict) -> list[dict]:
     """Every look at the given-up object's true site in the episode of `row`, replayed."""
     from fg_tea.episode.log import read_log
     from fg_tea.episode.runner import env_config_for
-    from fg_tea.study.sweep import _model, _world, run_job
+    from fg_tea.study.sweep import job_model, job_world, run_job
 
     job = job_of(row)
     obj = str(row["reason"]).split(":", 1)[1].split("(")[0].strip()
     site = row[f"true_site_{obj}"]
-    model = _model(job.model, ())
-    scenario = _world(job.world, ()).sample(job.world_seed)
+    model = job_model(job.model, ())
+    scenario = job_world(job.world, ()).sample(job.world_seed)
     category = next(o.category for o in scenario.objects if o.name == obj)
     curve = env_config_for(model).camera_curve  # the job's camera: the model's default
     with tempfile.TemporaryDirectory() as tmp:

@@ -16,20 +16,15 @@ It writes runs/experiments/video_renderers/renderers.md unless --out names anoth
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-
-from video_reference import default_episode, default_options  # noqa: E402
-
-from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
-from fg_tea.common.options import experiment_parser  # noqa: E402
+from fg_tea.cli.defaults import default_episode, default_options
+from fg_tea.common.files import atomic_write_text, out_file
+from fg_tea.common.options import experiment_parser
 
 
 def cpu_ms(fn, n: int = 5) -> float:
@@ -136,7 +131,7 @@ def egl_line(config) -> str:
     """EGL (the eglRenderer plugin, Mesa here): the CPU of one image of an empty scene."""
     import pkgutil
 
-    from fg_tea.env._pybullet import pybullet
+    from fg_tea.env.pybullet_quiet import pybullet
 
     loader = pkgutil.get_loader("eglRenderer")
     if loader is None:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
-from fg_tea.env._pybullet import pybullet
+from fg_tea.env.pybullet_quiet import pybullet
 
 Vec3 = tuple[float, float, float]
 RGBA = tuple[float, float, float, float]

@@ -34,7 +34,7 @@ import numpy as np
 
 from fg_tea.common.files import atomic_write_text
 from fg_tea.env import assets
-from fg_tea.env._pybullet import pybullet
+from fg_tea.env.pybullet_quiet import pybullet
 from fg_tea.env.adapter import TruthBackedAdapter
 from fg_tea.env.company import category_pairs
 from fg_tea.env.base import EnvConfig

@@ -27,7 +27,7 @@ from typing import Sequence
 import numpy as np
 
 from fg_tea.env import assets
-from fg_tea.env._pybullet import pybullet
+from fg_tea.env.pybullet_quiet import pybullet
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.house import WALL_COLOR, PyBulletHouse
 from fg_tea.world.navigation import wall_boxes

@@ -22,7 +22,7 @@ from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.model.spec import load_model
 from fg_tea.planning import check_planner
-from fg_tea.study.sweep import _make_env, model_path, world_path
+from fg_tea.study.sweep import job_env, model_path, world_path
 from fg_tea.world.distributions import load_world
 
 DEFAULT_PLANNERS = ["optimal", "efe", "factorised_efe", "nearest", "lookahead",
@@ -42,7 +42,7 @@ def episode_setup(world: str, seed: int, model_name: str, env_kind: str, miss_ra
     rate = model.miss_likelihood if miss_rate is None else miss_rate
     if model.detector != "threshold":  # the camera's curve draws the misses (docs/design.md §3.4)
         rate = 0.0
-    return model, scenario, _make_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate)), rate
+    return model, scenario, job_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate)), rate
 
 
 class DecisionClock:

@@ -142,10 +142,10 @@ def _placements(spec: HouseholdSpec, k: int):
 def _episode(spec: HouseholdSpec, model, scenario, seed: int, path: Path | None = None):
     from fg_tea.episode.log import EventLog
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
-    from fg_tea.study.sweep import _make_env
+    from fg_tea.study.sweep import job_env
 
     extra: dict[str, Any] = {"effect_success": dict(spec.effect_success)} if spec.effect_success else {}
-    env = _make_env(spec.env, scenario, env_config_for(model, **extra))
+    env = job_env(spec.env, scenario, env_config_for(model, **extra))
     log = EventLog(path) if path is not None else None
     try:
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=spec.planner),

@@ -43,7 +43,7 @@ def parse_cell(text: str) -> Any:
         return text
 
 
-def _read_good_lines(path: Path) -> tuple[list[str], list[list[str]], int]:
+def read_good_lines(path: Path) -> tuple[list[str], list[list[str]], int]:
     """Header, complete rows, and the byte length of the valid prefix of a sweep CSV.
 
     A last line without its newline (a crash mid-write) and any row with the wrong number of
@@ -81,7 +81,7 @@ def read_rows(path: str | Path) -> list[dict[str, Any]]:
     path = Path(path)
     if not path.exists():
         raise InputError(path, "$", "file not found")
-    header, rows, _ = _read_good_lines(path)
+    header, rows, _ = read_good_lines(path)
     if header and "key" not in header:
         raise InputError(path, "header", "not a sweep CSV (no 'key' column)")
     return [{h: parse_cell(v) for h, v in zip(header, r)} for r in rows]
@@ -144,7 +144,7 @@ class CsvSink:
         #: Keys of rows found without a finished episode (dropped, so run again).
         self.unfinished: list[str] = []
         if resume and self.path.exists():
-            header, rows, valid = _read_good_lines(self.path)
+            header, rows, valid = read_good_lines(self.path)
             if header and "key" not in header:
                 raise InputError(self.path, "header", "not a sweep CSV (no 'key' column); "
                                  "choose another output or do not resume")

@@ -227,14 +227,16 @@ def model_path(ref: str, option: str = "model") -> Path:
 
 
 @lru_cache(maxsize=64)
-def _world(ref: str, knobs: tuple[tuple[str, float], ...]):
+def job_world(ref: str, knobs: tuple[tuple[str, float], ...]):
+    """The world distribution a job names (bundled name or path), with its knobs set (cached)."""
     from fg_tea.world.distributions import load_world
 
     return load_world(ref).with_knobs(**dict(knobs))
 
 
 @lru_cache(maxsize=64)
-def _model(ref: str, overrides: tuple[tuple[str, Any], ...]):
+def job_model(ref: str, overrides: tuple[tuple[str, Any], ...]):
+    """The model a job names (bundled name, path or program), with its overrides applied (cached)."""
     from fg_tea.model.spec import load_model
 
     model = load_model(model_path(ref))
@@ -272,7 +274,7 @@ def check_jobs(jobs: Sequence[Job]) -> None:
             if not world_path(job.world).exists():
                 raise InputError(_CLI, "world", f"unknown world {job.world!r}: not a file or a bundled "
                                  f"world distribution ({', '.join(world_names())})")
-            world = _world(job.world, job.knobs)
+            world = job_world(job.world, job.knobs)
             for rule in world.co_location:
                 if rule.same_site + rule.same_room > 1.0 + 1e-12:
                     raise InputError(world.source, "knobs", f"same_site + same_room of {rule.object!r} "
@@ -283,7 +285,7 @@ def check_jobs(jobs: Sequence[Job]) -> None:
                 raise InputError(_CLI, "model", f"unknown model {job.model!r}: not a file, a bundled model "
                                  f"({', '.join(model_names())}) or a bundled ablation "
                                  f"({', '.join(ablation_names())})")
-            _model(job.model, job.model_overrides)
+            job_model(job.model, job.model_overrides)
         if job.camera and ("camera", job.camera) not in seen:
             from fg_tea.env.camera import load_camera
 
@@ -403,12 +405,13 @@ def _quality_columns(events: Sequence[Mapping], scenario, overrides: tuple[tuple
     hook = getattr(quality, "quality_summary", None)
     if hook is None:
         return {}
-    values = hook(events, scenario, factorised_model=_model("factorised", overrides),
-                  joint_model=_model("joint", overrides))
+    values = hook(events, scenario, factorised_model=job_model("factorised", overrides),
+                  joint_model=job_model("joint", overrides))
     return {f"quality_{k}": v for k, v in flatten_metrics(values).items()}
 
 
-def _make_env(kind: str, scenario, config):
+def job_env(kind: str, scenario, config):
+    """A fresh environment of `kind` (``"fake"`` or ``"pybullet"``) over `scenario`."""
     if kind == "fake":
         from fg_tea.env.fake import FakeHouse
 
@@ -431,11 +434,11 @@ def run_job(job: Job, log_path: str | Path | None = None) -> dict[str, Any]:
     from fg_tea.episode.metrics import score
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 
-    world = _world(job.world, job.knobs)
-    model = _model(job.model, job.model_overrides)
+    world = job_world(job.world, job.knobs)
+    model = job_model(job.model, job.model_overrides)
     scenario = world.sample(job.world_seed)
     config = env_config_for(model, job.camera or None, **dict(job.env_overrides))
-    env = _make_env(job.env, scenario, config)
+    env = job_env(job.env, scenario, config)
     seed = job.world_seed if job.seed is None else job.seed  # Job fills it in; for the type checker
     runner = None
     stopped = None
