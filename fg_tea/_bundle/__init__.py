@@ -3,8 +3,8 @@
 ``fg_tea._bundle.scenarios`` (with ``tasks`` and ``worlds``), ``fg_tea._bundle.models`` (with
 ``ablations``) and ``fg_tea._bundle.cameras`` hold the bundled JSON and TOML files, read through
 :mod:`importlib.resources` by :mod:`fg_tea.common.resources`. In an installed wheel they are
-folders beside this file (the build maps the repository's top-level ``scenarios/``, ``models/`` and ``cameras/`` here, see ``pyproject.toml``). In a
-source checkout, or an editable install of one, they are the top-level folders themselves: this
+folders beside this file (the build maps the repository's top-level ``scenarios/``, ``models/``
+and ``cameras/`` here, see ``pyproject.toml``). In a source checkout, or an editable install of one, they are the top-level folders themselves: this
 package's search path then also names the checkout's root, so the same import finds them.
 """
 

@@ -79,9 +79,8 @@ def integer(lo: int, hi: int | None = None):
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected an integer, got {text[:40]!r}") from None
         if value < lo or (hi is not None and value > hi):
-            raise argparse.ArgumentTypeError(
-                f"expected an integer {'from ' + str(lo) + ' to ' + str(hi) if hi is not None else 'of at least ' + str(lo)}, "
-                f"got {value}")
+            span = f"from {lo} to {hi}" if hi is not None else f"of at least {lo}"
+            raise argparse.ArgumentTypeError(f"expected an integer {span}, got {value}")
         return value
     parse.bounds = (lo, hi)  # type: ignore[attr-defined]  # read by the flag-range tests
     return parse
@@ -348,7 +347,8 @@ def add_video_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--view", choices=("multi", "first", "third"), default="multi",
                    help="chase view with first-person inset, or either alone (default: %(default)s)")
     g.add_argument("--width", type=integer(64, 7680), default=960, help="output width in pixels (default: %(default)s)")
-    g.add_argument("--height", type=integer(64, 4320), default=540, help="output height in pixels (default: %(default)s)")
+    g.add_argument("--height", type=integer(64, 4320), default=540,
+                   help="output height in pixels (default: %(default)s)")
     g.add_argument("--fps", type=integer(1, 240), default=30, help="output frame rate (default: %(default)s)")
     g.add_argument("--scene-scale", type=number(0.1, 1.0), default=2 / 3,
                    help="render the 3D views at this fraction of the output size (default: 0.667)")
@@ -356,7 +356,8 @@ def add_video_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--third-person-distance", type=number(0.0, 50.0), default=3.2, help="metres behind the agent")
     g.add_argument("--third-person-height", type=number(-50.0, 50.0), default=2.2, help="camera height, metres")
     g.add_argument("--third-person-pitch", type=number(-90.0, 90.0), default=-22.0, help="camera pitch, degrees")
-    g.add_argument("--third-person-hfov", type=number(1.0, 179.0), default=78.0, help="horizontal field of view, degrees")
+    g.add_argument("--third-person-hfov", type=number(1.0, 179.0), default=78.0,
+                   help="horizontal field of view, degrees")
     g.add_argument("--hold", type=number(0.0, 60.0), default=0.8, help="seconds to hold decision frames")
     g.add_argument("--wall-cutaway", type=number(0.0, 100.0), default=1.0,
                    help="chase view: draw walls up to this height in metres (default: %(default)s)")

@@ -71,7 +71,8 @@ def cmd_explore(args: argparse.Namespace) -> int:
                                  f"({data['video']['times'][-1]:.1f} s): it was rendered with other "
                                  "options, so its frames do not line up with the steps")
     start = logs[0][1][0]
-    title = " vs ".join(ep["label"] for ep in data["episodes"]) + f" · {start.get('scenario')} · seed {start.get('seed')}"
+    labels = " vs ".join(ep["label"] for ep in data["episodes"])
+    title = f"{labels} · {start.get('scenario')} · seed {start.get('seed')}"
     write_page(out, data, title)
     size = out.stat().st_size
     divergence = data.get("divergence")

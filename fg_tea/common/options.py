@@ -163,6 +163,6 @@ def experiment_parser(doc: str | None, file: str, section: str, **kwargs: Any) -
     return OneLineParser(**kwargs)
 
 
-__all__ = ["with_suggestions", "OneLineParser", "DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP", "MODEL_HELP", "MODELS_HELP",
-           "OUT_HELP", "PLANNER_HELP", "SCENARIO_HELP", "SEED_HELP", "WORKERS_HELP", "WORLD_HELP",
+__all__ = ["with_suggestions", "OneLineParser", "DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP",
+           "MODEL_HELP", "MODELS_HELP", "OUT_HELP", "PLANNER_HELP", "SCENARIO_HELP", "SEED_HELP", "WORKERS_HELP", "WORLD_HELP",
            "experiment_parser"]

@@ -250,6 +250,6 @@ def distances_for(model: Model, scenario: Scenario, agent_xy: Sequence[float],
 __all__ = ["Candidate", "Decision", "DistanceModel", "DistanceTable", "Planner", "EFEPlanner",
            "FactorisedEFEPlanner", "MutualInformationEFEPlanner",
            "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
-           "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "ExactPlanner", "ExactSettings", "euclidean_distances",
-           "distances_for", "make_planner", "planner_names", "planner_help", "check_planner_name", "is_family_spec",
-           "check_planner", "register_planner"]
+           "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "ExactPlanner", "ExactSettings",
+           "euclidean_distances", "distances_for", "make_planner", "planner_names", "planner_help",
+           "check_planner_name", "is_family_spec", "check_planner", "register_planner"]

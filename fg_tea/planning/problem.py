@@ -366,8 +366,8 @@ def _truths(belief, objects: Sequence[str], open_sites: Sequence[int]):
     """(joint, factors, structured) of a search problem: for a correlated belief the dense joint
     over U when it has at most :data:`MAX_TRUTHS` truths and the engine can build the whole joint
     it is summed from (at most :data:`~fg_tea.beliefs.engine.DENSE_LIMIT` states), or when U is
-    one object (its marginal), else its subset program; the marginals for a factorised one. Both correlated forms are exact, so an
-    episode may pass from one to the other as objects are found and sites excluded.
+    one object (its marginal), else its subset program; the marginals for a factorised one. Both
+    correlated forms are exact, so an episode may pass from one to the other as objects are found and sites excluded.
 
     Raises:
         ValueError: no mass on the open sites; a correlated belief too large for a dense joint

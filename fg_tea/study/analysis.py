@@ -47,7 +47,8 @@ YARDSTICK = "clairvoyant_search_travel"
 #: Human-readable names and units.
 LABELS = {"search_distance": "search travel (m)", "total_distance": "total travel (m)",
           "inspections": "inspections", "success": "success rate",
-          "spl": "SPL", "clairvoyant_search_travel": "clairvoyant search travel (m)", "repeated_sites": "repeated sites",
+          "spl": "SPL", "clairvoyant_search_travel": "clairvoyant search travel (m)",
+          "repeated_sites": "repeated sites",
           "entropy_reduction_per_inspection": "entropy reduction / inspection (nats)",
           "quality_kl_mean": "KL(joint ‖ factorised) (nats)", "quality_brier_mean": "Brier (mean)",
           "quality_brier_final": "Brier (final)", "quality_ece": "ECE"}

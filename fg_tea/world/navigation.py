@@ -241,15 +241,16 @@ class Navigator:
         reachable = np.zeros_like(grid.free)
         reachable[free_r, free_c] = np.isfinite(start_field)
         for where, site, v in zip(wheres, scenario.viewpoints, self.vantages):
+            what = f"{'site' if site.kind == 'site' else 'room vantage'} {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f})"
             if not grid.is_free(v):
                 raise InputError(source, where,
-                                 f"{site.kind if site.kind == 'site' else 'room vantage'} {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f}) is not on free "
+                                 f"{what} is not on free "
                                  f"floor (inside a wall or furniture, or within the agent radius "
                                  f"{grid.agent_radius:.2f} m of one); nearest free cell at "
                                  f"{_fmt(grid.nearest(v, reachable))}")
             if not reachable[grid.cell(v)]:
                 raise InputError(source, where,
-                                 f"{site.kind if site.kind == 'site' else 'room vantage'} {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f}) is not reachable "
+                                 f"{what} is not reachable "
                                  f"from the start ({start[0]:.2f}, {start[1]:.2f}); nearest free cell "
                                  f"reachable from the start at {_fmt(grid.nearest(v, reachable))}")
         sources = [int(self._node[grid.cell(v)]) for v in self.vantages]
