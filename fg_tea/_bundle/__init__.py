@@ -4,8 +4,9 @@
 ``ablations``) and ``fg_tea._bundle.cameras`` hold the bundled JSON and TOML files, read through
 :mod:`importlib.resources` by :mod:`fg_tea.common.resources`. In an installed wheel they are
 folders beside this file (the build maps the repository's top-level ``scenarios/``, ``models/``
-and ``cameras/`` here, see ``pyproject.toml``). In a source checkout, or an editable install of one, they are the top-level folders themselves: this
-package's search path then also names the checkout's root, so the same import finds them.
+and ``cameras/`` here, see ``pyproject.toml``). In a source checkout, or an editable install of
+one, they are the top-level folders themselves: this package's search path then also names the
+checkout's root, so the same import finds them.
 """
 
 from __future__ import annotations

@@ -99,7 +99,8 @@ def add_parser(sub) -> None:
                        "and joint, or two planners) the page shows both side by side and marks the "
                        "first decision where their choices differ. Logs over 64 MB are refused (a page "
                        "about twice its log's size is more than a browser opens well).")
-    p.add_argument("logs", nargs="+", metavar="LOG", help="episode log (episode.jsonl); a second of the same world to compare")
+    p.add_argument("logs", nargs="+", metavar="LOG",
+                   help="episode log (episode.jsonl); a second of the same world to compare")
     p.add_argument("--video", default=None, metavar="MP4",
                    help="the episode's video (of the first log), shown at each step's time; the page "
                    "links to it by a path relative to the page")

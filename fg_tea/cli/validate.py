@@ -19,8 +19,9 @@ def file_kind(path: Path, data: object | None) -> str:
     """Which kind of input file this is: ``model``, ``camera``, ``scenario``, ``task`` or ``world``.
 
     A TOML file with a ``[camera]`` table is a camera file; other TOML files are models. A JSON
-    file is recognised by its content: a world distribution has ``placement`` or ``base_scenario``, a task has ``actions``, a scenario has ``schema_version``
-    or ``house``; otherwise a file under a ``tasks`` folder is a task, else a scenario.
+    file is recognised by its content: a world distribution has ``placement`` or
+    ``base_scenario``, a task has ``actions``, a scenario has ``schema_version`` or ``house``;
+    otherwise a file under a ``tasks`` folder is a task, else a scenario.
     """
     if path.suffix == ".toml":
         return "camera" if isinstance(data, dict) and "camera" in data else "model"

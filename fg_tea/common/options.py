@@ -164,5 +164,5 @@ def experiment_parser(doc: str | None, file: str, section: str, **kwargs: Any) -
 
 
 __all__ = ["with_suggestions", "OneLineParser", "DefaultsHelpFormatter", "DeprecatedAlias", "ENV_HELP",
-           "MODEL_HELP", "MODELS_HELP", "OUT_HELP", "PLANNER_HELP", "SCENARIO_HELP", "SEED_HELP", "WORKERS_HELP", "WORLD_HELP",
-           "experiment_parser"]
+           "MODEL_HELP", "MODELS_HELP", "OUT_HELP", "PLANNER_HELP", "SCENARIO_HELP", "SEED_HELP",
+           "WORKERS_HELP", "WORLD_HELP", "experiment_parser"]

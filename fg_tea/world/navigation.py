@@ -241,7 +241,8 @@ class Navigator:
         reachable = np.zeros_like(grid.free)
         reachable[free_r, free_c] = np.isfinite(start_field)
         for where, site, v in zip(wheres, scenario.viewpoints, self.vantages):
-            what = f"{'site' if site.kind == 'site' else 'room vantage'} {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f})"
+            kind = "site" if site.kind == "site" else "room vantage"
+            what = f"{kind} {site.name!r}: vantage ({v[0]:.2f}, {v[1]:.2f})"
             if not grid.is_free(v):
                 raise InputError(source, where,
                                  f"{what} is not on free "
