@@ -109,13 +109,15 @@ def t_interval(values: Iterable[Any], confidence: float = 0.95) -> Interval:
 
 
 def wilson_interval(successes: int, n: int, z: float = Z95) -> Interval:
-    """A proportion with its Wilson score interval (z = 1.96 for 95 %)."""
+    """A proportion with its Wilson score interval (z = 1.96 for 95 %), from
+    ``scipy.stats.binomtest(...).proportion_ci(method="wilson")``."""
+    from scipy import stats
+
     if n == 0:
         return Interval(math.nan, math.nan, math.nan, 0)
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return Interval(p, centre - half, centre + half, n)
+    confidence = 2.0 * float(stats.norm.cdf(z)) - 1.0
+    ci = stats.binomtest(int(successes), int(n)).proportion_ci(confidence, method="wilson")
+    return Interval(successes / n, float(ci.low), float(ci.high), n)
 
 
 def _percentiles(draws: Any, confidence: float) -> tuple[float, float]:
@@ -189,7 +191,12 @@ def t_test_p(values: Iterable[Any]) -> float:
 
 def holm(pvalues: Sequence[float]) -> list[float]:
     """Holm's step-down adjustment of p-values for `len(pvalues)` tests (NaN stays NaN and is
-    not counted): the family-wise error rate is at most the level at which they are read."""
+    not counted): the family-wise error rate is at most the level at which they are read.
+
+    Written here rather than taken from ``statsmodels.stats.multitest.multipletests`` (which gives
+    the same numbers; ``tests/test_stats_libraries.py`` checks it) because statsmodels would bring
+    pandas and patsy into the core install for eight lines (docs/design.md §11).
+    """
     known = sorted((p, i) for i, p in enumerate(pvalues) if not math.isnan(p))
     m, out, running = len(known), [math.nan] * len(pvalues), 0.0
     for rank, (p, i) in enumerate(known):
@@ -209,6 +216,8 @@ def pairs_needed(sd: float, delta: float, confidence: float = 0.95, power: float
     with probability `power`, given the paired differences' standard deviation `sd`:
     ``n = ((t_{1-a/2, n-1} + t_{power, n-1}) sd / delta)^2``, solved by fixed-point iteration from
     the normal approximation. None when it cannot be said (sd or delta not positive and finite).
+    It agrees with statsmodels' ``TTestPower.solve_power`` rounded up (checked in
+    ``tests/test_stats_libraries.py``), which is not a core dependency (see :func:`holm`).
     """
     from scipy import stats
 
