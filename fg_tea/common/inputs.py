@@ -35,6 +35,22 @@ def _suggest(key: str, known: Iterable[str]) -> str:
     return f"; did you mean {close[0]!r}?" if close else ""
 
 
+def path_segments(path: str) -> tuple[str, ...]:
+    """``$.a.b[2].c`` as ``("a", "b", "[]", "c")`` (list indices become ``"[]"``)."""
+    import re
+
+    return tuple("[]" if part.startswith("[") else part for part in re.findall(r"\[\d+\]|[^.\[\]$]+", path))
+
+
+class _Recording:
+    """Where a schema recorder listens while bundled files are read (fg_tea.common.schemas)."""
+
+    recorder: Any = None
+
+
+RECORDING = _Recording()
+
+
 class _Document:
     """What all Readers of one document share: which keys were read, and where each came from."""
 
@@ -61,12 +77,17 @@ class Reader:
     """
 
     def __init__(self, data: Any, file: str | Path, path: str = "$",
-                 origins: Callable[[str], str] | None = None, _doc: _Document | None = None) -> None:
+                 origins: Callable[[str], str] | None = None, _doc: _Document | None = None,
+                 _segments: tuple[str, ...] | None = None) -> None:
         self.data = data
         self._file = str(file)
         self.path = path
         self._doc = _doc or _Document(origins)
         self._doc.readers.append(self)
+        #: The path as keys, ``"[]"`` for a list item: a key of a free-form table may hold a dot.
+        self.segments = _segments if _segments is not None else path_segments(path)
+        if RECORDING.recorder is not None:
+            RECORDING.recorder.entered(self)
 
     @property
     def file(self) -> str:
@@ -89,8 +110,13 @@ class Reader:
         if isinstance(self.data, dict):
             self._doc.read.setdefault(id(self.data), set()).add(key)
 
-    def _new(self, data: Any, path: str) -> "Reader":
-        return Reader(data, self._file, path, _doc=self._doc)
+    def _new(self, data: Any, path: str, segment: str) -> "Reader":
+        return Reader(data, self._file, path, _doc=self._doc, _segments=(*self.segments, segment))
+
+    def _note(self, key: str, how: str, kind: type | tuple = (), **detail: Any) -> None:
+        """Tell a schema recorder, if one listens, what was read here (docs/design.md §1.3)."""
+        if RECORDING.recorder is not None:
+            RECORDING.recorder.read(self, key, how, kind if isinstance(kind, tuple) else (kind,), detail)
 
     def _check_type(self, value: Any, kind: type | tuple, where: str | int) -> Any:
         kinds = kind if isinstance(kind, tuple) else (kind,)
@@ -128,12 +154,14 @@ class Reader:
     def req(self, key: str, kind: type | tuple) -> Any:
         if not isinstance(self.data, dict):
             raise self.fail("expected an object")
+        self._note(key, "required", kind)
         if key not in self.data:
             raise self.missing(key)
         self._mark(key)
         return self._check_type(self.data[key], kind, key)
 
     def opt(self, key: str, kind: type | tuple, default: Any) -> Any:
+        self._note(key, "optional", kind)
         self._mark(key)
         if not isinstance(self.data, dict) or key not in self.data or self.data[key] is None:
             return default
@@ -146,15 +174,17 @@ class Reader:
     def child(self, key: str, required: bool) -> "Reader | None": ...
 
     def child(self, key: str, required: bool = True) -> "Reader | None":
+        self._note(key, "required" if required else "optional", dict)
         self._mark(key)
         if not self.has(key):
             if required:
                 raise self.missing(key)
             return None
         self._check_type(self.data[key], dict, key)
-        return self._new(self.data[key], self._sub(key))
+        return self._new(self.data[key], self._sub(key), key)
 
     def items(self, key: str, required: bool = True) -> Iterator["Reader"]:
+        self._note(key, "required" if required else "optional", list)
         self._mark(key)
         if not self.has(key):
             if required:
@@ -162,12 +192,15 @@ class Reader:
             return iter(())
         values = self._check_type(self.data[key], list, key)
         base = self._sub(key)
-        return (self._new(v, f"{base}[{i}]") for i, v in enumerate(values))
+        item = self._new(values, base, key)  # the list itself, so a recorder sees it entered
+        return (item._new(v, f"{base}[{i}]", "[]") for i, v in enumerate(values))
 
     def names(self) -> list[str]:
         """The keys of a free-form table (site names, sensor names, ...), all counted as read."""
         if not isinstance(self.data, dict):
             raise self.fail("expected an object")
+        if RECORDING.recorder is not None:
+            RECORDING.recorder.free_form(self)
         for key in self.data:
             self._mark(key)
         return list(self.data)
@@ -177,6 +210,7 @@ class Reader:
         sub = self.child(key, required=required)
         if sub is None:
             return {}
+        sub._note("{}", "optional", kind)
         return {name: sub._check_type(sub.data[name], kind, name) for name in sub.names()}
 
     @overload
@@ -198,6 +232,7 @@ class Reader:
     def vector(self, key: str, length: int, required: bool = True, default: Any = None,
                limit: float = MAX_COORDINATE) -> tuple[float, ...]:
         """A list of `length` finite numbers, each of magnitude at most `limit` (metres)."""
+        self._note(key, "required" if required else "optional", list, numbers=length, limit=limit)
         self._mark(key)
         if not self.has(key):
             if required:
@@ -214,6 +249,7 @@ class Reader:
         return out
 
     def probability(self, key: str, default: float | None = None) -> float:
+        self._note(key, "optional" if default is not None else "required", float, minimum=0.0, maximum=1.0)
         value = self.req(key, float) if default is None else self.opt(key, float, default)
         value = float(value)
         if not 0.0 <= value <= 1.0:
@@ -221,12 +257,15 @@ class Reader:
         return value
 
     def positive(self, key: str, default: float | None = None, allow_zero: bool = False) -> float:
+        bound = {"minimum": 0.0} if allow_zero else {"exclusiveMinimum": 0.0}
+        self._note(key, "optional" if default is not None else "required", float, **bound)
         value = float(self.req(key, float) if default is None else self.opt(key, float, default))
         if value < 0 or (value == 0 and not allow_zero):
             raise self.fail(f"must be {'non-negative' if allow_zero else 'positive'}, got {value}", key)
         return value
 
     def choice(self, key: str, options: tuple[str, ...], default: str | None = None) -> str:
+        self._note(key, "optional" if default is not None else "required", str, enum=tuple(options))
         value = self.req(key, str) if default is None else self.opt(key, str, default)
         if value not in options:
             raise self.fail(f"must be one of {', '.join(options)}; got {value!r}", key)
