@@ -116,6 +116,22 @@ def csv_differences(expected: str, actual: str, key: str) -> list[str]:
     return out
 
 
+def table_differences(expected: str, actual: str) -> list[str]:
+    """Differences between two CSV texts read in order (no key column): the same header and
+    number of rows, cell by cell as :func:`cell_differences` compares them."""
+    rows_e, rows_a = list(csv.reader(io.StringIO(expected))), list(csv.reader(io.StringIO(actual)))
+    if len(rows_e) != len(rows_a):
+        return [f"{len(rows_e)} lines expected, got {len(rows_a)}"]
+    out = []
+    for i, (row_e, row_a) in enumerate(zip(rows_e, rows_a)):
+        if len(row_e) != len(row_a) or (i == 0 and row_e != row_a):
+            out.append(f"line {i + 1}: expected {row_e}, got {row_a}")
+            continue
+        out += [f"line {i + 1}, column {j + 1}: {d}" for j, (e, a) in enumerate(zip(row_e, row_a))
+                for d in cell_differences(e, a)]
+    return out
+
+
 def report(golden: str | Path, found: list[str]) -> str:
     """The failure message for `found` differences from the golden file `golden` ('' if none)."""
     if not found:

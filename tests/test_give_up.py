@@ -164,14 +164,14 @@ def test_episodes_the_probability_rule_does_not_give_up_are_the_same_under_the_d
     rule finishes is the same episode, row for row, under the default."""
     import fg_tea.study.sweep as sweep
 
-    made = sweep._model
+    made = sweep.job_model
     rule = {"give_up": "cost"}
 
     def model(ref, overrides):
         m = made(ref, overrides)
         return dataclasses.replace(m, planning=dataclasses.replace(m.planning, give_up=rule["give_up"]))
 
-    monkeypatch.setattr(sweep, "_model", model)
+    monkeypatch.setattr(sweep, "job_model", model)
     finished = 0
     for seed in range(6):
         job = sweep.Job(world="generated_small_milk_sugar", world_seed=seed, model="factorised",

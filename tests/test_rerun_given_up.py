@@ -50,7 +50,7 @@ def test_a_given_up_row_is_run_again_in_place_and_the_rest_left_alone(tmp_path, 
     records the change; a second run has nothing left to do."""
     import fg_tea.study.sweep as sweep
 
-    made = sweep._model
+    made = sweep.job_model
 
     def probability_rule(ref, overrides):
         m = made(ref, overrides)
@@ -60,7 +60,7 @@ def test_a_given_up_row_is_run_again_in_place_and_the_rest_left_alone(tmp_path, 
                       gtsam_check=False),
             sweep.Job("correlated", 1, "factorised_close", "efe", env="fake", gtsam_check=False)]
     with monkeypatch.context() as m:
-        m.setattr(sweep, "_model", probability_rule)
+        m.setattr(sweep, "job_model", probability_rule)
         rows = [sweep.run_job(j) for j in jobs]
     assert rows[0]["reason"].endswith("< 0.001)") and rows[1]["reason"] == "complete"
     table = tmp_path / "results" / "t" / "episodes.csv"
