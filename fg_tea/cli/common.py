@@ -9,7 +9,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import Callable, NoReturn, Sequence
+from typing import Any, Callable, NoReturn, Sequence
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import (  # noqa: F401 - the commands import them from here
@@ -215,20 +215,24 @@ def remove_outputs(out: Path, names: Sequence[str]) -> None:
 
 
 class Progress:
-    """A one-line progress display on a terminal; silent otherwise.
+    """``fg-tea run``'s progress bar on a terminal; silent otherwise (the summary follows).
 
     The bar fills with the task's finished actions (complete or skipped), so it is full exactly
     when the task is done; the frame count is shown against the frame limit beside it. The action
     named is the one being carried out, or just carried out: the last one the executor activated
-    (a search included; each step of an episode works on one action), else ``-``.
+    (a search included; each step of an episode works on one action), else ``-``. Drawn by
+    :func:`fg_tea.common.progress.progress`, as every long run's progress is.
     """
 
     WIDTH = 24
 
     def __init__(self, max_frames: int, stream=None) -> None:
+        from fg_tea.common.progress import is_terminal
+
         self.stream = stream or sys.stderr
         self.max_frames = max_frames
-        self.tty = self.stream.isatty()
+        self.tty = is_terminal(self.stream)
+        self.bar: Any = None
 
     @staticmethod
     def active_action(runner) -> str:
@@ -238,41 +242,43 @@ class Progress:
                 return str(event.get("action", "-"))
         return "-"
 
-    def line(self, runner) -> str:
-        """The progress line for the runner's state now."""
-        total = len(runner.graph)
-        finished = sum(runner.graph.is_finished(n) for n in runner.graph)
-        done = self.WIDTH * finished // max(total, 1)
-        return (f"[{'#' * done}{'.' * (self.WIDTH - done)}] {finished}/{total} actions · frame "
-                f"{runner.state.frame:,}/{self.max_frames:,} · {self.active_action(runner):<22}")
+    def status(self, runner) -> str:
+        """What the bar says after its count: the frame against the limit, and the action."""
+        return f"frame {runner.state.frame:,}/{self.max_frames:,} · {self.active_action(runner)}"
 
     def __call__(self, runner) -> None:
         if not self.tty:
             return
-        self.stream.write("\r" + self.line(runner))
-        self.stream.flush()
+        from fg_tea.common.progress import progress
+
+        finished = sum(runner.graph.is_finished(n) for n in runner.graph)
+        if self.bar is None:
+            self.bar = progress(len(runner.graph), "episode", "actions", stream=self.stream, bar=True,
+                                status=self.status(runner))
+        self.bar.set_postfix_str(self.status(runner), refresh=False)
+        if finished > self.bar.n:
+            self.bar.update(finished - self.bar.n)
+        else:
+            self.bar.refresh()
 
     def close(self) -> None:
-        if self.tty:
-            self.stream.write("\n")
+        if self.bar is not None:
+            self.bar.close()
 
 
 def frames_progress(stream=None):
-    """Report video rendering: a live line on a terminal, a line per 25 % otherwise."""
-    import time
+    """Report video rendering as ``report(done, total)`` (:func:`fg_tea.common.progress.progress`:
+    redrawn on a terminal, a line every 10 s elsewhere)."""
+    from fg_tea.common.progress import progress
 
-    stream = stream or sys.stderr
-    start, last_quarter = time.perf_counter(), [-1]
+    shown: list = []
 
     def report(done: int, total: int) -> None:
-        rate = done / max(time.perf_counter() - start, 1e-9)
-        line = f"rendering video: {done}/{total} frames ({rate:.1f} frames/s)"
-        if stream.isatty():
-            stream.write("\r" + line + ("\n" if done >= total else ""))
-        elif done * 4 // max(total, 1) > last_quarter[0]:
-            last_quarter[0] = done * 4 // max(total, 1)
-            stream.write(line + "\n")
-        stream.flush()
+        if not shown:
+            shown.append(progress(total, "rendering video", "frames", stream=stream))
+        shown[0].update(done - shown[0].n)
+        if done >= total:
+            shown[0].close()
 
     return report
 

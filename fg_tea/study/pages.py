@@ -16,7 +16,7 @@ from typing import Any, Mapping, Sequence
 
 from fg_tea.common.files import atomic_write_text
 from fg_tea.render.page import content_security_policy, fill, html_text
-from fg_tea.study.rows import Progress
+from fg_tea.study.rows import sweep_progress
 from fg_tea.study.sweep import Job, run_job
 
 #: Column of the CSV the index compares.
@@ -78,7 +78,7 @@ def write_compare_pages(jobs: Sequence[Job], rows: Sequence[Mapping[str, Any]], 
     written: dict[int, dict[str, Any]] = {}
     mismatches: list[int] = []
     chosen = [e for e in entries if e["diff"] is not None][:pages] if pair is not None else []
-    shown = Progress(2 * len(chosen), label="explorer pages") if progress and chosen else None
+    shown = sweep_progress(2 * len(chosen), label="explorer pages") if progress and chosen else None
     for entry in chosen:
         seed = entry["seed"]
         logs = []

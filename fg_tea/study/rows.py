@@ -10,7 +10,6 @@ import csv
 import io
 import math
 import sys
-import time
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -201,49 +200,15 @@ class CsvSink:
 
 
 # ---------------------------------------------------------------------------------- progress
-class Progress:
-    """Sweep progress on stderr: done/total, episodes per second, ETA.
+def sweep_progress(total: int, resumed: int = 0, stream=None, every: float = 10.0, label: str = "sweep"):
+    """Sweep progress on stderr: done/total episodes, rate, elapsed time and ETA
+    (:func:`fg_tea.common.progress.progress`: redrawn on a terminal, a line every `every`
+    seconds elsewhere)."""
+    from fg_tea.common.progress import progress
 
-    On a terminal the line is redrawn in place; otherwise one line is written at most every
-    `every` seconds (and at the end).
-    """
-
-    def __init__(self, total: int, resumed: int = 0, stream=None, every: float = 10.0,
-                 label: str = "sweep") -> None:
-        self.total, self.resumed, self.done = total, resumed, resumed
-        self.stream = stream if stream is not None else sys.stderr
-        self.every, self.label = every, label
-        self.t0 = time.monotonic()
-        self._last = -math.inf
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-
-    def line(self) -> str:
-        elapsed = time.monotonic() - self.t0
-        ran = self.done - self.resumed
-        rate = ran / elapsed if elapsed > 0 else 0.0
-        left = self.total - self.done
-        eta = left / rate if rate > 0 else math.inf
-        eta_s = "?" if math.isinf(eta) else f"{int(eta // 60)}m{int(eta % 60):02d}s"
-        resumed = f" ({self.resumed} resumed)" if self.resumed else ""
-        return (f"{self.label}: {self.done}/{self.total} episodes{resumed} · {rate:.2f}/s · "
-                f"elapsed {int(elapsed // 60)}m{int(elapsed % 60):02d}s · ETA {eta_s}")
-
-    def update(self, n: int = 1) -> None:
-        self.done += n
-        now = time.monotonic()
-        if self.tty:
-            self.stream.write("\r" + self.line())
-            self.stream.flush()
-        elif now - self._last >= self.every or self.done == self.total:
-            self._last = now
-            self.stream.write(self.line() + "\n")
-            self.stream.flush()
-
-    def close(self) -> None:
-        if self.tty:
-            self.stream.write("\n")
-            self.stream.flush()
+    return progress(total, label, "episodes", initial=resumed, stream=stream, every=every,
+                    note=f"({resumed} resumed)" if resumed else "")
 
 
-__all__ = ["CsvSink", "Progress", "read_rows", "parse_cell", "write_csv_atomic", "finished",
+__all__ = ["CsvSink", "sweep_progress", "read_rows", "parse_cell", "write_csv_atomic", "finished",
            "FINISHED_COLUMN"]

@@ -48,7 +48,7 @@ from typing import Any, Iterable, Mapping, Sequence
 from fg_tea.common.errors import InputError, PlannerRefused
 from fg_tea.study.cost import ESTIMATE_ABOVE, CostEstimate
 from fg_tea.study.executors import _BACKENDS
-from fg_tea.study.rows import CsvSink, Progress, read_rows
+from fg_tea.study.rows import CsvSink, read_rows, sweep_progress
 from fg_tea.study.seeds import EPISODE_SEEDS, check_episode_seeds, episode_seed
 
 BACKENDS = ("serial", "process", "ray")
@@ -567,7 +567,7 @@ def run_sweep(jobs: Sequence[Job], csv_path: str | Path, backend: str = "process
     sink = CsvSink(csv_path, resume=resume)
     check_episode_seeds(unique, sink.rows, csv_path)
     todo = [job for job in unique if not sink.done(job.key)]
-    meter = Progress(len(unique), len(unique) - len(todo), label=label) if progress else None
+    meter = sweep_progress(len(unique), len(unique) - len(todo), label=label) if progress else None
     cost = CostEstimate([job.key for job in todo], label) if progress else None
     try:
         if cost is not None and cost.active:  # a large sweep: its size now, its CPU time soon

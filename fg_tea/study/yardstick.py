@@ -297,7 +297,7 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
         InputError: the limit does not fit, or the model's belief is correlated (named by
             `model_flag`); `out` holds episodes of another world.
     """
-    from fg_tea.study.rows import Progress
+    from fg_tea.study.rows import sweep_progress
 
     limits = {}
     for task in tasks:
@@ -309,7 +309,7 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
         print(f"{task}: limit [{lim.lower:.4f}, {lim.upper:.4f}] m (cap {lim.cap})", flush=True)
     rows = []
     for task in tasks:
-        bar = Progress(len(planners) * len(seeds), label=task)
+        bar = sweep_progress(len(planners) * len(seeds), label=task)
         rows += run(world, seeds, model, planners, task, out, progress=lambda done, total: bar.update())
     policies = {}
     for task in tasks:
