@@ -23,6 +23,7 @@ from fg_tea.cli.common import (
     failure_rates,
     frames_progress,
     integer,
+    number,
     out_path,
     planner_name,
     planner_size_fault,
@@ -68,11 +69,11 @@ def default_run_folder(scenario, model, seed: int) -> Path:
 
 @command("run")
 def cmd_run(args: argparse.Namespace) -> int:
-    """Run one episode in the PyBullet house; write its log, and its video unless --no-video."""
+    """Run one episode in the PyBullet house (or the fake house, ``--env fake``); write its log,
+    and its video unless --no-video."""
     import json
     import time
 
-    from fg_tea.env.house import PyBulletHouse
     from fg_tea.episode.log import EventLog
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
     from fg_tea.model.spec import load_model
@@ -87,7 +88,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                          "is not a site of this scenario")
     rates = failure_rates(args.failure_rate)
     pixels = {} if args.min_visible_pixels is None else {"min_visible_pixels": args.min_visible_pixels}
-    env_config = env_config_for(model, args.camera, failure_rates=rates, **pixels)
+    steps = {"movement_step": args.movement_step, "turn_step_deg": args.turn_step}
+    env_config = env_config_for(model, args.camera, failure_rates=rates, **pixels, **steps)
     from fg_tea.tasks.load import load_task
 
     check_scenario(scenario, model)
@@ -101,7 +103,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     config = RunConfig(seed=args.seed, planner=args.planner, task=args.task,
                        preparation_site=args.preparation_site, max_frames=args.max_frames,
                        solver=args.solver)
-    env = PyBulletHouse(scenario, env_config)
+    env = _environment(args.env, scenario, env_config)
     log_path = out / "episode.jsonl"
     progress = Progress(args.max_frames)
     t1 = time.perf_counter()
@@ -131,6 +133,18 @@ def cmd_run(args: argparse.Namespace) -> int:
               f"{result['frames'] / max(timings['video_s'], 1e-9):.1f} frames/s rendered)")
     atomic_write_text(out / "timings.json", json.dumps(timings, indent=2) + "\n")
     return 0 if runner.reason == "complete" else 1
+
+
+def _environment(kind: str, scenario, config):
+    """The house an episode runs in: PyBullet's, or the fake house (no simulator; docs/design.md
+    §9: the same motion, geodesic distances and seeded detections, without images)."""
+    if kind == "fake":
+        from fg_tea.env.fake import FakeHouse
+
+        return FakeHouse(scenario, config)
+    from fg_tea.env.house import PyBulletHouse
+
+    return PyBulletHouse(scenario, config)
 
 
 @command("render")
@@ -209,6 +223,9 @@ def add_parser(sub) -> None:
 
     p = sub.add_parser("run", help="run a make-tea episode in the PyBullet house (log + video)",
                        epilog=RUN_EXIT_STATUS)
+    p.add_argument("--env", choices=("pybullet", "fake"), default="pybullet",
+                   help="the PyBullet house, or the fake house: no simulator, the same motion, "
+                   "distances and seeded detections without images (default: %(default)s)")
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO,
                    help="scenario file or bundled name (default: %(default)s)")
     p.add_argument("--model", default=DEFAULT_MODEL, help=MODEL_HELP)
@@ -230,6 +247,10 @@ def add_parser(sub) -> None:
                    help="the threshold camera's detection threshold (default: the camera's, 25)")
     p.add_argument("--failure-rate", action="append", default=[], metavar="VERB=P",
                    help="inject seeded failures, e.g. FILL=0.3 (repeatable)")
+    p.add_argument("--movement-step", type=number(0.001, 1.0), default=0.018, metavar="M",
+                   help="how far the agent moves in one frame, metres (default: %(default)s)")
+    p.add_argument("--turn-step", type=number(0.1, 90.0), default=2.5, metavar="DEG",
+                   help="how far the agent turns in one frame, degrees (default: %(default)s)")
     add_video_options(p)
 
     p = sub.add_parser("render", help="re-render the video of a logged episode")
