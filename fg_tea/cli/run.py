@@ -135,6 +135,21 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0 if runner.reason == "complete" else 1
 
 
+def _look_from(house, scenario, viewpoint: str):
+    """Walk the house's agent to `viewpoint` and look as an inspection does; return the pose it
+    looked from and a caption with the pixels of each object in view (printed too)."""
+    result = house.inspect_viewpoint(viewpoint, scenario.object_names)
+    if not result.reachable:
+        raise InputError(scenario.source or scenario.name, "--site", f"{viewpoint!r} cannot be reached "
+                         "from the start pose")
+    pose = house.agent_pose()
+    pixels = ", ".join(f"{name} {n:,} px{' (seen)' if result.detections.get(name) else ''}"
+                       for name, n in result.pixel_counts.items() if n) or "no object in view"
+    print(f"view from {viewpoint} ({result.kind}, sites {', '.join(result.sites)}): {pixels}")
+    return pose, f"{scenario.name}: view from {viewpoint} ({pose.x:.2f}, {pose.y:.2f}, " \
+                 f"{pose.yaw_deg:.0f} deg): {pixels}"
+
+
 def _environment(kind: str, scenario, config):
     """The house an episode runs in: PyBullet's, or the fake house (no simulator; docs/design.md
     §9: the same motion, geodesic distances and seeded detections, without images)."""
@@ -184,8 +199,10 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 @command("preview")
 def cmd_preview(args: argparse.Namespace) -> int:
-    """Write a PNG of the chase camera with the first-person inset at the start pose, and a
-    top-down floor plan of the house beside it (``<out stem>_plan.png``)."""
+    """Write a PNG of the chase camera with the first-person inset at the start pose, or with
+    ``--site NAME`` at the pose the agent looks from at that site or room vantage (with the pixels
+    of each object it sees), and a top-down floor plan of the house beside it
+    (``<out stem>_plan.png``)."""
     from fg_tea.env.house import PyBulletHouse
     from fg_tea.episode.runner import env_config_for
     from fg_tea.model.spec import load_model
@@ -198,15 +215,21 @@ def cmd_preview(args: argparse.Namespace) -> int:
     options = video_options(args)
     model = load_model(args.model)
     check_scenario(scenario, model)
-    out = check_out_file(Path(args.out) if args.out
-                         else Path("runs") / f"{safe_name(scenario.name)}-preview.png")
+    views = [v.name for v in scenario.viewpoints]
+    if args.site is not None and args.site not in views:
+        raise InputError("<command line>", "--site", f"{args.site!r} is not a site or room vantage of "
+                         f"{scenario.name} (known: {', '.join(views)})")
+    stem = f"{scenario.name}-preview" + (f"-{args.site}" if args.site else "")
+    out = check_out_file(Path(args.out) if args.out else Path("runs") / f"{safe_name(stem)}.png")
     plan_out = check_out_file(out.with_name(f"{out.stem}_plan.png"))
     config = env_config_for(model, args.camera)
     house = PyBulletHouse(scenario, config)
     try:
         pose = house.reset(args.seed)
-        overlay = OverlayState(phase="preview", caption=f"{scenario.name}: start pose "
-                               f"({pose.x:.2f}, {pose.y:.2f}, {pose.yaw_deg:.0f} deg)")
+        caption = f"{scenario.name}: start pose ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw_deg:.0f} deg)"
+        if args.site is not None:
+            pose, caption = _look_from(house, scenario, args.site)
+        overlay = OverlayState(phase="preview", caption=caption)
         frame = compose_frame(house, options, (pose, house.placements(), None), overlay,
                               MiniMap(scenario, config.ego_hfov_deg), {s.name: s.position for s in scenario.sites})
     finally:
@@ -275,6 +298,11 @@ def add_parser(sub) -> None:
     p.add_argument("--camera", default=None, help=CAMERA_HELP)
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
                    help="seed of the start pose and world (default: %(default)s)")
-    p.add_argument("--out", type=out_path, help="output PNG (default: runs/SCENARIO-preview.png; the floor plan goes "
-                   "beside it, runs/SCENARIO-preview_plan.png)")
+    p.add_argument("--site", default=None, metavar="NAME",
+                   help="render the view from this site's or room vantage's inspection pose (the agent "
+                   "walks there from the start pose and looks, as in an episode) and print each "
+                   "object's visible pixels (default: the start pose)")
+    p.add_argument("--out", type=out_path, help="output PNG (default: runs/SCENARIO-preview.png, or "
+                   "runs/SCENARIO-preview-SITE.png with --site; the floor plan goes beside it, "
+                   "OUT's stem + _plan.png)")
     add_video_options(p)
