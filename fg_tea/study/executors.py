@@ -339,8 +339,19 @@ def _ray_window(ray) -> int:
     return in_flight_window(cpus)
 
 
+def _ray_cause(exc: BaseException) -> BaseException:
+    """The job's own error inside Ray's wrapper (``RayTaskError(ValueError)`` holds a traceback
+    in its message and the ValueError in ``cause``), so a failed Ray job reads as one line, as
+    a failed process-pool job does."""
+    inner = getattr(exc, "cause", None)
+    return inner if isinstance(inner, BaseException) else exc
+
+
 def _ray_tasks(ray, run: Run, jobs: Sequence[Any]) -> Iterator[Any]:
-    remote = ray.remote(num_cpus=1)(run)
+    def sweep_job(job: Any) -> Any:  # errors that cannot cross back become JobFailed, as in a pool
+        return _portable(run, job)
+
+    remote = ray.remote(num_cpus=1)(sweep_job)
 
     def wait_one(pending: list) -> tuple[list, list]:
         return ray.wait(pending, num_returns=1)
@@ -352,7 +363,10 @@ def _ray_tasks(ray, run: Run, jobs: Sequence[Any]) -> Iterator[Any]:
         except Exception as exc:
             for other in window.pending:
                 ray.cancel(other)
-            raise SweepError(job, exc) from exc
+            cause = _ray_cause(exc)
+            if isinstance(cause, InputError):  # a bad input file found by a worker: one line, status 2
+                raise cause from None
+            raise SweepError(job, cause) from exc
         yield row
 
 
