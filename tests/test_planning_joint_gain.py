@@ -168,7 +168,7 @@ def test_joint_planner_runs_beyond_the_dense_limit():
 def test_matrix_and_gathered_subset_convolutions_agree(monkeypatch):
     """The dense-matrix route (up to MATRIX_OBJECTS objects) and the gathered subset
     convolutions (beyond) give the same gains."""
-    import fg_tea.planning.joint_gain as jg
+    import fg_tea.planning.view_weights as jg
 
     rng = np.random.default_rng(5)
     n, k = 4, 9
