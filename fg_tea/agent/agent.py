@@ -34,12 +34,8 @@ from fg_tea.model.spec import Model
 from fg_tea.planning import Decision, DistanceModel, distances_for, make_planner
 from fg_tea.planning.base import Planner, accept_decision, call_planner
 from fg_tea.tasks.actions import TaskAction
-from fg_tea.tasks.executor import (
-    MAX_REOPENINGS,
-    RecoveryDecision,
-    TaskExecutor,
-    Violation,
-)
+from fg_tea.tasks.executor import MAX_REOPENINGS, TaskExecutor
+from fg_tea.tasks.records import RecoveryDecision, Violation
 from fg_tea.tasks.load import load_task
 from fg_tea.world.interface import ActionRequest, ActionResult, InspectionResult
 from fg_tea.world.navigation import Navigator
@@ -331,7 +327,7 @@ class Agent:
         """Absorb a successful action's outcome: its transition is applied to the belief (eq. 27).
 
         Raises:
-            fg_tea.tasks.executor.PreconditionError: the outcome violates a precondition.
+            fg_tea.tasks.records.PreconditionError: the outcome violates a precondition.
         """
         return self.executor.complete(action, result)
 

@@ -8,13 +8,13 @@ and belief preconditions [20], applies belief effects [25-27] and recovers from 
 """
 
 from fg_tea.tasks.actions import RecoveryPolicy, TaskAction
-from fg_tea.tasks.executor import (
+from fg_tea.tasks.executor import TaskExecutor
+from fg_tea.tasks.records import (
     AffordanceError,
     ObjectState,
     PreconditionError,
     RecoveryDecision,
     TaskError,
-    TaskExecutor,
     Violation,
 )
 from fg_tea.tasks.graph import STATUSES, TaskGraph
