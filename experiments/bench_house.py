@@ -32,7 +32,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from fg_tea.env import house as house_module
+from fg_tea.env import table_cache
 from fg_tea.common.options import SCENARIO_HELP, experiment_parser
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.house import PyBulletHouse
@@ -103,7 +103,7 @@ def time_calibration(name: str, config: EnvConfig) -> dict[str, float]:
     with tempfile.TemporaryDirectory(prefix="fg_tea_bench_cache_") as cache:
         os.environ["FG_TEA_CACHE_DIR"] = cache
         try:
-            house_module._VISIBILITY_CACHE.clear()  # the in-memory cache too: really cold
+            table_cache.MEMORY.clear()  # the in-memory cache too: really cold
             house = PyBulletHouse(scenario, config)
             house.reset(0)
             t0, c0 = time.perf_counter(), time.process_time()

@@ -278,3 +278,9 @@ def log_ratio_gap(now: np.ndarray, target: np.ndarray) -> float:
     if np.any(now[mass] <= 0):
         return math.inf
     return float(np.max(np.abs(np.log(now[mass]) - np.log(target[mass])))) if mass.any() else 0.0
+
+
+def as_evidence(factor: Factor) -> Evidence:
+    """`factor`, known to be the merged :class:`Evidence` of its variable, typed as such."""
+    assert isinstance(factor, Evidence)
+    return factor

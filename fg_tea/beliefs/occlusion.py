@@ -353,5 +353,6 @@ def together_from(marginals: np.ndarray, pairwise: np.ndarray | None) -> np.ndar
     return np.clip(out, 0.0, 1.0)
 
 
-__all__ = ["CompanyEvidence", "CompanyModel", "CompanyTable", "alone_miss", "fixed_companions", "look_weights", "site_masks", "company_probability", "coupled_likelihood", "curve_values", "share_matrix",
+__all__ = ["CompanyEvidence", "CompanyModel", "CompanyTable", "alone_miss", "fixed_companions", "look_weights",
+           "site_masks", "company_probability", "coupled_likelihood", "curve_values", "share_matrix",
            "slot_probability", "together_from"]

@@ -298,7 +298,8 @@ class StructuredLocationModel:
                 continue
             first = np.argmax(old > 0, axis=1)
             rows = np.arange(self.n)
-            scale = np.where(old[rows, first] > 0, new[rows, first] / np.where(old[rows, first] > 0, old[rows, first], 1.0), 1.0)
+            base = old[rows, first]
+            scale = np.where(base > 0, new[rows, first] / np.where(base > 0, base, 1.0), 1.0)
             same = np.all(np.abs(new - scale[:, None] * old) <= REUSE_TOLERANCE * new)
             out.append(subset_products(scale) if same else None)
         return out

@@ -257,7 +257,8 @@ def add_parser(sub) -> None:
                    help="output folder (default: runs/SCENARIO-MODEL-seedN; a model file that is not the "
                    "bundled model of its name adds its file stem: runs/SCENARIO-MODEL-STEM-seedN)")
     p.add_argument("--no-video", action="store_true", help="headless: write the log only")
-    p.add_argument("--max-frames", type=integer(1, 10_000_000), default=50_000, help="frame limit (default: %(default)s)")
+    p.add_argument("--max-frames", type=integer(1, 10_000_000), default=50_000,
+                   help="frame limit (default: %(default)s)")
     p.add_argument("--planner", default="efe", type=planner_name,
                    help=f"search planner: {planner_help()}; "
                    "a name registered in the fg_tea.planners entry-point group, or "

@@ -21,24 +21,21 @@ only fg_tea module that imports pybullet besides :mod:`fg_tea.env.assets`.
 
 from __future__ import annotations
 
-import copy
 import hashlib
 import itertools
 import json
 import math
-import os
-from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from fg_tea.common.files import atomic_write_text
 from fg_tea.env import assets
 from fg_tea.env.pybullet_quiet import pybullet
 from fg_tea.env.adapter import TruthBackedAdapter
 from fg_tea.env.company import category_pairs
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.motion import follow_path, held_position
+from fg_tea.env.table_cache import cached_table
 from fg_tea.world.interface import Pose
 from fg_tea.world.navigation import Navigator, path_length, wall_boxes
 from fg_tea.world.scenario import Scenario
@@ -69,8 +66,6 @@ LIGHT_COEFFS = (0.6, 0.45, 0.05)
 PARKED = (0.0, 0.0, -50.0)
 #: Bump when the expected-visibility computation changes, so cached tables are recomputed.
 VISIBILITY_VERSION = 2
-#: Expected-visibility tables already computed in this process (cache key -> table).
-_VISIBILITY_CACHE: dict[str, dict] = {}
 
 FrameSink = Callable[["PyBulletHouse", Pose], None]
 
@@ -350,35 +345,21 @@ class PyBulletHouse(TruthBackedAdapter):
         ``$FG_TEA_CACHE_DIR`` (default ``~/.cache/fg_tea``) under a hash of everything the numbers
         depend on (walls, furniture, sites and capacities, viewpoints, the number of objects,
         object models, camera parameters), so a second run pays nothing."""
-        return self._cached("visibility", categories, lambda: super(PyBulletHouse, self).expected_pixel_counts(categories))
+        compute = super().expected_pixel_counts
+        return self._cached("visibility", categories, lambda: compute(categories))
 
     def company_pixel_counts(self, categories: Sequence[str]) -> dict:
         """See :meth:`TruthBackedAdapter.company_pixel_counts`; cached as :meth:`expected_pixel_counts`
         (the face tolerance is part of the key)."""
-        return self._cached("company", categories, lambda: super(PyBulletHouse, self).company_pixel_counts(categories))
+        compute = super().company_pixel_counts
+        return self._cached("company", categories, lambda: compute(categories))
 
     def _cached(self, kind: str, categories: Sequence[str], compute: Callable[[], dict]) -> dict:
         key = self._visibility_key(categories)
         if kind != "visibility":
             key = hashlib.sha256(f"{kind}:{key}:{self.config.face_tolerance_deg!r}:"
                                  f"{list(categories)!r}".encode()).hexdigest()[:32]
-        if key in _VISIBILITY_CACHE:
-            return copy.deepcopy(_VISIBILITY_CACHE[key])
-        path = cache_dir() / kind / f"{key}.json"
-        table = None
-        if path.is_file():
-            try:
-                table = json.loads(path.read_text(encoding="utf-8"))
-            except (OSError, ValueError):
-                table = None
-        if table is None:
-            table = compute()
-            try:
-                atomic_write_text(path, json.dumps(table, sort_keys=True))
-            except OSError:
-                pass  # an unwritable cache only costs time
-        _VISIBILITY_CACHE[key] = table
-        return copy.deepcopy(table)
+        return cached_table(kind, key, compute)
 
     def _visibility_key(self, categories: Sequence[str]) -> str:
         sc, cfg = self.scenario, self.config
@@ -559,12 +540,6 @@ def _corners(parts) -> np.ndarray:
     lo, hi = assets.local_bounds(parts)
     return np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                      for z in (lo[2], hi[2])]).T
-
-
-def cache_dir() -> Path:
-    """Where computed tables are cached: ``$FG_TEA_CACHE_DIR``, else ``~/.cache/fg_tea``."""
-    env = os.environ.get("FG_TEA_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "fg_tea"
 
 
 def _view(eye: Sequence[float], yaw: float, pitch: float) -> list:

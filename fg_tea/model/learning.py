@@ -156,7 +156,8 @@ class Counts:
             for a, rrow in rtable.items():
                 for b, cell in rrow.items():
                     old = rel.get(a, {}).get(b, (0.0, 0.0, 0.0))
-                    rel.setdefault(a, {})[b] = tuple(x + float(y) for x, y in zip(old, cell))  # type: ignore[assignment]
+                    summed = tuple(x + float(y) for x, y in zip(old, cell))
+                    rel.setdefault(a, {})[b] = summed  # type: ignore[assignment]
         trans = {k: lt.combine(self.transitions.get(k, ()), other.transitions.get(k, ()))
                  for k in set(self.transitions) | set(other.transitions)}
         return Counts(_sorted(sites), _sorted(det), _sorted(sensors), _sorted(rel), _sorted(trans))

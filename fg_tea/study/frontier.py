@@ -239,4 +239,5 @@ def run_frontier(world: str, worlds: int, first_seed: int, models: list[str], pl
     return rows
 
 
-__all__ = ["DEFAULT_PLANNERS", "DecisionClock", "MARKERS", "log_ticks", "run_episode", "summarise", "check_inputs", "run_frontier"]
+__all__ = ["DEFAULT_PLANNERS", "DecisionClock", "MARKERS", "log_ticks", "run_episode", "summarise",
+           "check_inputs", "run_frontier"]

@@ -246,12 +246,14 @@ def model_text(learning: Learning, base_ref: str, name: str, base_name: str,
                transitions: Mapping[str, Any] | None = None) -> str:
     """The TOML of a learned model that ``extends`` `base_ref` and holds every count (`transitions`:
     the base model's, whose effects' state templates and declared successes label the rows)."""
+    description = (f"{base_name} with location, detector, sensor and co-location counts learned from "
+                   f"{len(learning.sources)} episode log(s)")
     lines = [
         "# Written by `fg-tea learn`: the base model plus counts from the agent's own logs",
         "# (docs/design.md §12). Counts are totals over every source log listed below.",
         f"extends = {json.dumps(base_ref)}",
         f"name = {json.dumps(name)}",
-        f"description = {json.dumps(f'{base_name} with location, detector, sensor and co-location counts learned from {len(learning.sources)} episode log(s)')}",
+        f"description = {json.dumps(description)}",
         "",
         "[learning]",
         f"prior_strength = {_num(learning.prior_strength)}          # S, eq. 50",
@@ -277,9 +279,11 @@ def model_text(learning: Learning, base_ref: str, name: str, base_name: str,
         lines += ["", f"[learning.sensors.{_toml_key(sensor)}]   # settled readings (rule 3)"]
         lines += [f"{k} = {_num(srow.get(k, 0.0))}" for k in SENSOR_KEYS]
     for first, rrow in c.co_location.items():
-        lines += ["", f"[learning.co_location.{_toml_key(first)}]   # pairs found together: same site, same room, apart (rule 4)"]
-        lines += [f"{_toml_key(second)} = {{ " + ", ".join(f"{k} = {_num(n)}" for k, n in zip(RELATION_CLASSES, cell)) + " }"
-                  for second, cell in rrow.items()]
+        table = f"[learning.co_location.{_toml_key(first)}]"
+        lines += ["", f"{table}   # pairs found together: same site, same room, apart (rule 4)"]
+        for second, cell in rrow.items():
+            counts = ", ".join(f"{k} = {_num(n)}" for k, n in zip(RELATION_CLASSES, cell))
+            lines.append(f"{_toml_key(second)} = {{ {counts} }}")
     lines += _transition_lines(learning, transitions or {})
     return "\n".join(lines) + "\n"
 

@@ -269,9 +269,12 @@ class TaskExecutor(TaskRecovery):
             remaining = outlook["remaining_probability"]
             low = remaining is not None and remaining < outlook["threshold"]
             if low or (budget is not None and outlook["looks"] >= budget):
-                net = " (the safety net of the cost rule)" * (self.model.planning.give_up == "cost")
-                return self._given_up(obj, outlook, f"remaining probability {remaining:.3g} < {outlook['threshold']:.3g}{net}"
-                                      if low else f"search budget of {budget} looks spent")
+                if not low:
+                    return self._given_up(obj, outlook, f"search budget of {budget} looks spent")
+                why = f"remaining probability {remaining:.3g} < {outlook['threshold']:.3g}"
+                if self.model.planning.give_up == "cost":
+                    why += " (the safety net of the cost rule)"
+                return self._given_up(obj, outlook, why)
         return None
 
     def _stuck(self, reason: str) -> None:
