@@ -202,9 +202,10 @@ def test_compare_runs_a_program_model(program_file, tmp_path):
     assert sorted(models) == ["factorised", "factorised", "my_model", "my_model"]
 
 
-def test_learning_from_a_program_base_is_refused_in_one_line(program_file, tmp_path):
+def test_learning_a_program_into_a_toml_file_is_refused_in_one_line(program_file, tmp_path):
+    """A program's learned tables are a program (tests/test_program_learning.py), never a TOML file."""
     status, _, err = cli(["learn", "--base", program_file, "--out", tmp_path / "m.toml"])
-    assert_one_line_error(status, err, "is a model program")
+    assert_one_line_error(status, err, "must end in .py")
 
 
 BAD = {

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 
 from fg_tea.cli.common import command, out_path
+from fg_tea.common.errors import InputError
 from fg_tea.common.resources import DEFAULT_MODEL
 
 
@@ -14,8 +15,14 @@ from fg_tea.common.resources import DEFAULT_MODEL
 def cmd_learn(args: argparse.Namespace) -> int:
     """Write a model that extends a base model and holds the counts learned from logs
     (docs/design.md §12)."""
+    from fg_tea.common.resources import is_program_ref
     from fg_tea.study.learn import learn_files, summary
 
+    if is_program_ref(args.base):
+        return _learn_program(args)
+    if args.scenario is not None:
+        raise InputError("<command line>", "--scenario", "is for a model program's --base; a TOML model's "
+                         "counts are kept by category and site, for any house")
     out, learning = learn_files(args.logs, args.base, args.out, name=args.name,
                                 forgetting=args.forgetting, prior_strength=args.prior_strength)
     from fg_tea.model.spec import load_model
@@ -29,6 +36,20 @@ def cmd_learn(args: argparse.Namespace) -> int:
           + (f"; kept together: {together}" if together else "")
           + "".join(f"; {row} success {t['declared']:g} -> {t['learned']:.3f} (95 % {t['interval_95'][0]:.3f}-"
                     f"{t['interval_95'][1]:.3f})" for row, t in info["transitions"].items()) + ")")
+    return 0
+
+
+def _learn_program(args: argparse.Namespace) -> int:
+    """``--base PROGRAM``: the program's learnable tables counted from the logs (docs/design.md §12.6)."""
+    from fg_tea.study.program_learning import learn_program
+
+    for flag, value in (("--forgetting", args.forgetting), ("--name", args.name)):
+        if value is not None:
+            raise InputError("<command line>", flag, "applies to TOML models; a learned program keeps "
+                             "every count and is named by its file")
+    out, counts = learn_program(args.logs, args.base, args.out, args.scenario, args.prior_strength)
+    told = "; ".join(f"{name}: {int(n.sum())} episode(s) counted" for name, n in counts.items())
+    print(f"learned: {out} ({len(args.logs)} new log(s); {told})")
     return 0
 
 
@@ -52,10 +73,14 @@ def add_parser(sub) -> None:
                        "from A and B at once.")
     p.add_argument("logs", nargs="*", metavar="LOG", help="episode.jsonl logs, counted in this order")
     p.add_argument("--base", default=DEFAULT_MODEL,
-                   help="base model file (.toml), or bundled model or ablation name; not a model "
-                   "program (default: %(default)s)")
+                   help="base model file (.toml), or bundled model or ablation name; or a model program "
+                   "(my_model.py, module:attr), whose tables marked learnable are counted: tables over "
+                   "locations and task states, from where objects were found and the first readings of "
+                   "a state (docs/design.md §12.6) (default: %(default)s)")
     p.add_argument("--out", required=True, type=out_path,
-                   help="the learned model file to write (.toml)")
+                   help="the learned model file to write (.toml; .py for a program's, a program itself)")
+    p.add_argument("--scenario", default=None,
+                   help="a program's house, whose sites its tables range over (default: the first log's)")
     p.add_argument("--name", default=None, help="the learned model's name (default: <base>_learned)")
     p.add_argument("--forgetting", type=float, default=None,
                    help="forgetting factor gamma in (0, 1]: held counts are multiplied by it before "

@@ -139,7 +139,8 @@ def program_record(scenario: Any, model: Any) -> dict[str, Any] | None:
         return None
     source = model.program
     file = portable_ref(source.file) if source.spec.endswith(".py") else source.file
-    return {"spec": source.spec, "file": file, "sha256": source.sha256,
+    learned = {"learned_from": source.learned_from} if source.learned_from else {}
+    return {"spec": source.spec, "file": file, "sha256": source.sha256, **learned,
             "base": source.base,
             "factors": [{"name": f.name, "scope": list(f.scope)} for f in program.factors]}
 

@@ -71,6 +71,8 @@ class ProgramSource:
         sha256: the file's SHA-256 when loaded.
         function: the function of the scenario that returns the program.
         base: the base model's name or file (the module's ``base``).
+        learned_from: for a program written by ``fg-tea learn``, the SHA-256 of the program it
+            learned from (the module's ``learned_from``), so its logs can be learned from again.
     """
 
     spec: str
@@ -78,6 +80,7 @@ class ProgramSource:
     sha256: str
     function: Callable[[Any], Any]
     base: str
+    learned_from: str = ""
 
 
 class _Timeout(BaseException):
@@ -213,7 +216,9 @@ def load_program_source(ref: str | Path) -> ProgramSource:
     except OSError:
         digest = ""
     label = spec if spec.endswith(".py") else _module_file(module, path)
-    return ProgramSource(spec, label, digest, target, str(base))
+    learned_from = getattr(module, "learned_from", "")
+    return ProgramSource(spec, label, digest, target, str(base),
+                         learned_from if isinstance(learned_from, str) else "")
 
 
 def _module_file(module: Any, path: Path) -> str:
