@@ -250,6 +250,12 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
         fault = planner_size_fault("optimal", base, load_task("make_tea", models[0], base), models[0])
         if fault is not None:
             raise InputError(world.source or args.world, "--planners optimal", f"{fault} ({base.name})")
+    if plugin_planner(planners[0]):  # a plug-in's factory and check() run once here, as compare's do
+        from fg_tea.tasks.load import load_task
+
+        fault = planner_size_fault(planners[0], base, load_task("make_tea", models[0], base), models[0])
+        if fault is not None:
+            raise InputError(world.source or args.world, f"--planners {planners[0]}", f"{fault} ({base.name})")
     if args.env == "pybullet":
         for m in models:
             check_scenario(base, m)

@@ -76,4 +76,18 @@ def learned_model(source: str, sha256: str, counts: Mapping[str, Any],
     return program.base, model
 
 
-__all__ = ["PRIOR_STRENGTH", "apply_counts", "learned_model"]
+def with_counts(model: Any, counts: Mapping[str, Any], prior_strength: float = PRIOR_STRENGTH) -> Any:
+    """A program model whose learnable tables carry `counts` (the lifelong sweep's in-memory
+    learning, docs/design.md §12.4 and §12.6); `model` itself is left as it is."""
+    from dataclasses import replace
+
+    source = model.program
+    frozen = {name: np.array(n, dtype=float) for name, n in counts.items()}
+
+    def function(scenario: Any) -> Any:
+        return apply_counts(source.function(scenario), frozen, prior_strength, source.spec)
+
+    return replace(model, program=replace(source, function=function))
+
+
+__all__ = ["PRIOR_STRENGTH", "apply_counts", "learned_model", "with_counts"]

@@ -113,7 +113,7 @@ def relation_pairs(models: Iterable[Any]) -> tuple[tuple[str, str], ...]:
 
 def arms_of(model: Any, forgetting: Sequence[float | None] = (None,)) -> list[tuple[str, str, float | None]]:
     """(arm label, kind, gamma) of every arm a model is run with (kind: hand-set/learned/...)."""
-    kinds = [LEARNED] + ([LEARNED_CORRELATIONS] if model.structure == "joint" and any(
+    kinds = [LEARNED] + ([LEARNED_CORRELATIONS] if model.program is None and model.structure == "joint" and any(
         r.kind == "co_location" for r in model.relations) else [])
     out: list[tuple[str, str, float | None]] = [(HAND_SET, HAND_SET, None)]
     for gamma in forgetting:
@@ -232,10 +232,14 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
     rows = []
     for label, kind, gamma in arms_of(base, spec.forgetting):
         learning = None
+        tables: dict | None = None  # a program's learnable tables: counts so far (design §12.6)
         for k in range(spec.episodes):
             scenario, seed = _placements(spec, k)
             model = base
-            if learning is not None:
+            if base.program is not None:
+                if tables is not None:
+                    model = _program_counts(base, tables)
+            elif learning is not None:
                 applied = learning if kind == LEARNED_CORRELATIONS else replace(
                     learning, counts=learning.counts.without_relations())
                 if not spec.learn_transitions:
@@ -264,12 +268,15 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
                                      if focus else None),
                 "log_loss": scores["log_loss"], "brier": scores["brier"],
                 "relation_log_loss": scores["relation_log_loss"],
-                "learned_logs": 0 if learning is None else len(learning.sources),
+                "learned_logs": (k if tables is not None else 0) if base.program is not None
+                else 0 if learning is None else len(learning.sources),
                 "state_readings": sum(e["event"] == "state_reading" for e in events),
                 "goals_true": m.get("goals_true"),
                 "_learning": learning,
                 "_calibration": scores["calibration"]})
-            if kind != HAND_SET:
+            if kind != HAND_SET and base.program is not None:
+                tables = _add_tables(tables, base, scenario, events)
+            elif kind != HAND_SET:
                 # in memory the source is named by household and episode, and its "sha256" is the
                 # episode seed (there is no file); with log_dir, the written file and its hash
                 source = (Source(str(path), hashlib.sha256(path.read_bytes()).hexdigest())
@@ -277,6 +284,21 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
                           Source(f"household{spec.household}/episode{k + 1}", f"{seed:064x}"))
                 learning = learn([(events, source)], learning or Learning(), gamma)
     return rows
+
+
+def _program_counts(base: Any, tables: Mapping[str, Any]) -> Any:
+    from fg_tea.model.program_learned import with_counts
+
+    return with_counts(base, tables)
+
+
+def _add_tables(tables: dict | None, base: Any, scenario: Any, events: Sequence[Mapping]) -> dict:
+    """`tables` plus one episode's counts of the program's learnable tables (design §12.6)."""
+    from fg_tea.model.program_file import program_for
+    from fg_tea.study.program_learning import count_tables, observed_values
+
+    new = count_tables(program_for(scenario, base), [observed_values(events)])
+    return {k: n + (tables or {}).get(k, 0.0) for k, n in new.items()}
 
 
 def run_lifelong(specs: Sequence[HouseholdSpec], workers: int = 1) -> list[dict]:
