@@ -42,6 +42,7 @@ from fg_tea.beliefs.structured import (
     PairWeights,
     StructuredLocationModel,
 )
+from fg_tea.beliefs.coupling import CoupledBlocks
 from fg_tea.beliefs.location_evidence import LocationEvidence
 from fg_tea.beliefs.state_block import StateBlock, UnknownVariableError  # noqa: F401 - re-exported
 from fg_tea.beliefs.updates import LookUpdate, StateUpdate  # noqa: F401 - re-exported
@@ -54,7 +55,7 @@ GTSAM_MAP_LIMIT = 1 << 16   # joint states above which MAP uses the structured m
 DENSE_PREFERRED = 50_000    # joint states up to which "auto" prefers the dense joint table
 
 
-class BeliefEngine(LocationEvidence, StateBlock):
+class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
     """Exact beliefs over object locations and task states for one scenario and model.
 
     Args:
@@ -115,6 +116,7 @@ class BeliefEngine(LocationEvidence, StateBlock):
         for f in graph.state_priors:
             self._add_state(f.variables[0], f.table[1])
         self._cache: dict[str, Any] = {}
+        self._start_coupling()  # task states coupled with a location, if the model has any
 
     # ------------------------------------------------------------------ bookkeeping
     @contextmanager
@@ -122,12 +124,12 @@ class BeliefEngine(LocationEvidence, StateBlock):
         """Evidence tried on the belief: if anything in the block raises (a contradiction, an
         interrupt), the belief is restored exactly as it was, and the exception goes on."""
         saved = (self._unary.copy(), list(self._loc_factors), list(self._state_factors),
-                 dict(self._slice), dict(self._cache), self._company)
+                 dict(self._slice), dict(self._cache), self._company, dict(self._prior_tables))
         try:
             yield
         except BaseException:
             (self._unary, self._loc_factors, self._state_factors, self._slice,
-             self._cache, self._company) = saved
+             self._cache, self._company, self._prior_tables) = saved
             raise
 
     def copy(self) -> "BeliefEngine":
@@ -140,6 +142,7 @@ class BeliefEngine(LocationEvidence, StateBlock):
         other._cards = dict(self._cards)
         other._keys = dict(self._keys)
         other._cache = dict(self._cache)
+        other._prior_tables = dict(self._prior_tables)
         return other
 
     def _solver(self, backend: str | None = None):
@@ -529,7 +532,8 @@ class BeliefEngine(LocationEvidence, StateBlock):
         names = [location_var(o) for o in self.objects]
         loc = ref.marginals(self._location_factors(), names, self._cards)
         diff = max(float(np.max(np.abs(loc[location_var(o)] - self.location(o)))) for o in self.objects)
-        states = ref.marginals(self._state_factors, list(self._slice.values()), self._cards)
+        factors = self._state_factors + self._coupled_state_factors()  # a coupling's message, if any
+        states = ref.marginals(factors, list(self._slice.values()), self._cards)
         for s, v in self._slice.items():
             diff = max(diff, abs(float(states[v][1]) - self.state(s)))
         return diff

@@ -51,6 +51,7 @@ from fg_tea.beliefs.factors import (
     pair_factor,
     state_prior,
 )
+from fg_tea.beliefs.coupling import check_couplings, coupling_factor
 from fg_tea.beliefs.structured import MAX_OBJECTS, PairWeights
 from fg_tea.common.errors import InputError
 from fg_tea.model.pairs import PairRelation, learned_pairs, model_relations
@@ -88,6 +89,9 @@ class BeliefGraph:
     pairs: tuple[PairRelation, ...] = ()
     capacity_penalty: float | None = None
     extra: tuple[Factor, ...] = ()
+    #: factors over task states and one object's location (docs/design.md §4.8), held by
+    #: :mod:`fg_tea.beliefs.coupling` between the state block and the location block
+    couplings: tuple[Factor, ...] = ()
 
     @property
     def joint_size(self) -> int:
@@ -238,8 +242,9 @@ def graph_from_program(program: Program, scenario: Any, model: Any) -> BeliefGra
         A :class:`BeliefGraph` with the program's factors, exactly.
 
     Raises:
-        InputError: the program's sites are not the scenario's, a factor couples a task state
-            with another variable, a group to sum out is too large, or a prior is all zero.
+        InputError: the program's sites are not the scenario's, a factor couples task states in
+            a way the engine cannot hold exactly (:func:`~fg_tea.beliefs.coupling.coupling_factor`),
+            a group to sum out is too large, or a prior is all zero.
     """
     source = program.source
     sites = tuple(scenario.site_names)
@@ -257,15 +262,13 @@ def graph_from_program(program: Program, scenario: Any, model: Any) -> BeliefGra
     penalty: float | None = None
     extra: list[Factor] = []
     hidden: list[ProgramFactor] = []
+    couplings: list[Factor] = []
     for f in program.factors:
         touched = [s for s in f.scope if s in tracked]
         if touched:
             if len(f.scope) > 1:
-                other = next(s for s in f.scope if s != touched[0])
-                raise InputError(source, f"factor {f.name!r}",
-                                 f"couples task state {touched[0]!r} with {other!r}; the belief engine keeps "
-                                 "task states independent of locations and of each other, so this is not run "
-                                 "yet (docs/design.md §4.8)")
+                couplings.append(coupling_factor(source, f, set(tracked), kinds))
+                continue
             unary.setdefault(f.scope[0], []).append(f.table)
         elif any(kinds[s] != "location" for s in f.scope):
             hidden.append(f)
@@ -278,6 +281,8 @@ def graph_from_program(program: Program, scenario: Any, model: Any) -> BeliefGra
             unary.setdefault(f.scope[0], []).append(f.table)
         else:
             extra.append(Factor(tuple(location_var(s) for s in f.scope), f.table, f.name))
+    if couplings:
+        check_couplings(source, couplings)
     for name, scope, table in _summed_out(program, hidden, kinds):
         if len(scope) == 1:
             unary.setdefault(scope[0], []).append(table)
@@ -298,7 +303,8 @@ def graph_from_program(program: Program, scenario: Any, model: Any) -> BeliefGra
     return BeliefGraph(sites=sites, objects=objects, rooms=tuple(s.room for s in scenario.sites),
                        capacities=tuple(s.capacity for s in scenario.sites), location_priors=priors,
                        state_priors=tuple(states), structure=getattr(model, "structure", "joint"),
-                       pairs=tuple(pairs), capacity_penalty=penalty, extra=tuple(extra))
+                       pairs=tuple(pairs), capacity_penalty=penalty, extra=tuple(extra),
+                       couplings=tuple(couplings))
 
 
 class _BasePriors:

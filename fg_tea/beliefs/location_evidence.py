@@ -62,6 +62,8 @@ class LocationEvidence:
     _correlated: bool
     _company: CompanyEvidence | None
     _cache: dict[str, Any]
+    _coupling: Any
+    _prior_tables: dict[int, np.ndarray]
 
     if TYPE_CHECKING:  # the engine's own queries and bookkeeping, which these updates call
         def _trial(self) -> AbstractContextManager[None]: ...
@@ -111,10 +113,12 @@ class LocationEvidence:
                 self._cache["structured_previous"] = previous
             for key in ("locations", "joint", "pairwise", "eliminated"):
                 self._cache.pop(key, None)
+            if self._coupling is not None:  # the coupled states' message changes with o's marginal
+                self._cache.pop("states", None)
 
     def _log_prior(self, o: int) -> np.ndarray:
         """log q0(L_o) (eq. 2), normalised; -inf where the prior is zero."""
-        table = self.graph.location_priors[o].table
+        table = self._prior_tables.get(o, self.graph.location_priors[o].table)  # a coupling's, if any
         with np.errstate(divide="ignore"):
             return np.log(table / table.sum())
 

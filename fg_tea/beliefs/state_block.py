@@ -46,6 +46,8 @@ class StateBlock:
     _slice: dict[str, str]
     _state_factors: list[Factor]
     _cache: dict[str, Any]
+    _coupling: Any
+    _start: dict[str, str]
 
     if TYPE_CHECKING:  # the engine's own solver and bookkeeping
         def _trial(self) -> AbstractContextManager[None]: ...
@@ -55,12 +57,17 @@ class StateBlock:
         @property
         def state_names(self) -> tuple[str, ...]: ...
 
+        def _coupled_state_factors(self) -> list[Factor]: ...
+
+        def _after_state_change(self) -> None: ...
+
     # ------------------------------------------------------------------ state queries
     def _state_marginals(self) -> dict[str, float]:
         cached = self._cache.get("states")
         if cached is None:
             names = list(self._slice.values())
-            marg = self._solver().marginals(self._state_factors, names, self._cards)
+            factors = self._state_factors + self._coupled_state_factors()
+            marg = self._solver().marginals(factors, names, self._cards)
             cached = {s: float(marg[v][1]) for s, v in self._slice.items()}
             self._cache["states"] = cached
         return cached
@@ -87,7 +94,8 @@ class StateBlock:
             if name not in self._slice:
                 raise UnknownVariableError(f"no task state {name!r} in the belief (states: "
                                            f"{', '.join(self.state_names) or 'none'})")
-        return self._solver().joint(self._state_factors, [self._slice[n] for n in names], self._cards)
+        factors = self._state_factors + self._coupled_state_factors()
+        return self._solver().joint(factors, [self._slice[n] for n in names], self._cards)
 
 
     # ------------------------------------------------------------------ state evidence and actions
@@ -97,6 +105,7 @@ class StateBlock:
         with self._trial():
             self._state_factors = factors
             self._cache.pop("states", None)
+            self._after_state_change()
             after = {s: self.state(s) for s in touched}
         return StateUpdate(kind, before, after, detail)
 
@@ -156,7 +165,8 @@ class StateBlock:
             factors.append(effect_factor(name, self._slice[e.state],
                                          tuple(self._slice[r] for r in e.requires),
                                          e.value, e.success, direct))
-        old = [self._slice[t] for t in targets]
+        start = set(self._start.values()) if self._coupling is not None else set()
+        old = [self._slice[t] for t in targets if self._slice[t] not in start]  # a coupled start stays
         merged = self._solver().sum_out(self._state_factors + factors, old, self._cards,
                                         "states after " + ", ".join(targets))
         before = {s: self.state(s) for s in targets}
@@ -164,6 +174,7 @@ class StateBlock:
             self._slice.update(new_names)
             self._state_factors = [merged]
             self._cache.pop("states", None)
+            self._after_state_change()
             after = {s: self.state(s) for s in targets}
         return StateUpdate("transition", before, after,
                            {"form": "direct" if direct else "full",
