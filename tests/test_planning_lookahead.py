@@ -487,16 +487,16 @@ def test_one_object_left_plans_on_its_marginal_with_the_structured_gain():
 def test_episode_distance_matrices_are_the_pairwise_lookups():
     """The episode's distance cache gives each viewpoint subset the same numbers whether built
     pair by pair or copied out of an earlier, larger matrix."""
-    from fg_tea.episode.runner import _EnvDistances
+    from fg_tea.episode.distances import EnvDistances
 
     class Floor:
         def distance_between_sites(self, a, b):
             return float(abs(hash((min(a, b), max(a, b)))) % 1000) / 7.0
 
     names = [f"v{i}" for i in range(9)]
-    cached = _EnvDistances(Floor())
+    cached = EnvDistances(Floor())
     cached.matrix_for(names)
-    fresh = _EnvDistances(Floor())
+    fresh = EnvDistances(Floor())
     for subset in (names[2:], names[::2], [names[4], names[1], names[7]], names[:1]):
         got = cached.matrix_for(subset)
         want = np.array([[fresh.between(a, b) if a != b else 0.0 for b in subset] for a in subset])

@@ -22,7 +22,7 @@ states by name).
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -131,6 +131,19 @@ class Agent:
                                company)
         self._reweigh()
         return self.views
+
+    def view_geometry_from(self, env: Any) -> ViewModel:
+        """:meth:`set_view_geometry` from an environment's pixel tables, the one way every caller
+        sets it up: `env`'s ``expected_pixel_counts`` of the belief's categories, and its
+        ``company_pixel_counts`` when the model looks with a facing tolerance or occlusion (none
+        for a close-looks model). `env` is anything with those verbs (docs/design.md §9.1).
+        """
+        if self.model.close_looks_only:
+            return self.set_view_geometry(None)
+        categories = [self.scenario.object(o).category for o in self.belief.objects]
+        company = (env.company_pixel_counts(sorted(categories))
+                   if self.model.facing_tolerance or self.model.occlusion else None)
+        return self.set_view_geometry(env.expected_pixel_counts(sorted(set(categories))), company)
 
     def _geometry_call(self) -> str:
         company = self.model.facing_tolerance or self.model.occlusion

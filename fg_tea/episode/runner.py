@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -36,6 +36,7 @@ from fg_tea.beliefs.engine import BeliefEngine, entropy
 from fg_tea.common.errors import PlannerFault
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.env.camera import Camera, default_camera, load_camera
+from fg_tea.episode.distances import EnvDistances
 from fg_tea.episode.config import RunConfig, logged_run
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
@@ -70,52 +71,6 @@ def env_config_for(model: Model, camera: "str | Path | Camera | None" = None,
     """
     chosen = load_camera(camera if camera is not None else default_camera(model.detector))
     return replace(chosen.env_config(base, **overrides), camera_source=chosen.source)
-
-
-class _EnvDistances:
-    """Planner distances from the environment: geodesic lookups from the agent and between sites.
-
-    Distances between viewpoints do not change during an episode (the floor plan is fixed), so
-    `between`, when given, is the episode's cache of them: a planner that asks for the whole
-    matrix at every decision (the lookahead: 27 sites and 9 room viewpoints, 1,296 lookups)
-    computes it once, and keeps each whole matrix asked for (`matrices`, by viewpoint names).
-    """
-
-    def __init__(self, env: EnvAdapter, between: dict[tuple[str, str], float] | None = None,
-                 matrices: dict[tuple[str, ...], np.ndarray] | None = None) -> None:
-        self._env = env
-        self._from: dict[str, float] = {}
-        self._between = {} if between is None else between
-        self._matrices = {} if matrices is None else matrices
-
-    def from_agent(self, site: str) -> float:
-        if site not in self._from:
-            self._from[site] = float(self._env.distance_to_site(site))
-        return self._from[site]
-
-    def between(self, a: str, b: str) -> float:
-        key = (a, b)
-        if key not in self._between:
-            self._between[key] = float(self._env.distance_between_sites(a, b))
-        return self._between[key]
-
-    def matrix_for(self, sites: Sequence[str]) -> np.ndarray:
-        """Metres between every two of `sites`, shape (K, K), zero diagonal (read-only, cached)."""
-        key = tuple(sites)
-        found = self._matrices.get(key)
-        if found is None:
-            # Most decisions ask for a subset of an earlier matrix (viewpoints drop out as
-            # sites are excluded): copy its entries rather than look each pair up again.
-            whole = max(self._matrices, key=len, default=())
-            index = {s: i for i, s in enumerate(whole)}
-            if key and all(s in index for s in key):
-                rows = np.array([index[s] for s in key])
-                found = self._matrices[whole][np.ix_(rows, rows)]
-            else:
-                found = np.array([[self.between(a, b) if a != b else 0.0 for b in key] for a in key])
-            found.setflags(write=False)
-            self._matrices[key] = found
-        return found
 
 
 @dataclass
@@ -164,7 +119,7 @@ class EpisodeRunner:
         """Fresh agent state for an episode with `config` (the environment is reset at start)."""
         self.config = config
         self.log = log if log is not None else EventLog()
-        self._between: dict[tuple[str, str], float] = {}  # viewpoint distances (_EnvDistances)
+        self._between: dict[tuple[str, str], float] = {}  # viewpoint distances (EnvDistances)
         self._matrices: dict[tuple[str, ...], np.ndarray] = {}
         self.agent = Agent(self.scenario, self.model, config.planner, config.task,
                            seed=config.seed, preparation_site=config.preparation_site,
@@ -260,15 +215,8 @@ class EpisodeRunner:
         pose = self.env.reset(self.config.seed)
         self._started = True
         model = self.model
-        expected = company = None
         assert self.views is None or model.close_looks_only
-        if not model.close_looks_only:
-            categories = sorted({self.scenario.object(o).category for o in self.belief.objects})
-            expected = self.env.expected_pixel_counts(categories)
-            if model.facing_tolerance or model.occlusion:
-                company = self.env.company_pixel_counts(
-                    sorted(self.scenario.object(o).category for o in self.belief.objects))
-        views = self.agent.set_view_geometry(expected, company)
+        views = self.agent.view_geometry_from(self.env)
         self._yardstick_start = ((pose.x, pose.y), dict(self.env.truth_report().get("sites") or {}))
         # JSON records of the log (mixed value types); the yardstick reads them back.
         viewpoints: list[dict[str, Any]] = [
@@ -347,7 +295,7 @@ class EpisodeRunner:
             return self.log.events[first:]
         pose = self.env.agent_pose()  # where a search is weighed from (give-up, design §7.8)
         action = self.agent.next_action((pose.x, pose.y),
-                                        _EnvDistances(self.env, self._between, self._matrices))
+                                        EnvDistances(self.env, self._between, self._matrices))
         self._flush_executor()
         if action is None:
             if self.executor.done:
@@ -389,7 +337,7 @@ class EpisodeRunner:
         excluded = frozenset(self.executor.excluded_sites)
         inspected = dict(agent.inspected)
         pose = self.env.agent_pose()
-        distances = _EnvDistances(self.env, self._between, self._matrices)
+        distances = EnvDistances(self.env, self._between, self._matrices)
         try:
             decision = agent.decide(action, (pose.x, pose.y), distances)
         except (Exception, SystemExit) as exc:  # a planner of the user's own, often: end, saying why

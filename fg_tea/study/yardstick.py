@@ -25,6 +25,7 @@ import numpy as np
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_path, atomic_write_text
+from fg_tea.episode.distances import EnvDistances
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.planning.limit import Limit, search_limit
@@ -41,19 +42,6 @@ TASKS = ("find_mug", "find_three")
 PLANNERS = ("efe", "lookahead", "exact", "optimal")
 
 
-class _StartDistances:
-    """The planner's distances seen from the start pose: the environment's geodesic lookups."""
-
-    def __init__(self, env) -> None:
-        self.env = env
-
-    def from_agent(self, site: str) -> float:
-        return float(self.env.distance_to_site(site))
-
-    def between(self, a: str, b: str) -> float:
-        return 0.0 if a == b else float(self.env.distance_between_sites(a, b))
-
-
 def start_problem(world: str, model_name: str, task: str):
     """The search problem the task starts with, from the start pose (world seed 0's house), and
     the objects it searches."""
@@ -64,7 +52,7 @@ def start_problem(world: str, model_name: str, task: str):
         agent = runner.agent
         objects = agent.executor.pending_search_objects()
         views = None if model.close_looks_only else agent.views
-        problem = build_problem(agent.belief, objects, _StartDistances(env), frozenset(), views, LOOK_COST)
+        problem = build_problem(agent.belief, objects, EnvDistances(env), frozenset(), views, LOOK_COST)
     finally:
         env.close()
     return problem, objects
@@ -80,7 +68,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
                 miss_rate: float | None = None) -> dict:
     """One search-only episode: its cost as the limit prices it, success, looks and CPU times."""
     model, scenario, env, rate = episode_setup(world, seed, model_name, "fake", miss_rate)
-    distances = _StartDistances(env)
+    distances = EnvDistances(env)
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner, task=task))
     clock = DecisionClock(runner.planner)
     steps = 0
@@ -357,19 +345,6 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
     return text
 
 
-class _FromViewpoint:
-    """Planner distances with the agent standing at a viewpoint (None: at the start pose)."""
-
-    def __init__(self, start: dict[str, float], between, here: str | None) -> None:
-        self.start, self.between_fn, self.here = start, between, here
-
-    def from_agent(self, site: str) -> float:
-        return self.start[site] if self.here is None else self.between_fn(self.here, site)
-
-    def between(self, a: str, b: str) -> float:
-        return self.between_fn(a, b)
-
-
 @dataclass(frozen=True)
 class PolicyCost:
     """A planner's exact expected search cost, by enumerating every outcome of its looks.
@@ -439,20 +414,9 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
         env.reset(0)
         agent = Agent(scenario, model, planner, task)
         if agent.views is None:
-            cats = [scenario.object(o).category for o in agent.belief.objects]
-            agent.set_view_geometry(env.expected_pixel_counts(sorted(set(cats))),
-                                    env.company_pixel_counts(sorted(cats))
-                                    if model.facing_tolerance or model.occlusion else None)
+            agent.view_geometry_from(env)
         assert agent.views is not None
-        start = {v: float(env.distance_to_site(v)) for v in agent.views.names}
-        cache: dict[tuple[str, str], float] = {}
-
-        def between(a: str, b: str) -> float:
-            if a == b:
-                return 0.0
-            if (a, b) not in cache:
-                cache[(a, b)] = float(env.distance_between_sites(a, b))
-            return cache[(a, b)]
+        distances = EnvDistances(env)  # the start pose's: the house's agent never moves here
 
         shared = {id(x): x for x in (scenario, model, agent.views, agent.planner)}
         memo: dict[tuple, tuple[float, float, float, float]] = {}
@@ -461,7 +425,7 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
         def value(agent: Agent, here: str | None, weight: float) -> tuple[float, float, float]:
             """(expected cost to go, probability of giving up, expected completion cost) from
             this state."""
-            where = _FromViewpoint(start, between, here)
+            where = distances.at(here)
             action = agent.next_action((0.0, 0.0), where)
             if action is None:
                 if agent.done:
@@ -478,14 +442,14 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
                 totals["unexpanded"] += weight
                 rest = completion_cost(agent, where, model.close_looks_only)
                 return rest, 0.0, rest
-            decision = agent.decide(action, (0.0, 0.0), _FromViewpoint(start, between, here))
+            decision = agent.decide(action, (0.0, 0.0), where)
             v = decision.viewpoint
             assert agent.views is not None
             if trace is not None:
                 trace.append((weight, here, dict(agent.inspected),
                               tuple(agent.executor.pending_search_objects()), v))
             view = agent.views.view(v)
-            step = (start[v] if here is None else between(here, v)) + LOOK_COST * max(1, len(view.sites))
+            step = where.from_agent(v) + LOOK_COST * max(1, len(view.sites))
             objects = agent.executor.pending_search_objects()
             marg = {o: agent.belief.marginal(o) for o in objects}
             sites = list(agent.belief.sites)
