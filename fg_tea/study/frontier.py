@@ -11,7 +11,7 @@ bootstrap of :mod:`fg_tea.common.stats` over worlds.
 
 from __future__ import annotations
 
-import json
+from functools import partial
 import time
 from pathlib import Path
 
@@ -22,16 +22,13 @@ from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.model.spec import load_model
 from fg_tea.planning import check_planner
+from fg_tea.study.episode_files import file_part, kept_or_run
 from fg_tea.study.sweep import job_env, model_path, world_path
 from fg_tea.world.distributions import load_world
 
 DEFAULT_PLANNERS = ["optimal", "efe", "factorised_efe", "nearest", "lookahead",
                     "lookahead:depth=1", "lookahead:depth=3,width=3,nodes=150", "pouct:100",
                     "pouct:1000", "pomcp:1000"]
-
-
-def _safe(name: str) -> str:
-    return name.replace(":", "_").replace(",", "_").replace("=", "-")
 
 
 def episode_setup(world: str, seed: int, model_name: str, env_kind: str, miss_rate: float | None):
@@ -224,17 +221,11 @@ def run_frontier(world: str, worlds: int, first_seed: int, models: list[str], pl
     for model in models:
         for planner in planners:
             for seed in range(first_seed, first_seed + worlds):
-                path = episodes / f"{world}__{model}__{_safe(planner)}__{seed:05d}.json"
-                if path.exists():
-                    rows.append(json.loads(path.read_text()))
-                    continue
-                if summary_only:
-                    continue
-                row = run_episode(world, seed, model, planner, env_kind, miss_rate)
-                tmp = path.with_suffix(".tmp")
-                tmp.write_text(json.dumps(row))
-                tmp.replace(path)
-                rows.append(row)
+                path = episodes / f"{world}__{model}__{file_part(planner)}__{seed:05d}.json"
+                row = kept_or_run(path, None if summary_only else
+                                  partial(run_episode, world, seed, model, planner, env_kind, miss_rate))
+                if row is not None:
+                    rows.append(row)
             print(f"{model} {planner}: done", flush=True)
     return rows
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import copy
 import csv
 import itertools
-import json
+from functools import partial
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,6 +26,7 @@ import numpy as np
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_path, atomic_write_text
 from fg_tea.episode.distances import EnvDistances
+from fg_tea.study.episode_files import file_part, kept_or_run
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.planning.limit import Limit, search_limit
@@ -104,18 +105,15 @@ def run(world: str, seeds: range, model: str, planners: list[str], task: str, ou
     rows = []
     jobs = [(p, s) for p in planners for s in seeds]
     for i, (planner, seed) in enumerate(jobs):
-        name = f"{task}-{model}-{planner}-{seed:05d}".replace(":", "_").replace(",", "_").replace("=", "-")
-        path = folder / f"{name}.json"
-        if path.is_file():
-            row = json.loads(path.read_text(encoding="utf-8"))
-            if row.get("world") != world:  # file names carry no world: one world per folder
-                raise InputError(path, "world", f"an episode of world {row.get('world')!r}, not "
-                                 f"{world!r}: one world per --out folder")
-            rows.append(row)
-        else:
-            row = run_episode(world, seed, model, planner, task)
-            atomic_write_text(path, json.dumps(row) + "\n")
-            rows.append(row)
+        path = folder / f"{file_part(f'{task}-{model}-{planner}-{seed:05d}')}.json"
+
+        def other_world(row: dict) -> str | None:  # file names carry no world: one world per folder
+            return None if row.get("world") == world else (f"world: an episode of world {row.get('world')!r}, "
+                                                           f"not {world!r}: one world per --out folder")
+
+        row = kept_or_run(path, partial(run_episode, world, seed, model, planner, task), other_world)
+        assert row is not None
+        rows.append(row)
         if progress:
             progress(i + 1, len(jobs))
     return rows
