@@ -27,6 +27,7 @@ from fg_tea.world.interface import (
     StateReading,
 )
 from fg_tea.world.scenario import ObjectSpec, Scenario
+from fg_tea.world.relative import start_layout
 
 #: Truth effect a verb applies when the request names none.
 DEFAULT_EFFECT = {"FILL": "fill", "POUR": "pour"}
@@ -148,13 +149,11 @@ class TruthBackedAdapter(EnvAdapter):
         self._pose = Pose(float(self.scenario.start_position[0]), float(self.scenario.start_position[1]),
                           float(self.scenario.start_yaw_deg))
         self._build()
+        slots, inside = start_layout(self.scenario)  # a slot for each standing object; containers
+        self._truth.contained_in.update(inside)
         self._positions = {}
-        by_site: dict[str, list[str]] = {}
-        for spec in self.scenario.objects:
-            by_site.setdefault(spec.true_site, []).append(spec.name)
-        for site, names in by_site.items():
-            for slot, name in enumerate(names):
-                self._positions[name] = self._slot_position(site, slot)
+        for name, (site, slot) in slots.items():
+            self._put(name, self._slot_position(site, slot))
         self._sync()
         return self._pose
 
@@ -406,8 +405,7 @@ class TruthBackedAdapter(EnvAdapter):
             return self._result(False, "site_full", frames)
         position = self._free_slot(site.name)
         self._truth.place(request.object, site.name)
-        self._positions[request.object] = position
-        self._carry()
+        self._put(request.object, position)
         return self._finish(effect, request, frames)
 
     def _to_container(self, request: ActionRequest, verb: str) -> tuple[str, list[Pose], ActionResult | None]:
@@ -428,7 +426,7 @@ class TruthBackedAdapter(EnvAdapter):
         if failed is not None:
             return failed
         self._truth.insert(request.object, dest)
-        self._positions[request.object] = self._inside_position(request.object, dest)
+        self._put(dest, self._positions[dest])
         self._carry()
         return self._finish(effect, request, frames)
 
@@ -516,15 +514,14 @@ class TruthBackedAdapter(EnvAdapter):
 
     def _carry(self) -> None:
         """Move the held object (and its contents) to its riding position in front of the agent."""
-        held = self._truth.held
-        if held is not None:
-            self._positions[held] = held_position(self._pose, self.config)
-            for inner in self._truth.contents_of(held):
-                self._positions[inner] = self._inside_position(inner, held)
+        if self._truth.held is not None:
+            self._put(self._truth.held, held_position(self._pose, self.config))
 
-    def _inside_position(self, obj: str, container: str) -> tuple[float, float, float]:
-        x, y, z = self._positions[container]
-        return (x, y, z + 0.035)
+    def _put(self, obj: str, position: tuple[float, float, float]) -> None:
+        """Stand `obj` at `position`, with whatever is inside it 3.5 cm above its base."""
+        self._positions[obj] = position
+        for inner in self._truth.contents_of(obj):
+            self._positions[inner] = (position[0], position[1], position[2] + 0.035)
 
     def _occupants(self, site: str) -> list[str]:
         return sorted(o for o, s in self._truth.site_of.items()

@@ -16,6 +16,8 @@ declares how the environment's hidden truth is drawn — never what the agent be
   arrangement with every two of them within ``within`` metres weighs ``weight`` times one without
   (:mod:`fg_tea.world.together`, exact);
 - a site never receives more objects than its capacity (full sites are removed before drawing);
+- an object the base scenario places ``beside`` or ``inside`` another is not drawn: it starts on
+  its anchor's drawn site, in the same relation (:mod:`fg_tea.world.relative`);
 - task-state truths: a state listed as ``"prior"`` in ``states`` is drawn from the scenario's
   state prior, a state listed as true/false is pinned, and every other state keeps the base
   scenario's hidden truth (so an empty kettle never starts with hot water by accident).
@@ -36,6 +38,7 @@ import numpy as np
 from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import Reader, read_json, refuse_null
 from fg_tea.world.scenario import Scenario, load_scenario, parse_scenario
+from fg_tea.world.relative import anchor_site
 from fg_tea.world.together import Together, check_positive, draw_together
 
 #: Entropy tag of the random stream that draws a generated world's room count.
@@ -151,9 +154,10 @@ class WorldDistribution:
             alt = np.full(k, 1.0 / k) if self.violation == "uniform" else (1.0 / prior) / (1.0 / prior).sum()
             return (1.0 - self.prior_violation) * prior + self.prior_violation * alt
 
+        following = {s.name for s in scenario.objects if s.relative_to is not None}
         for name in self.order:
-            if name in placed:
-                continue  # drawn with its together rule
+            if name in placed or name in following:
+                continue  # drawn with its together rule, or placed relative to its anchor
             group = groups.get(name)
             if group is not None:
                 drawn = draw_together(group, [s.position for s in sites],
@@ -179,8 +183,12 @@ class WorldDistribution:
             j = int(rng.choice(k, p=weights / weights.sum()))
             placed[name] = j
             load[j] += 1
+        sited = [replace(s, true_site=sites[placed[s.name]].name) if s.name in placed else s
+                 for s in scenario.objects]
+        specs = {s.name: s for s in sited}
         objects = []
-        for spec in scenario.objects:
+        for spec in sited:  # an object placed beside or inside another follows its anchor's site
+            spec = replace(spec, true_site=anchor_site(spec.name, specs))
             truth = dict(spec.hidden_state_truth)
             for state, p in spec.state_priors.items():
                 full = f"{spec.name}.{state}"
@@ -188,8 +196,7 @@ class WorldDistribution:
                     truth[state] = self.pinned_states[full]
                 elif full in self.drawn_states:
                     truth[state] = bool(rng.random() < p)
-            objects.append(replace(spec, true_site=sites[placed[spec.name]].name if spec.name in placed
-                                   else spec.true_site, hidden_state_truth=MappingProxyType(truth)))
+            objects.append(replace(spec, hidden_state_truth=MappingProxyType(truth)))
         return replace(scenario, name=f"{self.name}#{seed}", objects=tuple(objects))
 
 
@@ -253,11 +260,14 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
     missing = [o for o in object_names if o not in order]
     order = list(order) + missing
     rules: list[CoLocation] = []
+    following = {} if base is None else {o.name: o.relative_to for o in base.objects if o.relative_to}
     for c in placement.items("co_location", required=False):
         obj, anchor = c.req("object", str), c.req("anchor", str)
         for key, value in (("object", obj), ("anchor", anchor)):
             if value not in object_names:
                 raise c.fail(f"object {value!r} is referenced but not defined in {what}", key)
+            if value in following:
+                raise c.fail(_follows(value, following[value], what), key)
         if anchor == obj:
             raise c.fail(f"object {obj!r} cannot be its own anchor", "anchor")
         if any(rule.object == obj for rule in rules):
@@ -276,6 +286,8 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         for m in members:
             if m not in object_names:
                 raise c.fail(f"object {m!r} is referenced but not defined in {what}", "objects")
+            if m in following:
+                raise c.fail(_follows(m, following[m], what), "objects")
             if members.count(m) > 1 or any(m in g.objects for g in together):
                 raise c.fail(f"object {m!r} is listed twice (an object is in at most one rule)", "objects")
             if any(rule.object == m for rule in rules):
@@ -306,6 +318,12 @@ def parse_world(data: object, file: str | Path) -> WorldDistribution:
         drawn_states=frozenset(drawn), source=str(file), generate=generate, together=tuple(together))
     r.finish()
     return world
+
+
+def _follows(name: str, relation: tuple[str, str], what: str) -> str:
+    """Why a placement rule may not name an object placed relative to another."""
+    return (f"object {name!r} is placed {relation[0]} {relation[1]!r} in {what}, so it starts where its "
+            "anchor is drawn and no placement rule draws it")
 
 
 def load_world(path: str | Path) -> WorldDistribution:

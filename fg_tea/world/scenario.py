@@ -136,7 +136,11 @@ VIEWPOINT_KINDS = ("site", "room")
 
 @dataclass(frozen=True)
 class ObjectSpec:
-    """A task object. `true_site` and `hidden_state_truth` are environment truth, never beliefs."""
+    """A task object. `true_site` and `hidden_state_truth` are environment truth, never beliefs.
+
+    `relative_to` is ``(relation, anchor)`` for an object placed ``beside`` or ``inside`` another
+    (:mod:`fg_tea.world.relative`; its `true_site` is then the anchor's), else None.
+    """
 
     name: str
     category: str
@@ -146,6 +150,7 @@ class ObjectSpec:
     asset: str
     state_priors: Mapping[str, float]
     hidden_state_truth: Mapping[str, bool]
+    relative_to: tuple[str, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -334,10 +339,13 @@ def _read_site(s: Reader, house: House) -> Site:
 
 
 def _read_object(o: Reader, site_names: set[str]) -> ObjectSpec:
+    """One object; its site is checked by :func:`fg_tea.world.relative.resolve` (with the others,
+    as a placement relative to another object needs them)."""
+    from fg_tea.world.relative import read_placement
+
     name = o.req("name", str)
-    true_site = o.req("true_site", str)
-    if true_site not in site_names:
-        raise o.fail(f"site {true_site!r} is referenced but not defined in sites", "true_site")
+    relative_to = read_placement(o)
+    true_site = o.req("true_site", str) if relative_to is None else o.opt("true_site", str, "")
     affordances = o.opt("affordances", list, [])
     for i, a in enumerate(affordances):
         if not isinstance(a, str):
@@ -361,6 +369,7 @@ def _read_object(o: Reader, site_names: set[str]) -> ObjectSpec:
         asset=o.opt("asset", str, o.opt("category", str, name)),
         state_priors=_frozen(priors),
         hidden_state_truth=_frozen(truth),
+        relative_to=relative_to,
     )
 
 
@@ -406,6 +415,9 @@ def parse_scenario(data: object, file: str | Path = "<scenario>") -> Scenario:
         obj_names.add(spec.name)
         ids.add(spec.semantic_id)
         objects.append(spec)
+    from fg_tea.world.relative import resolve
+
+    objects = resolve(objects, objects_r, names)
 
     n_states = sum(len(spec.state_priors) for spec in objects)
     if n_states > MAX_STATES:
