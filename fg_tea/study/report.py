@@ -13,16 +13,22 @@ from fg_tea.study.analysis import (METRICS, YARDSTICK, _order, paired_difference
                                    plot_bars, plot_entropy, plot_paired, plot_ratios, ratio_markdown,
                                    ratio_to_reference, refused, step_limited, summary_markdown,
                                    summary_table)
+from fg_tea.study.bounds import bound_markdown, bound_table
 from fg_tea.study.rows import write_csv_atomic
 
 
-def _summary_csv_rows(summary: Sequence[Mapping[str, Any]], metrics: Sequence[str]) -> list[dict]:
+def _summary_csv_rows(summary: Sequence[Mapping[str, Any]], metrics: Sequence[str],
+                      bounds: Sequence[Mapping[str, Any]] = ()) -> list[dict]:
     out = []
-    for s in summary:
+    for i, s in enumerate(summary):
         row = {k: v for k, v in s.items() if not isinstance(v, Interval)}
         for m in list(metrics) + ["success"]:
             iv = s[m]
             row.update({f"{m}_mean": iv.mean, f"{m}_ci_low": iv.low, f"{m}_ci_high": iv.high})
+        if bounds:
+            b = bounds[i]
+            row.update({"search_bound": b["bound"], "search_travel_over_bound": b["travel_over_bound"],
+                        "search_bound_fault": b["bound_fault"]})
         out.append(row)
     return out
 
@@ -46,7 +52,9 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
                       joint_model: str = "joint", reference_planner: str = "optimal") -> dict[str, Path]:
     """Write summary.md, summary.csv, paired.csv and plots for a model x planner sweep.
 
-    Sections: means with 95 % CIs per (model, planner); paired differences joint − factorised per
+    Sections: means with 95 % CIs per (model, planner); search travel beside a lower bound on the
+    optimum (:mod:`fg_tea.study.bounds`, also in summary.csv as ``search_bound``); paired
+    differences joint − factorised per
     planner; each planner vs the Bayes-optimal planner (ratio and excess travel, per model); an
     ablation table (every other model − `baseline_model`) when the sweep has other models.
 
@@ -94,6 +102,15 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
               "max(search travel, clairvoyant) per episode, 0 when an object was never found.", "",
               "## Means per model and planner", "",
               summary_markdown(summary, metrics=metrics + (YARDSTICK,))]
+    bounds = bound_table(summary, ordered)
+    lines += ["## Search travel beside a lower bound on the optimum", "",
+              "Per model and planner: mean search travel, and the mean over the same worlds of a lower "
+              "bound on the optimal expected search travel from the start under the model's own prior "
+              "(perfect looks, one object at a time, each look at its cheapest arrival; docs/design.md "
+              "§6.9). The optimum lies between them, so travel ÷ bound is an upper end of the "
+              "planner's ratio to it, in worlds drawn from the model's prior (elsewhere a reference "
+              "point). Where there is none, the reason.", "",
+              bound_markdown(bounds), ""]
     if baseline_model in models and joint_model in models:
         diffs = paired_differences([r for r in ordered if r["model"] in (baseline_model, joint_model)],
                                    "model", baseline_model, metrics + ("success",), by=("planner",))
@@ -133,7 +150,7 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
                   "error.", "",
                   summary_markdown(summary_table(ordered, ("model", "planner"), quality), metrics=quality,
                                    digits=3)]
-    write_csv_atomic(out / "summary.csv", _summary_csv_rows(summary, metrics + (YARDSTICK,)))
+    write_csv_atomic(out / "summary.csv", _summary_csv_rows(summary, metrics + (YARDSTICK,), bounds))
     files["summary.csv"] = out / "summary.csv"
     files["travel_inspections.png"] = plot_bars(summary, out / "travel_inspections.png",
                                                 ("search_distance", "total_distance", "inspections"),
