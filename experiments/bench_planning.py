@@ -266,7 +266,7 @@ def time_episodes(planner_name: str, model, world: str, worlds: int, seed: int) 
         env = FakeHouse(scenario, env_config_for(model))
         try:
             runner = EpisodeRunner(scenario, model, env, RunConfig(seed=w, planner=planner_name))
-            clock = DecisionClock(runner.planner)
+            clock = DecisionClock(runner.agent.planner)
             try:
                 successes += bool(runner.run()["success"])
             finally:

@@ -446,7 +446,7 @@ def decision_times(jobs: list[Job], worlds: int) -> list[dict]:
                                                                     max_frames=job.max_frames,
                                                                     task=job.task,
                                                                     gtsam_check=job.gtsam_check))
-            clock = DecisionClock(runner.planner)
+            clock = DecisionClock(runner.agent.planner)
             try:
                 for _ in range(job.max_steps):
                     runner.step()

@@ -60,11 +60,11 @@ def describe(event: dict) -> str | None:
 
 def table(runner: EpisodeRunner) -> str:
     """The belief now: location marginals (objects x sites) and hidden-state probabilities."""
-    sites, q = runner.belief.sites, runner.belief.location_matrix()
+    sites, q = runner.agent.belief.sites, runner.agent.belief.location_matrix()
     lines = ["  " + f"{'':8}" + "".join(f"{s[:8]:>9}" for s in sites)]
-    for obj, row in zip(runner.belief.objects, q):
+    for obj, row in zip(runner.agent.belief.objects, q):
         lines.append("  " + f"{obj:8}" + "".join(f"{p:9.3f}" for p in row))
-    states = runner.belief.states()
+    states = runner.agent.belief.states()
     lines.append("  states: " + "  ".join(f"{s} {p:.3f}" for s, p in sorted(states.items())))
     return "\n".join(lines)
 
@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     runner.start()
     print(f"{scenario.name} · model {model.name} ({model.structure}) · seed {args.seed}")
     print("step 0 (prior)\n" + table(runner))
-    history = [(runner.belief.location_matrix(), runner.belief.states())]
+    history = [(runner.agent.belief.location_matrix(), runner.agent.belief.states())]
     # 3. Step until the episode ends; after each step, read the belief straight off the engine.
     try:
         while not runner.done:
@@ -131,14 +131,14 @@ def main(argv: list[str] | None = None) -> int:
             for line in filter(None, map(describe, events)):
                 print("  " + line)
             print(table(runner))
-            history.append((runner.belief.location_matrix(), runner.belief.states()))
+            history.append((runner.agent.belief.location_matrix(), runner.agent.belief.states()))
     finally:
         env.close()
     # 4. Metrics come from the event log, like every other number fg_tea reports.
     metrics = runner.metrics()
     print(f"done: {metrics['reason']} · {metrics['inspections']} inspections · "
           f"{metrics['total_distance']:.1f} m travelled")
-    plot(history, list(runner.belief.sites), list(runner.belief.objects), args.out)
+    plot(history, list(runner.agent.belief.sites), list(runner.agent.belief.objects), args.out)
     print(f"wrote {args.out}")
     return 0
 

@@ -42,14 +42,14 @@ def default_runs():
 def test_default_episode_makes_tea(default_runs):
     runner = default_runs["factorised"]
     assert runner.reason == "complete" and runner.state.terminated and not runner.state.truncated
-    objects = runner.executor.object_state()
+    objects = runner.agent.executor.object_state()
     prep = runner.scenario.preparation_site
     assert objects["mug"]["current_site"] == prep and not objects["mug"]["held"]
     assert objects["teabag"]["contained_in"] == "mug" and objects["teabag"]["current_site"] == prep
     assert objects["kettle"]["current_site"] == prep and not objects["kettle"]["held"]
-    statuses = set(runner.graph.to_json().values())
+    statuses = set(runner.agent.graph.to_json().values())
     assert statuses <= {"complete", "skipped"}
-    assert runner.belief.state("mug.tea_brewed") >= 0.90 and runner.belief.state("mug.served") >= 0.90
+    assert runner.agent.belief.state("mug.tea_brewed") >= 0.90 and runner.agent.belief.state("mug.served") >= 0.90
     assert "fill_kettle" not in score(runner.events)["skipped_actions"]
     assert score(runner.events)["goals_true"] is True  # the world agrees with what it believes
 
@@ -67,7 +67,7 @@ def test_every_model_completes_every_bundled_scenario(scenario, model):
 def test_filled_kettle_skips_fill_with_the_same_graph(default_runs):
     filled = run_episode("filled_kettle", "factorised")
     assert score(filled.events)["skipped_actions"] == ["fill_kettle"]
-    assert list(filled.graph) == list(default_runs["factorised"].graph)
+    assert list(filled.agent.graph) == list(default_runs["factorised"].agent.graph)
     reading = next(e for e in filled.events if e["event"] == "state_reading" and e["purpose"] == "task")
     assert reading["value"] is True and reading["after"] > 0.90
 
@@ -78,7 +78,7 @@ def test_prior_violation_moves_belief_away_from_inspected_sites():
     found_at = next(i for i, e in enumerate(observations) if "mug" in e["resolved"])
     misses = [e for e in observations[:found_at] if e["detections"].get("mug") is False]
     assert len(misses) >= 1
-    sites = runner.belief.sites
+    sites = runner.agent.belief.sites
     for e in misses:
         for site in e["sites_in_view"]:
             j = sites.index(site)
@@ -219,18 +219,18 @@ def test_runner_can_be_stepped_and_inspected():
     runner = EpisodeRunner(s, m, FakeHouse(s, env_config_for(m)), RunConfig(seed=2))
     first = runner.step()
     assert [e["event"] for e in first] == ["episode_start"]  # the prior, before any decision
-    assert runner.last_decision is None
-    assert runner.belief.location_map("mug") == pytest.approx(
+    assert runner.agent.last_decision is None
+    assert runner.agent.belief.location_map("mug") == pytest.approx(
         dict(zip(first[0]["belief"]["sites"], first[0]["belief"]["locations"]["mug"])), abs=1e-9)
     second = runner.step()
     assert any(e["event"] == "decision" for e in second)
     assert second[-1]["event"] == "belief"
-    assert runner.last_decision is not None and runner.last_decision.viewpoint in {v.name for v in s.viewpoints}
+    assert runner.agent.last_decision is not None and runner.agent.last_decision.viewpoint in {v.name for v in s.viewpoints}
     entropies = []
     while not runner.done:
-        q = runner.belief.location("mug")
+        q = runner.agent.belief.location("mug")
         assert np.isclose(q.sum(), 1.0)
-        entropies.append(runner.belief.entropy("L[mug]"))
+        entropies.append(runner.agent.belief.entropy("L[mug]"))
         runner.step()
     assert runner.reason == "complete"
     assert entropies[-1] < entropies[0]

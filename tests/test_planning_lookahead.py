@@ -337,7 +337,7 @@ def _views(scenario, model):
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=0))
     runner.start()
     env.close()
-    return runner.views
+    return runner.agent.views
 
 
 def _viewpoint_distances(scenario):

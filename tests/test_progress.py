@@ -24,7 +24,7 @@ def test_the_bar_is_full_when_the_task_is_done_and_names_the_action_under_way():
     progress.close()
     lines = [line.strip() for line in stream.getvalue().split("\r") if line.strip()]
     assert runner.reason == "complete"
-    total = len(runner.graph)
+    total = len(runner.agent.graph)
     assert lines[-1].startswith("episode: |" + "#" * Progress.WIDTH + "|"), lines[-1]
     assert f"{total}/{total} actions" in lines[-1] and "/50,000" in lines[-1]
     # Every step of the episode but the last names the action it is carrying out; the first

@@ -90,11 +90,11 @@ def _episode(runner: EpisodeRunner) -> list[dict]:
 
 def test_first_step_is_the_prior_and_every_step_ends_with_a_belief():
     runner = _runner()
-    prior = runner.belief.location_map("mug")
+    prior = runner.agent.belief.location_map("mug")
     first = runner.step()
     assert [e["event"] for e in first] == ["episode_start"]
     assert first[0]["belief"]["locations"]["mug"] == pytest.approx(list(prior.values()))
-    assert runner.last_decision is None and runner.belief.location_map("mug") == prior
+    assert runner.agent.last_decision is None and runner.agent.belief.location_map("mug") == prior
     while not runner.done:
         events = runner.step()
         kinds = [e["event"] for e in events]
@@ -112,7 +112,7 @@ def test_reset_with_a_seed_gives_the_events_of_a_fresh_runner():
     _episode(runner)
     start = runner.reset(seed=5)
     assert start["event"] == "episode_start" and start["seed"] == 5 and runner.events == [start]
-    assert not runner.done and runner.last_decision is None
+    assert not runner.done and runner.agent.last_decision is None
     assert _episode(runner) == fresh
     runner.reset()  # the same seed again
     assert _episode(runner) == fresh

@@ -209,7 +209,7 @@ def test_unfindable_mug_gives_up_within_the_budget_with_its_reason():
     env = FakeHouse(s, env_config_for(m, detection_miss_rate=1.0))  # the camera never sees it
     runner = EpisodeRunner(s, m, env, RunConfig(seed=0))
     metrics = runner.run()
-    budget = runner.executor.search_budget()
+    budget = runner.agent.executor.search_budget()
     p, mu = m.planning.give_up_probability, m.miss_likelihood
     assert budget == len(s.sites) * (math.ceil(math.log(p) / math.log(mu)) + 1) == 32
     assert metrics["reason"].startswith("not_found: ")
@@ -236,7 +236,7 @@ def test_only_the_unfindable_mug_is_given_up(model):
     assert metrics["reason"].startswith("not_found: mug (remaining probability ")
     assert metrics["inspections_until_resolved"]["kettle"] is not None
     assert metrics["inspections_until_resolved"]["teabag"] is not None
-    assert metrics["inspections"] <= runner.executor.search_budget()
+    assert metrics["inspections"] <= runner.agent.executor.search_budget()
 
 
 def test_look_budget_ends_a_search_the_probability_rule_would_continue():

@@ -26,6 +26,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.agent import records as _records
 from fg_tea.agent.give_up import sweep_length, weigh
 from fg_tea.beliefs.detection import PixelTable, ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, LookUpdate
@@ -112,6 +113,7 @@ class Agent:
         self._navigator: Navigator | None = None
         self._sweep: float | None = None  # metres of one sweep of the house (the give-up's unit)
         self._looked_from: tuple[float, float] | None = None  # the last look's vantage
+        self._handed_out = 0  # the executor's events already returned by records()
         if expected_pixels is not None or model.close_looks_only:
             self.set_view_geometry(expected_pixels, company)
 
@@ -159,6 +161,84 @@ class Agent:
                       for i, o in enumerate(b.objects) if (st := self.executor.objects.get(o)) is not None
                       and (st.held or st.contained_in is not None or st.current_site is not None)}
             self.views.reweigh(b.location_matrix(), b.pairwise() if b.correlated else None, placed)
+
+    # ------------------------------------------------------------------ records
+    def records(self) -> list[dict]:
+        """The log records the agent made since this was last called, in order: skips,
+        activations, searches confirmed, completions, readings, failures and recoveries, give-ups
+        (docs/log-format.md). Each record is returned once; a loop writes them as they come."""
+        events = self.executor.events
+        out, self._handed_out = events[self._handed_out:], len(events)
+        return out
+
+    def decision_record(self, action: TaskAction, decision: Decision) -> dict:
+        """The ``decision`` record of a SEARCH step (call it right after :meth:`decide`)."""
+        return _records.decision_record(self, action, decision)
+
+    def observation_record(self, viewpoint: str, objects: list[str], result: InspectionResult,
+                           update: LookUpdate) -> dict:
+        """The ``observation`` record of the look :meth:`observe_look` absorbed as `update`;
+        `objects` are the decision's (its record's ``objects``)."""
+        return _records.observation_record(self, viewpoint, objects, result, update)
+
+    def start_record(self) -> dict:
+        """The agent's fields of ``episode_start``: ``task``, ``searched``, ``graph``, ``tasks``,
+        ``belief`` (the prior) and ``recovery`` (tries per reason, runs per action)."""
+        return _records.start_record(self)
+
+    def end_record(self, gtsam_check: bool = True) -> dict:
+        """The agent's fields of ``episode_end``: ``graph``, ``goal_conditions``, ``belief`` and
+        ``gtsam_agreement`` (None where gtsam cannot hold the belief or `gtsam_check` is off)."""
+        return {"graph": self.graph.to_json(), "goal_conditions": _records.goal_conditions(self),
+                "belief": self.belief.snapshot(),
+                "gtsam_agreement": _records.gtsam_agreement(self) if gtsam_check else None}
+
+    def snapshot(self) -> dict:
+        """The belief as one JSON record (a ``belief`` event's fields)."""
+        return self.belief.snapshot()
+
+    def progress(self) -> tuple[int, int]:
+        """(task actions finished, task actions in all)."""
+        return sum(self.graph.is_finished(n) for n in self.graph), len(self.graph)
+
+    def branch(self) -> "Agent":
+        """A copy of the agent to explore an outcome with (a policy's evaluation): its belief,
+        task and counters are its own; its inputs, view geometry and planner are shared; it has
+        no records yet to return."""
+        import copy
+
+        shared = (self.scenario, self.model, self.views, self.planner)
+        child = copy.deepcopy(self, memo={id(x): x for x in shared})
+        child.executor.events.clear()
+        child._handed_out = 0
+        return child
+
+    # ------------------------------------------------------------------ reading
+    def searching(self) -> list[str]:
+        """Objects whose search is not finished, in the task's order."""
+        return self.executor.pending_search_objects()
+
+    def viewpoints(self) -> list[str]:
+        """The viewpoints the agent can look from (empty before the view geometry is set)."""
+        return [] if self.views is None else list(self.views.names)
+
+    def view(self, viewpoint: str):
+        """What a look from `viewpoint` covers: its sites and detection probabilities
+        (:class:`~fg_tea.beliefs.detection.ViewModel`'s view); read only."""
+        if self.views is None:
+            raise ValueError(f"model {self.model.name!r} has no view geometry yet: "
+                             f"call {self._geometry_call()}")
+        return self.views.view(viewpoint)
+
+    def search_problem(self, distances: DistanceModel, look: float):
+        """The search for the objects still searched as one :class:`~fg_tea.planning.problem.SearchProblem`
+        (what the planners and the limit decide over), from the belief now, with no site excluded
+        and looks of cost `look` per image; a close-looks model scores sites by its miss
+        likelihood."""
+        from fg_tea.planning.problem import build_problem
+
+        views = None if self.model.close_looks_only else self.views
+        return build_problem(self.belief, self.searching(), distances, frozenset(), views, look)
 
     # ------------------------------------------------------------------ deciding
     @property

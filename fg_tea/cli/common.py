@@ -251,9 +251,9 @@ class Progress:
             return
         from fg_tea.common.progress import progress
 
-        finished = sum(runner.graph.is_finished(n) for n in runner.graph)
+        finished, total = runner.agent.progress()
         if self.bar is None:
-            self.bar = progress(len(runner.graph), "episode", "actions", stream=self.stream, bar=True,
+            self.bar = progress(total, "episode", "actions", stream=self.stream, bar=True,
                                 status=self.status(runner))
         self.bar.set_postfix_str(self.status(runner), refresh=False)
         if finished > self.bar.n:

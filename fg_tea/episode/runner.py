@@ -31,8 +31,6 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from fg_tea.agent.agent import Agent
-from fg_tea.beliefs.detection import ViewModel
-from fg_tea.beliefs.engine import BeliefEngine, entropy
 from fg_tea.common.errors import PlannerFault
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.env.camera import Camera, default_camera, load_camera
@@ -42,12 +40,8 @@ from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.episode.provenance import episode_provenance, portable_ref, program_record
 from fg_tea.model.spec import Model
-from fg_tea.planning import Decision
-from fg_tea.tasks.executor import (
-    NOT_FOUND,
-    PreconditionError,
-    TaskExecutor,
-)
+from fg_tea.tasks.executor import NOT_FOUND
+from fg_tea.tasks.records import PreconditionError
 from fg_tea.world.interface import ActionRequest
 from fg_tea.world.scenario import Scenario
 
@@ -100,9 +94,9 @@ class EpisodeRunner:
             ``fg_tea.render.video.VideoOptions`` or a mapping), recorded in
             ``episode_start.parameters.render``; None when no video is made.
 
-    Between steps, ``runner.belief``, ``runner.executor``, ``runner.graph`` and
-    ``runner.last_decision`` can be inspected freely. ``runner.belief.sites`` and
-    ``runner.belief.objects`` give the order of every marginal's entries.
+    Between steps, ``runner.agent`` (its ``belief``, ``last_decision``...) can be inspected
+    freely. ``runner.agent.belief.sites`` and ``runner.agent.belief.objects`` give the order of
+    every marginal's entries.
     """
 
     def __init__(self, scenario: Scenario, model: Model, env: EnvAdapter,
@@ -125,36 +119,10 @@ class EpisodeRunner:
                            seed=config.seed, preparation_site=config.preparation_site,
                            solver=config.solver, max_reopenings=config.max_reopenings)
         self.state = EpisodeState()
-        self._seen_executor_events = 0
         self._started = False
         # For the clairvoyant yardstick only (written in episode_end, never read by the agent):
         # the start floor point and the objects' true start sites, as the environment reports them.
         self._yardstick_start: tuple[tuple[float, float], dict] | None = None
-
-    # The agent's parts, for scripts that inspect a runner between steps.
-    @property
-    def belief(self) -> BeliefEngine:
-        return self.agent.belief
-
-    @property
-    def executor(self) -> TaskExecutor:
-        return self.agent.executor
-
-    @property
-    def graph(self):
-        return self.agent.graph
-
-    @property
-    def planner(self):
-        return self.agent.planner
-
-    @property
-    def views(self) -> ViewModel | None:
-        return self.agent.views
-
-    @property
-    def last_decision(self) -> Decision | None:
-        return self.agent.last_decision
 
     # ------------------------------------------------------------------ properties
     @property
@@ -173,10 +141,9 @@ class EpisodeRunner:
     def _write(self, event: dict) -> dict:
         return self.log.write({**event, "frame": self.state.frame})
 
-    def _flush_executor(self, merge_last: bool = False) -> dict | None:
-        """Write the executor's new events; with merge_last, return the last one instead."""
-        pending = self.executor.events[self._seen_executor_events:]
-        self._seen_executor_events = len(self.executor.events)
+    def _flush_agent(self, merge_last: bool = False) -> dict | None:
+        """Write the agent's new records; with merge_last, return the last one instead."""
+        pending = self.agent.records()
         last = pending.pop() if merge_last and pending else None
         for event in pending:
             self._write(event)
@@ -193,7 +160,7 @@ class EpisodeRunner:
 
         Everything the agent holds is rebuilt (belief, task graph, executor, planner and its
         random generator, counters), the environment is reset with the seed, and the prior is
-        logged; ``runner.belief`` is then the prior, before any decision. The same seed gives
+        logged; ``runner.agent.belief`` is then the prior, before any decision. The same seed gives
         the same events as a fresh runner.
 
         Args:
@@ -215,7 +182,6 @@ class EpisodeRunner:
         pose = self.env.reset(self.config.seed)
         self._started = True
         model = self.model
-        assert self.views is None or model.close_looks_only
         views = self.agent.view_geometry_from(self.env)
         self._yardstick_start = ((pose.x, pose.y), dict(self.env.truth_report().get("sites") or {}))
         # JSON records of the log (mixed value types); the yardstick reads them back.
@@ -230,6 +196,7 @@ class EpisodeRunner:
         provenance = episode_provenance(self.scenario.source, model.source,
                                         resolve_task(self.config.task), world, self.render,
                                         camera=getattr(self.env.config, "camera_source", None))
+        agent = self.agent.start_record()
         return self._write({
             "event": "episode_start",
             "scenario": self.scenario.name,
@@ -238,7 +205,7 @@ class EpisodeRunner:
             "structure": model.structure,
             # A model program (docs/design.md §4.8): its file, hash and factors; absent for TOML models.
             **({"program": program_record(self.scenario, model)} if model.program is not None else {}),
-            "task": self.graph.name, "planner": self.config.planner, "seed": self.config.seed,
+            "task": agent["task"], "planner": self.config.planner, "seed": self.config.seed,
             "versions": provenance["versions"], "git": provenance["git"],
             "inputs": provenance["inputs"],
             "parameters": {"run": logged_run(self.config), "env": _env_params(self.env.config),
@@ -254,8 +221,7 @@ class EpisodeRunner:
                                          "room_glances": model.room_glances},
                            "transition_form": model.transition_form,
                            "recovery": {**asdict(model.retries),
-                                        "tries": self.executor.transient_tries(),
-                                        "action_runs": self.executor.practical_runs()},
+                                        "tries": agent["tries"], "action_runs": agent["action_runs"]},
                            # Experience (docs/design.md §12), only for a model that has some, so
                            # a model learned from no logs writes its base model's events.
                            **({"learning": model.learning.to_json()}
@@ -265,12 +231,10 @@ class EpisodeRunner:
             "viewpoints": viewpoints,
             "objects": list(self.scenario.object_names),
             "categories": {o.name: o.category for o in self.scenario.objects},
-            "searched": self.executor.pending_search_objects(),
-            "graph": self.graph.to_json(),
-            "tasks": [[n, self.graph.status(n)] for n in self.graph],
+            "searched": agent["searched"], "graph": agent["graph"], "tasks": agent["tasks"],
             "pose": pose.as_list(),
             "world": {"placements": {k: list(v) for k, v in self.env.placements().items()}},
-            "belief": self.belief.snapshot(),
+            "belief": agent["belief"],
         })
 
     def step(self) -> list[dict]:
@@ -296,12 +260,12 @@ class EpisodeRunner:
         pose = self.env.agent_pose()  # where a search is weighed from (give-up, design §7.8)
         action = self.agent.next_action((pose.x, pose.y),
                                         EnvDistances(self.env, self._between, self._matrices))
-        self._flush_executor()
+        self._flush_agent()
         if action is None:
-            if self.executor.done:
+            if self.agent.done:
                 self._end(REASON_COMPLETE, terminated=True)
             else:
-                stuck = self.executor.stuck_reason or ""
+                stuck = self.agent.stuck_reason or ""
                 self._end(stuck if stuck.startswith(NOT_FOUND) else f"stuck: {stuck}",
                           terminated=True)
             return self.log.events[first:]
@@ -313,7 +277,7 @@ class EpisodeRunner:
         else:
             self._practical(action)
         if self.config.snapshot_every_event:
-            self._write({"event": "belief", **self.belief.snapshot()})
+            self._write({"event": "belief", **self.agent.snapshot()})
         return self.log.events[first:]
 
     def run(self, progress: Callable[["EpisodeRunner"], None] | None = None) -> dict:
@@ -332,10 +296,6 @@ class EpisodeRunner:
     # ------------------------------------------------------------------ search
     def _search(self, action) -> None:
         agent = self.agent
-        objects = self.executor.pending_search_objects()
-        relevance = self.executor.search_relevance()
-        excluded = frozenset(self.executor.excluded_sites)
-        inspected = dict(agent.inspected)
         pose = self.env.agent_pose()
         distances = EnvDistances(self.env, self._between, self._matrices)
         try:
@@ -346,40 +306,21 @@ class EpisodeRunner:
             self._end(f"planner_error: {what}", terminated=True)
             raise PlannerFault(self.config.planner, what) from exc
         viewpoint = decision.viewpoint
-        assert self.views is not None, "built when the episode starts"
-        view = self.views.view(viewpoint)
-        self._write({"event": "decision", "serving": action.id, "objects": objects,
-                     "relevance": relevance, "inspected": inspected,
-                     "excluded": sorted(excluded), **decision.to_json()})
+        record = agent.decision_record(action, decision)
+        self._write(record)
+        objects = record["objects"]
         result = self.env.inspect_viewpoint(viewpoint, objects)
         moved = self._advance(result)
         if not result.reachable:
             agent.failed(action, "unreachable", site=viewpoint)
-            event = self._flush_executor(merge_last=True) or {}
+            event = self._flush_agent(merge_last=True) or {}
             self._write({**event, "event": "action_failed", "action": action.id,
                          "site": viewpoint, "reason": "unreachable", **moved})
             return
         update = agent.observe_look(viewpoint, result)
-        pending_confirms = self.executor.events[self._seen_executor_events:]
-        self._seen_executor_events = len(self.executor.events)
-        in_view = [self.belief.sites[j] for j in view.sites]
-        probability = self.views.probabilities(viewpoint)
-        self._write({
-            "event": "observation", "viewpoint": viewpoint,
-            "viewpoint_kind": view.kind, "sites_in_view": in_view, "objects": objects,
-            "detections": dict(result.detections), "found_at": dict(result.found_at),
-            "pixel_counts": dict(result.pixel_counts),
-            "detection_probability": {o: probability[o] for o in objects},
-            "site_pixel_counts": {o: dict(result.view_pixels.get(o, {s: result.pixel_counts.get(o, 0)
-                                                                   for s in in_view}))
-                                  for o in objects},
-            "resolved": list(update.detected),
-            "before": {o: update.before[o] for o in objects},
-            "after": {o: update.after[o] for o in objects},
-            "entropy_before": {o: entropy(update.before[o]) for o in objects},
-            "entropy_after": {o: entropy(update.after[o]) for o in objects},
-            **moved})
-        for event in pending_confirms:  # the searches this look confirmed, after the look itself
+        confirmed = agent.records()  # the searches this look confirmed, written after the look
+        self._write({**agent.observation_record(viewpoint, objects, result, update), **moved})
+        for event in confirmed:
             self._write(event)
 
     # ------------------------------------------------------------------ state inspections
@@ -391,7 +332,7 @@ class EpisodeRunner:
                                          sensor.sensitivity, sensor.specificity)
         moved = self._advance(reading)
         self.agent.observe_state(state, reading.value, action, purpose)
-        event = self._flush_executor(merge_last=True) or {}
+        event = self._flush_agent(merge_last=True) or {}
         return self._write({**event, "event": "state_reading", "purpose": purpose,
                             "executor_event": event.get("event"), "site": site, **moved})
 
@@ -423,12 +364,12 @@ class EpisodeRunner:
         except PreconditionError as exc:
             self._fail(action, "precondition_unmet", detail=[str(exc)], env_fields=env_fields)
             return
-        event = self._flush_executor(merge_last=True) or {}
+        event = self._flush_agent(merge_last=True) or {}
         self._write({**event, "event": "action", **env_fields})
 
     def _fail(self, action, reason: str, detail=None, env_fields: Mapping | None = None) -> None:
         decision = self.agent.failed(action, reason)
-        event = self._flush_executor(merge_last=True) or {}
+        event = self._flush_agent(merge_last=True) or {}
         self._write({**event, "event": "action_failed", "action": action.id, "reason": reason,
                      "detail": detail or [], **(env_fields or {"distance": 0.0, "frames": 0, "motion": []})})
         if decision.retry:
@@ -436,43 +377,14 @@ class EpisodeRunner:
                 self._read_state(state, "recovery")
 
     # ------------------------------------------------------------------ the end
-    def _goal_conditions(self) -> dict:
-        objects = self.executor.object_state()
-        states = self.belief.states()
-        thresholds: dict[str, float] = {}
-        for node in self.graph:
-            if self.graph.status(node) in ("complete", "skipped"):
-                action = self.graph.action(node)
-                for c in (*action.goals, *action.preconditions):
-                    thresholds[c.state] = max(thresholds.get(c.state, 0.0), c.at_least)
-        goals = {s: {"belief": states.get(s), "threshold": t, "met": states.get(s, 0.0) >= t}
-                 for s, t in sorted(thresholds.items())}
-        return {"all_actions_finished": self.executor.done, "goals": goals,
-                # What the agent claims holds at the end: goals and preconditions it still believes.
-                "final_states": [s for s, g in goals.items() if g["met"]],
-                "objects": objects}
-
-    def _gtsam_agreement(self) -> float | None:
-        """The end-of-episode disagreement with gtsam, or None where gtsam cannot hold the
-        belief: a capacity factor is one dense table over all objects, and above the dense limit
-        only the subset dynamic program (with its own numerical guard, docs/design.md §4.4)
-        answers, or where the run switched the check off (:attr:`RunConfig.gtsam_check`)."""
-        from fg_tea.beliefs.graph import DENSE_LIMIT
-
-        if not self.config.gtsam_check:
-            return None
-        graph = self.belief.graph
-        if graph.capacity_active and graph.joint_size > DENSE_LIMIT:
-            return None
-        return self.belief.check_against_gtsam()
-
     def _end(self, reason: str, terminated: bool = False, truncated: bool = False) -> None:
         self.state.done, self.state.reason = True, reason
         self.state.terminated, self.state.truncated = terminated, truncated
         end = {"event": "episode_end", "reason": reason, "terminated": terminated,
-               "truncated": truncated, "graph": self.graph.to_json(),
-               "goal_conditions": self._goal_conditions(), "belief": self.belief.snapshot(),
-               "gtsam_agreement": self._gtsam_agreement(),
+               "truncated": truncated,
+               # the agent's graph, goal conditions, belief and gtsam agreement (off: None,
+               # RunConfig.gtsam_check)
+               **self.agent.end_record(self.config.gtsam_check),
                # The world as it truly ended, for evaluation only: written after the agent's
                # last decision, never read by the agent side.
                "world_truth": self.env.truth_report(),

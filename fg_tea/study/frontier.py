@@ -68,7 +68,7 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: 
     """One episode; returns its metrics and the wall and CPU time of every decision (seconds)."""
     model, scenario, env, rate = episode_setup(world, seed, model_name, env_kind, miss_rate)
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
-    clock = DecisionClock(runner.planner)
+    clock = DecisionClock(runner.agent.planner)
     steps = 0
     while not runner.done and steps < 2000:
         runner.step()

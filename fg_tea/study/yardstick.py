@@ -14,7 +14,6 @@ an interrupted run resumes. Times are CPU seconds per decision, measured seriall
 
 from __future__ import annotations
 
-import copy
 import csv
 import itertools
 from functools import partial
@@ -30,7 +29,7 @@ from fg_tea.study.episode_files import file_part, kept_or_run
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.planning.limit import Limit, search_limit
-from fg_tea.planning.problem import LOOK_COST, build_problem
+from fg_tea.planning.problem import LOOK_COST
 from fg_tea.study.frontier import DecisionClock, episode_setup
 
 #: Planners that draw random numbers: their policy is no function of the belief, so it is only
@@ -51,9 +50,8 @@ def start_problem(world: str, model_name: str, task: str):
         runner = EpisodeRunner(scenario, model, env, RunConfig(seed=0, task=task))
         runner.start()  # resets the house and hands the agent its view geometry; no look yet
         agent = runner.agent
-        objects = agent.executor.pending_search_objects()
-        views = None if model.close_looks_only else agent.views
-        problem = build_problem(agent.belief, objects, EnvDistances(env), frozenset(), views, LOOK_COST)
+        objects = agent.searching()
+        problem = agent.search_problem(EnvDistances(env), LOOK_COST)
     finally:
         env.close()
     return problem, objects
@@ -71,13 +69,12 @@ def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
     model, scenario, env, rate = episode_setup(world, seed, model_name, "fake", miss_rate)
     distances = EnvDistances(env)
     runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner, task=task))
-    clock = DecisionClock(runner.planner)
+    clock = DecisionClock(runner.agent.planner)
     steps = 0
     cost, here, start = 0.0, None, {}
     try:
         runner.start()
-        assert runner.agent.views is not None  # set when the episode starts
-        start = {v: distances.from_agent(v) for v in runner.agent.views.names}
+        start = {v: distances.from_agent(v) for v in runner.agent.viewpoints()}
         steps = 0
         while not runner.done and steps < 2000:
             runner.step()
@@ -368,18 +365,17 @@ class PolicyCost:
     completion: float = 0.0
 
 
-def completion_cost(agent, distances, close_looks: bool) -> float:
+def completion_cost(agent, distances) -> float:
     """The expected cost of finding every object the agent still searches for, from where it
     stands, by sweeping the viewpoints that can show one in a fixed cyclic order (a
     nearest-neighbour tour entered at its nearest viewpoint), as the limit's upper cut finishes
     (:func:`fg_tea.planning.limit._cycle_cost`); inf if some object can never be seen."""
     from fg_tea.planning.limit import _cycle_cost, _tour, _useful
 
-    objects = agent.executor.pending_search_objects()
+    objects = agent.searching()
     if not objects:
         return 0.0
-    problem = build_problem(agent.belief, objects, distances, frozenset(),
-                            None if close_looks else agent.views, LOOK_COST)
+    problem = agent.search_problem(distances, LOOK_COST)
     useful, sites, q0 = _useful(problem)
     if useful.size == 0:
         return float("inf")
@@ -411,12 +407,9 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
     try:
         env.reset(0)
         agent = Agent(scenario, model, planner, task)
-        if agent.views is None:
-            agent.view_geometry_from(env)
-        assert agent.views is not None
+        agent.view_geometry_from(env)
         distances = EnvDistances(env)  # the start pose's: the house's agent never moves here
 
-        shared = {id(x): x for x in (scenario, model, agent.views, agent.planner)}
         memo: dict[tuple, tuple[float, float, float, float]] = {}
         totals = {"unexpanded": 0.0}
 
@@ -428,27 +421,25 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
             if action is None:
                 if agent.done:
                     return 0.0, 0.0, 0.0
-                rest = completion_cost(agent, where, model.close_looks_only)  # given up: sweep
+                rest = completion_cost(agent, where)  # given up: sweep
                 return rest, 1.0, rest
             key = (here, tuple(sorted(agent.inspected.items())),
-                   tuple(sorted(agent.executor.pending_search_objects())))
+                   tuple(sorted(agent.searching())))
             # A state met again is reused only if it was expanded at least as deep: branches are
             # cut at an absolute probability, so a visit with less weight cut more of its subtree.
             if key in memo and trace is None and memo[key][3] >= weight:
                 return memo[key][:3]
             if weight < floor:  # not followed further: finished by a sweep
                 totals["unexpanded"] += weight
-                rest = completion_cost(agent, where, model.close_looks_only)
+                rest = completion_cost(agent, where)
                 return rest, 0.0, rest
             decision = agent.decide(action, (0.0, 0.0), where)
             v = decision.viewpoint
-            assert agent.views is not None
             if trace is not None:
-                trace.append((weight, here, dict(agent.inspected),
-                              tuple(agent.executor.pending_search_objects()), v))
-            view = agent.views.view(v)
+                trace.append((weight, here, dict(agent.inspected), tuple(agent.searching()), v))
+            view = agent.view(v)
             step = where.from_agent(v) + LOOK_COST * max(1, len(view.sites))
-            objects = agent.executor.pending_search_objects()
+            objects = agent.searching()
             marg = {o: agent.belief.marginal(o) for o in objects}
             sites = list(agent.belief.sites)
             per_object = []
@@ -462,8 +453,7 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
                 prob = float(np.prod([x for _, x in combo]))
                 if prob <= 0:
                     continue
-                child = copy.deepcopy(agent, memo=dict(shared))
-                child.executor.events.clear()
+                child = agent.branch()
                 child.observe_look(v, {o: site for o, (site, _) in zip(objects, combo)})
                 c, g, r = value(child, v, weight * prob)
                 cost += prob * c
