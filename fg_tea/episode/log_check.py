@@ -393,6 +393,7 @@ FIELDS: dict[str, dict[str, Check]] = {
                          "full_sites": STRS},
     "give_up": {"object": STR, "remaining_probability": maybe(PROB), "looks": INT, "threshold": NUM,
                 "budget": maybe(INT), "why": STR},
+    "substitute": {"object": STR, "substitute": STR, "retargeted": STRS, "remaining": STRS, **GRAPH},
     "stuck": {"reason": STR, **GRAPH},
     "belief": {"locations": MARGINALS, "states": map_of(PROB), "entropy": map_of(NUM)},
     "episode_end": {"reason": STR, "terminated": BOOL, "truncated": BOOL, "goal_conditions": OBJ,

@@ -424,6 +424,9 @@ def caption(e: Mapping[str, Any]) -> str:
         return f"read {e.get('state')}: {'true' if e.get('value') else 'false'} ({e.get('purpose')})"
     if kind == "metrics":
         return metrics_caption(e)
+    if kind == "substitute":
+        return (f"substitute: the {e.get('substitute')} stands in for the {e.get('object')} "
+                f"({_count(len(e.get('retargeted') or []), 'action')} retargeted)")
     if kind in CAPTIONS:
         return CAPTIONS[kind].format_map({k: e.get(k) for k in ("action", "reason", "object", "site")})
     if kind in ("fail", "reopen", "stuck", "alternative_site"):

@@ -155,6 +155,11 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
                 ov.caption = f"{e.get('state')} read {'true' if e.get('value') else 'false'}: " \
                              f"q {e.get('before', 0):.2f} -> {e.get('after', 0):.2f}"
             emit([], repeat_last=hold)
+        elif kind == "substitute":  # a search given up: another object serves its role (§7.6)
+            clear_look()
+            ov.phase, ov.focus_object, ov.candidates = "SUBSTITUTE", e["substitute"], []
+            ov.caption = f"{e['object']} given up: the {e['substitute']} stands in for it"
+            emit([], repeat_last=hold)
         elif kind == "skip":
             clear_look()
             ov.phase, ov.caption = "SKIP", f"{e['action']} skipped: its goal already holds"

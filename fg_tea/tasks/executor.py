@@ -78,6 +78,7 @@ from fg_tea.tasks.actions import TaskAction
 from fg_tea.tasks.graph import TaskGraph
 from fg_tea.tasks.records import AffordanceError, ObjectState, PreconditionError, TaskError, Violation
 from fg_tea.tasks.recovery import TaskRecovery
+from fg_tea.tasks.substitutes import switch as switch_to_substitute
 from fg_tea.world.interface import ActionRequest, ActionResult
 from fg_tea.world.scenario import Scenario
 
@@ -250,14 +251,18 @@ class TaskExecutor(TaskRecovery):
         return {"object": obj, "remaining_probability": remaining, "looks": looks,
                 "threshold": threshold, "budget": self.search_budget()}
 
-    def give_up(self, obj: str, outlook: dict, why: str) -> str:
-        """End the search for `obj` (a ``give_up`` event, then stuck); return the end reason."""
-        self._stuck(reason := self._given_up(obj, outlook, why))
+    def give_up(self, obj: str, outlook: dict, why: str) -> str | None:
+        """End the search for `obj` (a ``give_up`` event, then stuck); return the end reason, or
+        None when the task switched to a substitute (:mod:`fg_tea.tasks.substitutes`)."""
+        if (reason := self._given_up(obj, outlook, why)) is not None:
+            self._stuck(reason)
         return reason
 
-    def _given_up(self, obj: str, outlook: dict, why: str) -> str:
+    def _given_up(self, obj: str, outlook: dict, why: str) -> str | None:
         remaining = outlook.get("remaining_probability")
         self.events.append({"event": "give_up", **outlook, "why": why})
+        if switch_to_substitute(self, obj) is not None:
+            return None
         return (f"{NOT_FOUND}{obj} (remaining probability {'n/a' if remaining is None else f'{remaining:.3g}'} "
                 f"after {outlook.get('looks')} looks; {why})")
 

@@ -31,6 +31,7 @@ import networkx as nx
 
 from fg_tea.common.errors import InputError
 from fg_tea.tasks.actions import TaskAction
+from fg_tea.tasks.substitutes import Substitutes
 
 STATUSES = ("pending", "active", "complete", "skipped", "failed")
 FINISHED = ("complete", "skipped")
@@ -62,6 +63,8 @@ class TaskGraph:
         self.description = description
         self.source = str(source)
         self.declared_states = dict(declared_states or {})
+        #: the objects that may stand in for one given up, and their actions (set by the loader)
+        self.substitutes: Substitutes | None = None
         self._g = nx.DiGraph()
         self._order: list[str] = []
         for i, action in enumerate(actions):

@@ -386,7 +386,7 @@ def parse_task(data: object, model: Model, scenario: Scenario, preparation_site:
     if not isinstance(data, dict):
         raise r.fail("a task must be a JSON object")
     refuse_null(data, file, "task")
-    top = ("name", "description", "declares_states", "actions")
+    top = ("name", "description", "declares_states", "actions", "substitutes")
     for key in data:
         if key not in top:
             raise r.fail(f"unknown field{_suggest(key, top)} (known: {', '.join(top)})", key)
@@ -410,6 +410,12 @@ def parse_task(data: object, model: Model, scenario: Scenario, preparation_site:
     _check_object_affordances(r, actions, scenario)
     graph = TaskGraph(actions, deps, name=r.req("name", str), description=r.opt("description", str, ""),
                       source=str(file), declared_states=declared)
+    from fg_tea.tasks.substitutes import read_substitutes
+
+    acted_on = {n for a in actions for n in (a.object, a.destination) if n is not None}
+    checked = known_affordances() | {a.requires_affordance for a in actions if a.requires_affordance}
+    graph.substitutes = read_substitutes(r, data, acted_on, scenario, frozenset(checked),
+                                         lambda doc: parse_task(doc, model, scenario, preparation_site, file))
     r.finish()
     return graph
 
