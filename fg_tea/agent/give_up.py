@@ -13,7 +13,8 @@ and a look from viewpoint v finds it with probability F_o sum_j q(L_o = j) p_{o,
 belief given that o is findable. The search for o goes on while the best look's cost (travel plus
 the look cost per image) divided by that chance is at most the value of finishing the task,
 ``task_value`` sweeps of the house; a sweep is the nearest-neighbour walk from the start through
-every viewpoint, so the value scales with the house and is fixed before any look.
+every viewpoint, so the value scales with the house and is fixed before any look. Eq. (58)
+and the safety net's bound, its inverse, live in :mod:`fg_tea.model.give_up`.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from typing import Sequence
 
 import numpy as np
 
+from fg_tea.model.give_up import findable
 from fg_tea.planning.base import DistanceModel
 from fg_tea.planning.problem import LOOK_COST
 
@@ -40,12 +42,6 @@ def sweep_length(names: Sequence[str], distances: DistanceModel) -> float:
         left.remove(nxt)
         here = nxt
     return total
-
-
-def findable(remaining: float, absent: float) -> float:
-    """F_o: the chance the object can still be found, from R_o and the absence prior."""
-    present = remaining * (1.0 - absent)
-    return present / (present + absent) if present + absent > 0 else 0.0
 
 
 def weigh(belief, obj: str, views, distances: DistanceModel, excluded: frozenset[str],

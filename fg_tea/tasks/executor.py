@@ -73,6 +73,7 @@ from collections import Counter
 import numpy as np
 
 from fg_tea.beliefs.engine import BeliefEngine
+from fg_tea.model.give_up import remaining_below
 from fg_tea.model.spec import Condition, Model, Sensor
 from fg_tea.tasks.actions import TaskAction
 from fg_tea.tasks.graph import TaskGraph
@@ -245,11 +246,8 @@ class TaskExecutor(TaskRecovery):
         """R_o (the remaining probability of `obj` at a reachable site), its looks, and the R_o to give
         up below (under the cost rule the safety net, F_o of eq. 58 below give_up_probability, §7.8)."""
         remaining, looks = self.belief.unseen_probability(obj, self.excluded_sites)
-        pl = self.model.planning
-        p, a = pl.give_up_probability, pl.absent_probability
-        threshold = p * a / ((1.0 - p) * (1.0 - a)) if pl.give_up == "cost" else p
         return {"object": obj, "remaining_probability": remaining, "looks": looks,
-                "threshold": threshold, "budget": self.search_budget()}
+                "threshold": remaining_below(self.model.planning), "budget": self.search_budget()}
 
     def give_up(self, obj: str, outlook: dict, why: str) -> str | None:
         """End the search for `obj` (a ``give_up`` event, then stuck); return the end reason, or
