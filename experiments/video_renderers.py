@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         plan = plan_frames(default_episode(Path(tmp)), options)
     renderer = FrameRenderer(plan, options)
-    scene: SceneViews = renderer.views
+    scene: SceneViews = renderer.views.views  # the render-only house under the reuse of views
     plain = PyBulletHouse(scene.chase_house.scenario, scene.config)
     plain.reset(plan.seed)
     chase = (options.chase_distance, options.chase_height, options.chase_pitch_deg, options.chase_hfov_deg)

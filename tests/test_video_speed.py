@@ -112,7 +112,8 @@ def test_a_held_frame_is_encoded_once_and_shown_for_its_hold(tmp_path):
 
 @pytest.mark.slow
 def test_held_frames_are_rendered_once(default_events, tmp_path):
-    """Each rendered frame costs one chase and one inset image, however long it is held."""
+    """Each rendered frame asks for one chase and one inset image, however long it is held (a
+    frame whose scene is the previous frame's reuses its images)."""
     options = dataclasses.replace(default_options(), width=192, height=108, workers=1)
     plan = plan_frames(default_events, options)
     held = [i for i, f in enumerate(plan.frames) if f.repeat > 1]
@@ -122,7 +123,8 @@ def test_held_frames_are_rendered_once(default_events, tmp_path):
         lo, hi = held[1] - 1, held[1] + 2  # motion, a decision held for 0.8 s, motion
         shown = renderer.encode(lo, hi, tmp_path / "piece.mp4")
         assert shown == sum(f.repeat for f in plan.frames[lo:hi]) > hi - lo
-        assert renderer.views.calls == 2 * (hi - lo)
+        assert renderer.views.rendered + renderer.views.reused == 2 * (hi - lo)
+        assert renderer.views.views.calls == renderer.views.rendered
     finally:
         renderer.close()
 

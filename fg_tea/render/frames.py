@@ -6,7 +6,10 @@ one worker; the parent joins the pieces in order by remuxing. So the same plan a
 the same bytes with any number of workers (tests/test_video_speed.py).
 
 A frame held for reading (a decision, an observation: ``FrameSpec.repeat`` > 1) is rendered
-once and encoded once, shown for its whole hold by its timestamps (no repeated pictures).
+once and encoded once, shown for its whole hold by its timestamps (no repeated pictures). A frame
+whose scene (pose, placements, held object) is the previous frame's reuses that frame's camera
+views (:class:`RepeatedViews`; the hold after a motion ends where it ended): only its overlays
+are drawn anew.
 
 Workers are started with the ``spawn`` method (no inherited simulator or encoder state), build
 the render-only house once (:class:`~fg_tea.render.scene.SceneViews`), and die with the command
@@ -44,6 +47,48 @@ def default_workers() -> int:
     return max(1, min(cores, 8))
 
 
+class RepeatedViews:
+    """Camera views that render only when the scene or the camera changes.
+
+    Wraps a :class:`~fg_tea.render.scene.SceneViews`: a view asked for with the same arguments
+    as before, the scene unchanged since, is a copy of the image it gave then (the same pixels:
+    rendering is a function of the scene and the camera). ``rendered`` and ``reused`` count.
+    """
+
+    def __init__(self, views) -> None:
+        self.views, self.config = views, views.config
+        self._scene: tuple | None = None
+        self._images: dict[tuple, np.ndarray] = {}
+        self.rendered = self.reused = 0
+
+    def set_scene_state(self, pose, placements, held: str | None) -> None:
+        scene = (tuple(pose), tuple(sorted((k, tuple(v)) for k, v in placements.items())), held)
+        if scene != self._scene:
+            self._scene, self._images = scene, {}
+            self.views.set_scene_state(pose, placements, held)
+
+    def chase_camera(self, *args):
+        return self.views.chase_camera(*args)
+
+    def chase(self, *args) -> np.ndarray:
+        return self._view("chase", args)
+
+    def ego(self, *args) -> np.ndarray:
+        return self._view("ego", args)
+
+    def _view(self, name: str, args: tuple) -> np.ndarray:
+        key = (name, *args)
+        if key in self._images:
+            self.reused += 1
+        else:
+            self.rendered += 1
+            self._images[key] = getattr(self.views, name)(*args)
+        return self._images[key].copy()  # the frame is drawn on: the kept image stays clean
+
+    def close(self) -> None:
+        self.views.close()
+
+
 class FrameRenderer:
     """Composes the output frames of a plan: one render-only house, mini-map and site table."""
 
@@ -57,7 +102,7 @@ class FrameRenderer:
         scenario = load_plan_scenario(plan)
         env_fields = {k: v for k, v in plan.env.items() if k in EnvConfig.__dataclass_fields__}
         config = replace(EnvConfig(), **env_fields)
-        self.views = SceneViews(scenario, config, plan.seed, options.wall_cutaway)
+        self.views = RepeatedViews(SceneViews(scenario, config, plan.seed, options.wall_cutaway))
         self.minimap = MiniMap(scenario, config.ego_hfov_deg)
         self.sites: dict[str, Sequence[float]] = dict(plan.site_positions or
                                                       {s.name: s.position for s in scenario.sites})
