@@ -197,3 +197,11 @@ def test_an_episode_runs_with_a_coupled_program(tmp_path):
     z = sum(plain[s] * weight[s] for s in SITES)
     for s in SITES:
         assert mug[s] == pytest.approx(plain[s] * weight[s] / z, abs=1e-6)
+    # The reading of the kettle's water moves the mug's location (the log's beliefs around it).
+    at = next(i for i, e in enumerate(events) if e["event"] == "state_reading"
+              and e["state"] == "kettle.contains_water")
+    before = next(e for e in reversed(events[:at]) if e["event"] == "belief")["locations"]["mug"]
+    after = next(e for e in events[at:] if e["event"] == "belief")["locations"]["mug"]
+    dining = [i for i, s in enumerate(SITES) if rooms[s] == "dining_room"]
+    change = sum(after[i] for i in dining) - sum(before[i] for i in dining)
+    assert change < -1e-4 if not events[at]["value"] else change > 1e-4  # empty: less likely out

@@ -18,9 +18,11 @@ link between the blocks, so two messages give every marginal exactly:
   the location block's marginal of o without g (so after every look).
 
 :class:`CoupledBlocks` is the part of :class:`~fg_tea.beliefs.engine.BeliefEngine` that keeps the
-two messages; engines without a coupling pay nothing. One object and at most
-:data:`MAX_COUPLED_STATES` states per belief; other couplings are refused in one line when the
-program is compiled (:func:`coupling_factor`, :func:`check_couplings`).
+two messages; engines without a coupling pay nothing. A factor over task states and the user's own
+variables reaches here with those summed out (fg_tea/beliefs/graph.py); a factor over task states
+only is held with the first object's location, on which it is constant. One object and at most
+:data:`MAX_COUPLED_STATES` states per belief; several objects' locations are refused in one line when
+the program is compiled (:func:`coupling_factor`, :func:`check_couplings`).
 """
 
 from __future__ import annotations
@@ -40,9 +42,12 @@ def coupling_factor(source: str, factor: Any, tracked: set[str], kinds: dict[str
     """The engine's factor for a program factor over task states the scenario tracks and other
     variables: its variables are the states' names and ``L[obj]``, in the factor's scope order.
 
+    A factor over task states only is returned as it is (:class:`Coupling` holds it with the
+    coupled object's location, or the first object's, on which it is constant).
+
     Raises:
-        InputError: the factor also holds a variable of the program's own, no location, or the
-            locations of several objects (one line naming the factor).
+        InputError: the factor also holds a variable of the program's own (graph_from_program sums
+            those out first) or the locations of several objects (one line naming the factor).
     """
     states = [v for v in factor.scope if v in tracked]
     where = f"factor {factor.name!r}"
@@ -52,10 +57,9 @@ def coupling_factor(source: str, factor: Any, tracked: set[str], kinds: dict[str
                          "the belief does not hold; a task state may share a factor with one object's "
                          "location (docs/design.md §4.8)")
     locations = [v for v in factor.scope if kinds.get(v) == "location"]
-    if len(locations) != 1:
-        what = "with each other only" if not locations else f"with {len(locations)} objects' locations"
-        raise InputError(source, where, f"couples task states {what}; a task state may share a factor "
-                         "with one object's location (docs/design.md §4.8)")
+    if len(locations) > 1:
+        raise InputError(source, where, f"couples task states with {len(locations)} objects' locations; "
+                         "a task state may share a factor with one object's location (docs/design.md §4.8)")
     variables = tuple(location_var(v) if v in locations else v for v in factor.scope)
     return Factor(variables, np.asarray(factor.table, dtype=float), factor.name)
 
@@ -77,7 +81,8 @@ class Coupling:
     """F(C_0, L_o) of one belief, as one array with the states' axes first (sorted) and o's last."""
 
     def __init__(self, factors: Sequence[Factor], objects: Sequence[str], sites: int) -> None:
-        var = next(v for f in factors for v in f.variables if v.startswith("L["))
+        # States only: held with the first object's location, on which the factor is constant.
+        var = next((v for f in factors for v in f.variables if v.startswith("L[")), location_var(objects[0]))
         self.object = var[2:-1]
         self.index = list(objects).index(self.object)
         self.states = tuple(sorted({v for f in factors for v in f.variables if v != var}))

@@ -26,9 +26,10 @@ queries on, exactly — no factor is approximated:
   scenario does not declare — are summed out exactly, one connected group at a time, into one
   factor over the locations they touch;
 - a factor over one task state (a state the scenario declares, which the task observes or
-  changes) multiplies into its Bernoulli prior; a factor coupling a task state with a location
-  or another state is refused in one line: the engine keeps task states independent (the next
-  step, docs/design.md §4.8).
+  changes) multiplies into its Bernoulli prior; a factor coupling task states with one object's
+  location or with each other is a coupling the engine holds exactly (fg_tea/beliefs/coupling.py,
+  docs/design.md §4.8), after the user's own variables in its group are summed out; a coupling
+  with several objects' locations is refused in one line.
 
 Objects and task states the program does not declare keep the base model's priors (eq. 2 and
 eq. 21). Every refusal is an :class:`~fg_tea.common.errors.InputError` naming the program's
@@ -265,12 +266,13 @@ def graph_from_program(program: Program, scenario: Any, model: Any) -> BeliefGra
     couplings: list[Factor] = []
     for f in program.factors:
         touched = [s for s in f.scope if s in tracked]
-        if touched:
+        own = [s for s in f.scope if s not in tracked and kinds[s] != "location"]
+        if touched and not own:
             if len(f.scope) > 1:
                 couplings.append(coupling_factor(source, f, set(tracked), kinds))
                 continue
             unary.setdefault(f.scope[0], []).append(f.table)
-        elif any(kinds[s] != "location" for s in f.scope):
+        elif own:
             hidden.append(f)
         elif f.form is not None and f.form[0] == "capacity":
             penalty = f.form[1] if penalty is None else penalty * f.form[1]
@@ -281,13 +283,15 @@ def graph_from_program(program: Program, scenario: Any, model: Any) -> BeliefGra
             unary.setdefault(f.scope[0], []).append(f.table)
         else:
             extra.append(Factor(tuple(location_var(s) for s in f.scope), f.table, f.name))
-    if couplings:
-        check_couplings(source, couplings)
-    for name, scope, table in _summed_out(program, hidden, kinds):
-        if len(scope) == 1:
+    for name, scope, table in _summed_out(program, hidden, kinds, set(tracked)):
+        if any(s in tracked for s in scope) and len(scope) > 1:  # own variables between a state and more
+            couplings.append(coupling_factor(source, _Summed(name, scope, table), set(tracked), kinds))
+        elif len(scope) == 1:
             unary.setdefault(scope[0], []).append(table)
         elif scope:
             extra.append(Factor(tuple(location_var(s) for s in scope), table, name))
+    if couplings:
+        check_couplings(source, couplings)
     base = _BasePriors(scenario, model)
     priors = tuple(Factor((location_var(o),), _product(source, f"location {o!r}", unary[o]) if o in unary
                           else base.location(o), f"prior {location_var(o)}") for o in objects)
@@ -340,10 +344,20 @@ def _product(source: str, what: str, tables: Sequence[np.ndarray]) -> np.ndarray
     return table if abs(total - 1.0) <= 1e-12 else table / total
 
 
-def _summed_out(program: Program, hidden: Sequence[ProgramFactor],
-                kinds: dict[str, str]) -> list[tuple[str, tuple[str, ...], np.ndarray]]:
+@dataclass(frozen=True)
+class _Summed:
+    """A group of factors with the program's own variables summed out, as a factor over the task
+    states and locations it touches (what :func:`~fg_tea.beliefs.coupling.coupling_factor` reads)."""
+
+    name: str
+    scope: tuple[str, ...]
+    table: np.ndarray
+
+
+def _summed_out(program: Program, hidden: Sequence[ProgramFactor], kinds: dict[str, str],
+                tracked: set[str]) -> list[tuple[str, tuple[str, ...], np.ndarray]]:
     """Each connected group of factors over variables the task never reads, with those variables
-    summed out exactly: (label, location scope, table)."""
+    summed out exactly: (label, scope of the locations and task states it touches, table)."""
     parent: dict[str, str] = {}
 
     def root(v: str) -> str:
@@ -351,23 +365,26 @@ def _summed_out(program: Program, hidden: Sequence[ProgramFactor],
             v = parent[v]
         return v
 
+    def summed(v: str) -> bool:
+        return kinds[v] != "location" and v not in tracked
+
     for f in hidden:
-        own = [s for s in f.scope if kinds[s] != "location"]
+        own = [s for s in f.scope if summed(s)]
         for s in own[1:]:
             parent[root(s)] = root(own[0])
     groups: dict[str, list[ProgramFactor]] = {}
     for f in hidden:
-        groups.setdefault(root(next(s for s in f.scope if kinds[s] != "location")), []).append(f)
+        groups.setdefault(root(next(s for s in f.scope if summed(s))), []).append(f)
     out = []
     for members in groups.values():
         names = list(dict.fromkeys(s for f in members for s in f.scope))
-        keep = tuple(s for s in names if kinds[s] == "location")
+        keep = tuple(s for s in names if not summed(s))
         label = " * ".join(f.name for f in members) + " (summed out: " + \
-            ", ".join(s for s in names if kinds[s] != "location") + ")"
+            ", ".join(s for s in names if summed(s)) + ")"
         if len(names) > SUM_OUT_LIMIT:
             raise InputError(program.source, f"factor {members[0].name!r}",
                              f"its group of {len(names)} variables is too large to sum out (limit {SUM_OUT_LIMIT})")
-        size = len(program.sites) ** len(keep)
+        size = len(program.sites) ** sum(kinds[s] == "location" for s in keep) * 2 ** sum(s in tracked for s in keep)
         if size > DENSE_LIMIT:
             raise InputError(program.source, f"factor {members[0].name!r}",
                              f"summing out {label} leaves a table of {size:,} entries (limit {DENSE_LIMIT:,})")
