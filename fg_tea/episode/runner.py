@@ -42,7 +42,7 @@ from fg_tea.episode.provenance import episode_provenance, portable_ref, program_
 from fg_tea.model.spec import Model
 from fg_tea.tasks.executor import NOT_FOUND
 from fg_tea.tasks.records import PreconditionError
-from fg_tea.world.interface import ActionRequest
+from fg_tea.world.interface import ActionRequest, Pose
 from fg_tea.world.scenario import Scenario
 
 REASON_COMPLETE = "complete"
@@ -181,61 +181,11 @@ class EpisodeRunner:
             return self.log.events[0]
         pose = self.env.reset(self.config.seed)
         self._started = True
-        model = self.model
-        views = self.agent.view_geometry_from(self.env)
-        self._yardstick_start = ((pose.x, pose.y), dict(self.env.truth_report().get("sites") or {}))
-        # JSON records of the log (mixed value types); the yardstick reads them back.
-        viewpoints: list[dict[str, Any]] = [
-            {"name": v.name, "kind": v.kind, "position": list(v.position),
-             "sites": list(v.sites), "room": v.room}
-            for v in self.scenario.viewpoints if v.name in views.names]
-        self._viewpoints_logged = viewpoints
-        from fg_tea.common.resources import _resolve, resolve_task
-
-        world = None if self.world is None else _resolve(self.world, "scenarios/worlds", ".json")
-        provenance = episode_provenance(self.scenario.source, model.source,
-                                        resolve_task(self.config.task), world, self.render,
-                                        camera=getattr(self.env.config, "camera_source", None))
-        agent = self.agent.start_record()
-        return self._write({
-            "event": "episode_start",
-            "scenario": self.scenario.name,
-            "scenario_file": (provenance["inputs"]["scenario"] or {}).get("file"),
-            "model": model.name, "model_file": portable_ref(model.source) if model.source else None,
-            "structure": model.structure,
-            # A model program (docs/design.md §4.8): its file, hash and factors; absent for TOML models.
-            **({"program": program_record(self.scenario, model)} if model.program is not None else {}),
-            "task": agent["task"], "planner": self.config.planner, "seed": self.config.seed,
-            "versions": provenance["versions"], "git": provenance["git"],
-            "inputs": provenance["inputs"],
-            "parameters": {"run": logged_run(self.config), "env": _env_params(self.env.config),
-                           "render": provenance["render"],
-                           "planning": asdict(model.planning),
-                           "detection": {"miss_likelihood": model.miss_likelihood,
-                                         "false_positive_rate": model.false_positive_rate,
-                                         "positive_update": model.positive_update,
-                                         "prior_floor": model.prior_floor,
-                                         "detector": model.detector,
-                                         "visibility": (model.detection_curve.to_json()
-                                                        if model.detection_curve else None),
-                                         "room_glances": model.room_glances},
-                           "transition_form": model.transition_form,
-                           "recovery": {**asdict(model.retries),
-                                        "tries": agent["tries"], "action_runs": agent["action_runs"]},
-                           # Experience (docs/design.md §12), only for a model that has some, so
-                           # a model learned from no logs writes its base model's events.
-                           **({"learning": model.learning.to_json()}
-                              if model.learning is not None and model.learning.active else {})},
-            "sites": [{"name": s.name, "room": s.room, "vantage": list(s.vantage),
-                       "position": list(s.position)} for s in self.scenario.sites],
-            "viewpoints": viewpoints,
-            "objects": list(self.scenario.object_names),
-            "categories": {o.name: o.category for o in self.scenario.objects},
-            "searched": agent["searched"], "graph": agent["graph"], "tasks": agent["tasks"],
-            "pose": pose.as_list(),
-            "world": {"placements": {k: list(v) for k, v in self.env.placements().items()}},
-            "belief": agent["belief"],
-        })
+        self.agent.view_geometry_from(self.env)
+        self._yardstick_start = start_truth(self.env, pose)
+        event = self._write(start_event(self.scenario, self.model, self.env, self.config, self.agent,
+                                        pose, world=self.world, render=self.render))
+        return event
 
     def step(self) -> list[dict]:
         """Carry out one step of the loop; return the events it wrote.
@@ -380,45 +330,121 @@ class EpisodeRunner:
     def _end(self, reason: str, terminated: bool = False, truncated: bool = False) -> None:
         self.state.done, self.state.reason = True, reason
         self.state.terminated, self.state.truncated = terminated, truncated
-        end = {"event": "episode_end", "reason": reason, "terminated": terminated,
-               "truncated": truncated,
-               # the agent's graph, goal conditions, belief and gtsam agreement (off: None,
-               # RunConfig.gtsam_check)
-               **self.agent.end_record(self.config.gtsam_check),
-               # The world as it truly ended, for evaluation only: written after the agent's
-               # last decision, never read by the agent side.
-               "world_truth": self.env.truth_report(),
-               # The clairvoyant yardstick (fg_tea.episode.yardstick), for evaluation only.
-               "yardstick": self._yardstick()}
-        self._write(end)
+        self._write(end_event(self.env, self.agent, self.config, self.log.events, reason,
+                              terminated, truncated, self._yardstick_start))
         # Metrics are a pure function of the events above; logged once more for convenience.
         self._write({"event": "metrics", **score(self.log.events)})
 
 
-    def _yardstick(self) -> dict | None:
-        """The clairvoyant route for this episode's searched objects, or None if unknown."""
-        if self._yardstick_start is None:
-            return None
-        from fg_tea.episode.yardstick import clairvoyant_report
+def start_event(scenario: Scenario, model: Model, env: EnvAdapter, config: RunConfig, agent: Agent,
+                pose: Pose, *, world: str | Path | None = None, render: Any = None) -> dict:
+    """The ``episode_start`` record (before its ``seq`` and ``frame``) of an episode whose
+    environment was just reset to `pose` and whose agent has its view geometry: the inputs and
+    their provenance, every parameter, the house as the agent may know it, the task and the prior.
+    `world` and `render` as for :class:`EpisodeRunner`."""
+    looks_from = set(agent.viewpoints())
+    # JSON records of the log (mixed value types); the yardstick reads them back.
+    viewpoints: list[dict[str, Any]] = [
+        {"name": v.name, "kind": v.kind, "position": list(v.position),
+         "sites": list(v.sites), "room": v.room}
+        for v in scenario.viewpoints if v.name in looks_from]
+    from fg_tea.common.resources import _resolve, resolve_task
 
-        start_xy, true_sites = self._yardstick_start
-        start = next((e for e in self.log.events if e.get("event") == "episode_start"), {})
-        objects = list(start.get("searched") or [])
-        if not true_sites or any(o not in true_sites for o in objects):
-            return None
-        viewpoints = self._viewpoints_logged
-        positions = {v["name"]: v["position"] for v in viewpoints}
-        walk = self.env.walking_distance
-        try:
-            report = clairvoyant_report(viewpoints, true_sites, objects,
-                                        lambda v: walk(v, start_xy),
-                                        lambda a, b: walk(b, positions[a]), start_xy)
-        except NotImplementedError:
-            return None
-        travel = report["clairvoyant_search_travel"]
-        if travel is not None:
-            report["clairvoyant_search_travel"] = round(travel, 6)
-        return report
+    world_file = None if world is None else _resolve(world, "scenarios/worlds", ".json")
+    provenance = episode_provenance(scenario.source, model.source,
+                                    resolve_task(config.task), world_file, render,
+                                    camera=getattr(env.config, "camera_source", None))
+    mine = agent.start_record()
+    return {
+        "event": "episode_start",
+        "scenario": scenario.name,
+        "scenario_file": (provenance["inputs"]["scenario"] or {}).get("file"),
+        "model": model.name, "model_file": portable_ref(model.source) if model.source else None,
+        "structure": model.structure,
+        # A model program (docs/design.md §4.8): its file, hash and factors; absent for TOML models.
+        **({"program": program_record(scenario, model)} if model.program is not None else {}),
+        "task": mine["task"], "planner": config.planner, "seed": config.seed,
+        "versions": provenance["versions"], "git": provenance["git"],
+        "inputs": provenance["inputs"],
+        "parameters": {"run": logged_run(config), "env": _env_params(env.config),
+                       "render": provenance["render"],
+                       "planning": asdict(model.planning),
+                       "detection": {"miss_likelihood": model.miss_likelihood,
+                                     "false_positive_rate": model.false_positive_rate,
+                                     "positive_update": model.positive_update,
+                                     "prior_floor": model.prior_floor,
+                                     "detector": model.detector,
+                                     "visibility": (model.detection_curve.to_json()
+                                                    if model.detection_curve else None),
+                                     "room_glances": model.room_glances},
+                       "transition_form": model.transition_form,
+                       "recovery": {**asdict(model.retries),
+                                    "tries": mine["tries"], "action_runs": mine["action_runs"]},
+                       # Experience (docs/design.md §12), only for a model that has some, so
+                       # a model learned from no logs writes its base model's events.
+                       **({"learning": model.learning.to_json()}
+                          if model.learning is not None and model.learning.active else {})},
+        "sites": [{"name": s.name, "room": s.room, "vantage": list(s.vantage),
+                   "position": list(s.position)} for s in scenario.sites],
+        "viewpoints": viewpoints,
+        "objects": list(scenario.object_names),
+        "categories": {o.name: o.category for o in scenario.objects},
+        "searched": mine["searched"], "graph": mine["graph"], "tasks": mine["tasks"],
+        "pose": pose.as_list(),
+        "world": {"placements": {k: list(v) for k, v in env.placements().items()}},
+        "belief": mine["belief"],
+    }
+
+
+def start_truth(env: EnvAdapter, pose: Pose) -> tuple[tuple[float, float], dict]:
+    """For the clairvoyant yardstick only (written in ``episode_end``, never read by the agent):
+    the start floor point and the objects' true start sites, as the environment reports them."""
+    return (pose.x, pose.y), dict(env.truth_report().get("sites") or {})
+
+
+def end_event(env: EnvAdapter, agent: Agent, config: RunConfig, events: list[dict], reason: str,
+              terminated: bool, truncated: bool, truth: tuple[tuple[float, float], dict] | None) -> dict:
+    """The ``episode_end`` record (before its ``seq`` and ``frame``) of an episode whose log so far
+    is `events`, ending for `reason`. `truth` is :func:`start_truth`'s (None: no yardstick). The
+    ``metrics`` record follows it: ``score(log.events)`` once it is written."""
+    end = {"event": "episode_end", "reason": reason, "terminated": terminated,
+           "truncated": truncated,
+           # the agent's graph, goal conditions, belief and gtsam agreement (off: None,
+           # RunConfig.gtsam_check)
+           **agent.end_record(config.gtsam_check),
+           # The world as it truly ended, for evaluation only: written after the agent's
+           # last decision, never read by the agent side.
+           "world_truth": env.truth_report(),
+           # The clairvoyant yardstick (fg_tea.episode.yardstick), for evaluation only.
+           "yardstick": _yardstick(env, events, truth)}
+    return end
+
+
+def _yardstick(env: EnvAdapter, events: list[dict],
+               truth: tuple[tuple[float, float], dict] | None) -> dict | None:
+    """The clairvoyant route for this episode's searched objects, or None if unknown."""
+    if truth is None:
+        return None
+    from fg_tea.episode.yardstick import clairvoyant_report
+
+    start_xy, true_sites = truth
+    start = next((e for e in events if e.get("event") == "episode_start"), {})
+    objects = list(start.get("searched") or [])
+    if not true_sites or any(o not in true_sites for o in objects):
+        return None
+    viewpoints = start.get("viewpoints") or []
+    positions = {v["name"]: v["position"] for v in viewpoints}
+    walk = env.walking_distance
+    try:
+        report = clairvoyant_report(viewpoints, true_sites, objects,
+                                    lambda v: walk(v, start_xy),
+                                    lambda a, b: walk(b, positions[a]), start_xy)
+    except NotImplementedError:
+        return None
+    travel = report["clairvoyant_search_travel"]
+    if travel is not None:
+        report["clairvoyant_search_travel"] = round(travel, 6)
+    return report
 
 
 def _env_params(config: EnvConfig) -> dict:
