@@ -26,7 +26,7 @@ from fg_tea.common.files import check_output_file
 #: Every event kind a log holds (docs/design.md §9 documents each one's fields).
 EVENT_KINDS = ("episode_start", "activate", "skip", "decision", "observation", "confirm_search",
                "state_reading", "action", "action_failed", "fail", "reopen", "alternative_site",
-               "give_up", "substitute", "stuck", "belief", "episode_end", "metrics")
+               "give_up", "substitute", "alternative_method", "stuck", "belief", "episode_end", "metrics")
 #: The executor's own records, merged by the runner into ``action`` and ``state_reading``
 #: (``state_reading.executor_event`` names which); never events of their own.
 MERGED_KINDS = ("complete", "inspect", "observe_state")

@@ -394,6 +394,8 @@ FIELDS: dict[str, dict[str, Check]] = {
     "give_up": {"object": STR, "remaining_probability": maybe(PROB), "looks": INT, "threshold": NUM,
                 "budget": maybe(INT), "why": STR},
     "substitute": {"object": STR, "substitute": STR, "retargeted": STRS, "remaining": STRS, **GRAPH},
+    "alternative_method": {"action": STR, "method": INT, "before": OBJ, "after": OBJ, "description": STR,
+                           "remaining": INT, **GRAPH},
     "stuck": {"reason": STR, **GRAPH},
     "belief": {"locations": MARGINALS, "states": map_of(PROB), "entropy": map_of(NUM)},
     "episode_end": {"reason": STR, "terminated": BOOL, "truncated": BOOL, "goal_conditions": OBJ,

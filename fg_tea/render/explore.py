@@ -424,6 +424,8 @@ def caption(e: Mapping[str, Any]) -> str:
         return f"read {e.get('state')}: {'true' if e.get('value') else 'false'} ({e.get('purpose')})"
     if kind == "metrics":
         return metrics_caption(e)
+    if kind == "alternative_method":
+        return f"another way to {e.get('action')}: {e.get('description') or (e.get('after') or {}).get('verb')}"
     if kind == "substitute":
         return (f"substitute: the {e.get('substitute')} stands in for the {e.get('object')} "
                 f"({_count(len(e.get('retargeted') or []), 'action')} retargeted)")

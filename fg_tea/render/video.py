@@ -160,6 +160,10 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
             ov.phase, ov.focus_object, ov.candidates = "SUBSTITUTE", e["substitute"], []
             ov.caption = f"{e['object']} given up: the {e['substitute']} stands in for it"
             emit([], repeat_last=hold)
+        elif kind == "alternative_method":  # retries spent: the action is done another way (§7.6)
+            ov.phase = "ALTERNATIVE"
+            ov.caption = f"{e['action']} another way: {e.get('description') or e['after'].get('verb')}"
+            emit([], repeat_last=hold)
         elif kind == "skip":
             clear_look()
             ov.phase, ov.caption = "SKIP", f"{e['action']} skipped: its goal already holds"

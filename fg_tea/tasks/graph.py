@@ -65,6 +65,9 @@ class TaskGraph:
         self.declared_states = dict(declared_states or {})
         #: the objects that may stand in for one given up, and their actions (set by the loader)
         self.substitutes: Substitutes | None = None
+        #: action id -> its alternative methods, and how many of them were put in its place
+        self.alternatives: dict[str, tuple[TaskAction, ...]] = {}
+        self.methods_tried: Counter[str] = Counter()
         self._g = nx.DiGraph()
         self._order: list[str] = []
         for i, action in enumerate(actions):

@@ -80,7 +80,7 @@ PREPARATION_SITE = "$preparation_site"
 
 ACTION_FIELDS = ("id", "verb", "object", "site", "destination", "transition", "state", "sensor",
                  "requires_affordance", "goals", "preconditions", "depends_on", "recovery",
-                 "description")
+                 "description", "alternatives")
 RECOVERY_FIELDS = ("max_retries", "reinspect", "exclude_site")
 
 _SITE_REQUIRED = ("NAVIGATE", "PLACE")
@@ -398,18 +398,23 @@ def parse_task(data: object, model: Model, scenario: Scenario, preparation_site:
         raise r.fail(f"the scenario's and the task's task states number {total}; an exact belief "
                      f"holds at most {MAX_STATES}", "declares_states")
     ctx = _Context(model, scenario, preparation_site or scenario.preparation_site, declared)
-    actions, deps = [], {}
+    from fg_tea.tasks.methods import read_alternatives
+
+    actions, deps, alternatives = [], {}, {}
     for a in r.items("actions"):
         action, depends_on = _read_action(a, ctx)
         if action.id in deps:
             raise a.fail(f"duplicate action id {action.id!r}", "id")
         actions.append(action)
         deps[action.id] = depends_on
+        if methods := read_alternatives(a, lambda alt: _read_action(alt, ctx)):
+            alternatives[action.id] = methods
     if not actions:
         raise r.fail("a task needs at least one action", "actions")
     _check_object_affordances(r, actions, scenario)
     graph = TaskGraph(actions, deps, name=r.req("name", str), description=r.opt("description", str, ""),
                       source=str(file), declared_states=declared)
+    graph.alternatives = alternatives
     from fg_tea.tasks.substitutes import read_substitutes
 
     acted_on = {n for a in actions for n in (a.object, a.destination) if n is not None}

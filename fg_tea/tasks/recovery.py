@@ -14,6 +14,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from fg_tea.tasks.actions import TRANSIENT_REASONS, UNREACHABLE_REASONS, TaskAction
+from fg_tea.tasks.methods import switch as switch_method
 from fg_tea.tasks.records import ObjectState, RecoveryDecision, Violation
 
 if TYPE_CHECKING:
@@ -160,6 +161,11 @@ class TaskRecovery:
             stuck = f"{action.id} failed {attempt} times: {reason}{suffix}"
             decision = RecoveryDecision(action.id, reason, attempt, False, (), excluded, reopened,
                                         stuck)
+        method = switch_method(self, action) if decision.stuck_reason is not None else None
+        if method is not None:  # another way to do it (fg_tea.tasks.methods): pending again
+            decision = replace(decision, retry=True, stuck_reason=None)
+        if method is not None:  # before the decision, which the runner merges into action_failed
+            self.events.append(method)
         self.events.append({"event": "fail", **decision.to_json(), "graph": self.graph.to_json()})
         if decision.stuck_reason is not None:
             self._stuck(decision.stuck_reason)
