@@ -55,3 +55,19 @@ def test_make_tea_and_joint_rows_say_why_there_is_no_bound():
                     "|task=find_mug"}
     assert "correlated" in str(row_bound(joint))
     assert "names no episode" in str(row_bound({"key": "nonsense"}))
+
+
+def test_search_bound_script_writes_the_bound_beside_each_planner(tmp_path):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "experiments" / "search_bound.py"
+    spec = importlib.util.spec_from_file_location("_search_bound", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.main(["--worlds", "1", "--tasks", "find_mug", "--planners", "efe", "--out", str(tmp_path)]) == 0
+    with open(tmp_path / "find_mug" / "summary.csv", newline="") as f:
+        (row,) = list(csv.DictReader(f))
+    assert float(row["search_bound"]) == pytest.approx(start_bound("independent_medium", 0, "factorised_close",
+                                                                   "find_mug"))
+    assert float(row["search_bound"]) > 0
