@@ -32,6 +32,12 @@ Run ``python experiments/bench_inference.py`` (a few minutes on 2 cores; writes
 unless ``--out`` is given). The committed table changes only when ``--out`` names it:
 
     python experiments/bench_inference.py --out experiments/results/bench_inference.md
+
+``--paths`` instead measures the bundled models through the compiled path (``fg.compile_program``
+of the model's program) against the engine's path side by side (experiments/bench_paths.py; CPU per
+belief update and per decision, and their ratio against the target of 1.2x):
+
+    python experiments/bench_inference.py --paths --out experiments/results/bench_paths.md
 """
 
 from __future__ import annotations
@@ -49,7 +55,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-from fg_tea.common.files import out_file  # noqa: E402
+from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
 from fg_tea.beliefs.engine import BeliefEngine  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
 from fg_tea.beliefs.factors import detection_factor, miss_factor  # noqa: E402
@@ -439,12 +445,24 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=out_file, default=None,
                         help=f"markdown output (default: {DEFAULT_OUT} for the full run, none for "
                              "--quick; committed: experiments/results/bench_inference.md)")
+    parser.add_argument("--paths", action="store_true",
+                        help="only the bundled models, compiled path vs engine path (experiments/bench_paths.py; "
+                             "committed: experiments/results/bench_paths.md)")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.paths:
+        import bench_paths  # experiments/ is on sys.path when run as a script
+
+        text = bench_paths.run()
+        print(text)
+        if args.out is not None:
+            atomic_write_text(args.out, text)
+            print(f"wrote {args.out}")
+        return 0
     if args.quick:
         sizes, budget = [(3, 6), (3, 8)], args.budget or 1.0
     else:

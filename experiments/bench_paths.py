@@ -1,0 +1,116 @@
+"""The bundled models through the compiled path against the engine's path, side by side.
+
+For each bundled model on the default apartment, on the same factors (the model's program,
+``fg.program_from_model``, is what both start from):
+
+- **engine**: :class:`fg_tea.beliefs.engine.BeliefEngine` (numpy backend), the path episodes take;
+- **compiled**: ``fg.compile_program`` of the model's program (docs/design.md §4.8).
+
+Two CPU times (``time.process_time``, best of the repeats), each ratio compiled / engine:
+
+- **update**: a belief update — every object missed at one site (eqs. 5-6, the engine's miss
+  factors as the compiled path's likelihoods), then every location marginal;
+- **decision**: one planner's worth of hypothetical queries — for every object, its miss at every
+  site as one candidate each (``hypothetical_all`` on the engine, ``hypothetical`` per object on
+  the compiled model), all posterior location marginals.
+
+The miss posteriors of both paths are compared (max |difference|, must be ~1e-12). Run through
+``python experiments/bench_inference.py --paths`` (``--out`` names the committed table).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+import fg_tea as fg
+from fg_tea.beliefs.engine import BeliefEngine
+from fg_tea.beliefs.factors import miss_factor
+
+MODELS = ("factorised", "factorised_close", "joint", "joint_close")
+TARGET = 1.2
+
+
+def _best(call: Callable[[], Any], repeats: int) -> tuple[float, Any]:
+    best, out = float("inf"), None
+    for _ in range(repeats):
+        start = time.process_time()
+        out = call()
+        best = min(best, time.process_time() - start)
+    return best, out
+
+
+def measure(name: str, scenario: Any, repeats: int = 20) -> dict[str, Any]:
+    """One bundled model's row: CPU seconds per update and per decision on each path."""
+    model = fg.load_model(name)
+    engine = BeliefEngine(scenario, model)
+    compiled = fg.compile_program(fg.program_from_model(scenario, model))
+    objects, k = list(engine.objects), len(engine.sites)
+    site = 0
+    misses = {o: miss_factor(o, site, k, model.miss_likelihood).table for o in objects}
+
+    def engine_update() -> dict[str, np.ndarray]:
+        c = engine.copy()
+        c.observe_site(engine.sites[site], {o: False for o in objects})
+        return {o: c.location(o) for o in objects}
+
+    def compiled_update() -> dict[str, np.ndarray]:
+        c = compiled
+        for o in objects:
+            c = c.observe(o, misses[o])
+        return c.marginals(objects)
+
+    def engine_decision() -> np.ndarray:
+        return engine.copy().hypothetical_all()[0]
+
+    def compiled_decision() -> np.ndarray:
+        out = np.empty((len(objects), k, len(objects), k))
+        for i, o in enumerate(objects):
+            rows = np.array([miss_factor(o, j, k, model.miss_likelihood).table for j in range(k)])
+            h = compiled.hypothetical(o, rows)
+            for p, other in enumerate(objects):
+                out[i, :, p] = h.marginals[other]
+        return out
+
+    row: dict[str, Any] = {"model": name, "structure": model.structure, "objects": len(objects), "sites": k}
+    (row["update_engine"], a), (row["update_compiled"], b) = _best(engine_update, repeats), _best(
+        compiled_update, repeats)
+    diff = max(float(np.max(np.abs(a[o] - b[o]))) for o in objects)
+    (row["decision_engine"], a), (row["decision_compiled"], b) = _best(engine_decision, repeats), _best(
+        compiled_decision, repeats)
+    row["max_diff"] = max(diff, float(np.max(np.abs(a - b))))
+    return row
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The markdown table of the rows, with each ratio against the target."""
+    lines = ["| model | structure | N x K | update engine ms | update compiled ms | ratio | decision engine ms | "
+             "decision compiled ms | ratio | max diff |", "|---" * 10 + "|"]
+    for r in rows:
+        u, d = r["update_compiled"] / r["update_engine"], r["decision_compiled"] / r["decision_engine"]
+        lines.append(f"| {r['model']} | {r['structure']} | {r['objects']} x {r['sites']} | "
+                     f"{1e3 * r['update_engine']:.3f} | {1e3 * r['update_compiled']:.3f} | {u:.2f} | "
+                     f"{1e3 * r['decision_engine']:.3f} | {1e3 * r['decision_compiled']:.3f} | {d:.2f} | "
+                     f"{r['max_diff']:.1e} |")
+    return "\n".join(lines)
+
+
+def run(repeats: int = 20) -> str:
+    """The side-by-side section: the table and, per ratio, whether it meets the target."""
+    scenario = fg.load_scenario("default_apartment")
+    rows = [measure(m, scenario, repeats) for m in MODELS]
+    over = [f"{r['model']} {what} {r[what + '_compiled'] / r[what + '_engine']:.2f}x" for r in rows
+            for what in ("update", "decision") if r[what + "_compiled"] / r[what + "_engine"] > TARGET]
+    verdict = (f"every ratio is within the target of {TARGET}x" if not over else
+               f"above the target of {TARGET}x: " + ", ".join(over))
+    return ("## Compiled path vs engine path (bundled models, default apartment)\n\n"
+            "CPU time (time.process_time, best of " + str(repeats) + ") per belief update (every object missed "
+            "at one site, then every marginal) and per decision (every object's miss at every site as "
+            "hypotheticals); ratio = compiled / engine. Made by `python experiments/bench_inference.py --paths "
+            "--out experiments/results/bench_paths.md`.\n\n" + table(rows) + "\n\n" + verdict + "\n")
+
+
+if __name__ == "__main__":
+    print(run())
