@@ -35,7 +35,7 @@ from fg_tea.model.spec import Model
 from fg_tea.planning import Decision, DistanceModel, distances_for, make_planner
 from fg_tea.planning.base import Planner, accept_decision, call_planner
 from fg_tea.tasks.actions import TaskAction
-from fg_tea.tasks.executor import MAX_REOPENINGS, TaskExecutor
+from fg_tea.tasks.executor import MAX_REOPENINGS, NOT_FOUND, TaskExecutor
 from fg_tea.tasks.records import RecoveryDecision, Violation
 from fg_tea.tasks.load import load_task
 from fg_tea.world.interface import ActionRequest, ActionResult, InspectionResult
@@ -250,6 +250,17 @@ class Agent:
     def stuck_reason(self) -> str | None:
         """Why no action is ready although the task is not done (None otherwise)."""
         return self.executor.stuck_reason
+
+    def end_reason(self) -> str | None:
+        """Why the episode ends when :meth:`next_action` returned None: ``complete``, a search
+        given up (``not_found: ...``) or ``stuck: ...`` with the executor's reason; None while
+        the task goes on."""
+        if self.executor.done:
+            return "complete"
+        stuck = self.executor.stuck_reason
+        if stuck is None:
+            return None
+        return stuck if stuck.startswith(NOT_FOUND) else f"stuck: {stuck}"
 
     def next_action(self, position: Sequence[float] | None = None,
                     distances: DistanceModel | None = None) -> TaskAction | None:

@@ -40,7 +40,6 @@ from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.episode.provenance import episode_provenance, portable_ref, program_record
 from fg_tea.model.spec import Model
-from fg_tea.tasks.executor import NOT_FOUND
 from fg_tea.tasks.records import PreconditionError
 from fg_tea.world.interface import ActionRequest, Pose
 from fg_tea.world.scenario import Scenario
@@ -212,12 +211,7 @@ class EpisodeRunner:
                                         EnvDistances(self.env, self._between, self._matrices))
         self._flush_agent()
         if action is None:
-            if self.agent.done:
-                self._end(REASON_COMPLETE, terminated=True)
-            else:
-                stuck = self.agent.stuck_reason or ""
-                self._end(stuck if stuck.startswith(NOT_FOUND) else f"stuck: {stuck}",
-                          terminated=True)
+            self._end(self.agent.end_reason() or "stuck: ", terminated=True)
             return self.log.events[first:]
         self.state.steps += 1
         if action.verb == "SEARCH":
