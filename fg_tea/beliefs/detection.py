@@ -19,6 +19,9 @@ l(a) = 1 - p_{o,a} for a in view (1 elsewhere) and the planner's score. Where p 
   eq. (33)). Those counts are computed by the environment from the house geometry and the object
   models alone, never from where objects truly are, and handed over once per house.
 
+Each kind's p is computed by its class in :mod:`fg_tea.world.detectors` (a new kind registers
+there: docs/how-to/add-a-detector.md).
+
 Why a mean over slots, of probabilities: an object put on a site takes the site's first free
 slot, so which slot it stands at depends on how many objects share the site and in what order
 they came, which the agent does not know. It takes each of the site's S slots (S = min(number of
@@ -146,17 +149,13 @@ class ViewModel:
         categories = [scenario.object(o).category for o in self.objects]
         site_index = {s: i for i, s in enumerate(self.sites)}
         mu = model.miss_likelihood
-        if model.detector == "visibility":
-            assert model.detection_curve is not None  # the visibility detector has its curve
-            self.max_probability = float(model.detection_curve.max_probability)
-        else:
-            self.max_probability = 1.0 - mu
+        kind = model.detector_kind  # how this detector's look probabilities are computed
+        self.max_probability = kind.max_probability(model)
         needs_pixels = not model.close_looks_only
         if needs_pixels and expected_pixels is None:
             raise ValueError(f"model {model.name!r} needs the expected pixel counts of every "
                              "viewpoint (room glances or the visibility detector)")
         views = []
-        curve = model.detection_curve
         for vp in scenario.viewpoints:
             if vp.kind == "room" and not model.room_glances:
                 continue
@@ -177,15 +176,10 @@ class ViewModel:
                                              f"site {s!r} from viewpoint {vp.name!r}") from None
                         pixels[o, c] = float(slots.mean())
                         # Eq. (33): the mean over slots of P(seen | slot), each slot equally likely.
-                        if model.detector == "visibility":
-                            assert curve is not None  # the visibility detector has its curve
-                            prob[o, c] = float(np.mean([curve.probability(cat, n) for n in slots]))
-                        elif vp.kind == "room":
-                            prob[o, c] = (1.0 - mu) * float(np.mean(slots >= model.min_visible_pixels))
-            if not needs_pixels or (model.detector == "threshold" and vp.kind == "site"):
+                        prob[o, c] = kind.slot_probability(model, cat, slots, vp.kind)
+            if not needs_pixels:
                 prob = np.full((len(self.objects), n_view), 1.0 - mu)
-            miss = (np.full(prob.shape, mu) if model.detector == "threshold" and vp.kind == "site"
-                    else 1.0 - prob)
+            prob, miss = kind.look_tables(model, vp.kind, prob)
             if model.learning is not None and model.learning.detection_active:
                 prob, miss = _learned(model, scenario, vp, categories, prob, miss)
             views.append(View(vp.name, vp.kind, vp.room, tuple(site_index[s] for s in vp.sites),
@@ -199,6 +193,7 @@ class ViewModel:
             if company is None:
                 raise ValueError(f"model {model.name!r} needs the company pixel counts of every "
                                  "viewpoint ([perception] facing_tolerance or occlusion)")
+            curve = model.detection_curve
             assert expected_pixels is not None and curve is not None  # visibility detector
             self.company = CompanyModel(categories, curve, [(v.name, [self.sites[j] for j in v.sites])
                                                             for v in views],

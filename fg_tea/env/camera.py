@@ -38,7 +38,8 @@ from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import Reader, read_toml
 from fg_tea.common.resources import bundled_names, resolve_camera
 from fg_tea.env.base import EnvConfig
-from fg_tea.world.visibility import DETECTORS, VisibilityCurve, read_curve
+from fg_tea.world.detectors import Detector, detector_kind, detector_names
+from fg_tea.world.visibility import VisibilityCurve, read_curve
 
 #: The EnvConfig fields a camera file sets; nothing else configures them.
 CAMERA_FIELDS = ("min_visible_pixels", "site_association", "site_association_radius", "camera_curve")
@@ -67,6 +68,11 @@ class Camera:
     description: str = ""
     source: str = ""
 
+    @property
+    def kind(self) -> Detector:
+        """The registered kind of :attr:`detector` (:mod:`fg_tea.world.detectors`)."""
+        return detector_kind(self.detector, self.source or f"<camera {self.name}>", "camera.detector")
+
     def env_config(self, base: EnvConfig | None = None, **overrides: Any) -> EnvConfig:
         """`base` (default :class:`EnvConfig`) with this camera's fields, then `overrides`.
 
@@ -83,14 +89,14 @@ class Camera:
         fields = {"min_visible_pixels": self.min_visible_pixels,
                   "site_association": self.site_association,
                   "site_association_radius": self.site_association_radius,
-                  "camera_curve": self.curve if self.detector == "visibility" else None}
+                  "camera_curve": self.curve if self.kind.curve else None}
         config = replace(base or EnvConfig(), **{**fields, **overrides})
-        if self.detector == "visibility":
+        if not self.kind.miss_rate:
             for key, what in (("detection_miss_rate", "drops would-be detections of"),
                               ("min_visible_pixels", "is the pixel threshold of")):
                 if key in overrides and overrides[key] not in (None, 0, 0.0, self.min_visible_pixels):
                     raise InputError(where, key, f"has no effect with camera {self.name!r}: it "
-                                     f"{what} the threshold detector, and this camera's visibility "
+                                     f"{what} the threshold detector, and this camera's {self.detector} "
                                      "detector draws each detection from its curve (docs/design.md "
                                      "§3.4); use --camera threshold")
         return config
@@ -107,22 +113,12 @@ def parse_camera(data: dict, file: str | Path = "<camera>") -> Camera:
     if not name.strip():
         raise r.fail("a camera name must not be empty", "name")
     c = r.child("camera")
-    detector = c.choice("detector", DETECTORS)
+    detector = c.choice("detector", detector_names())
     pixels = c.opt("min_visible_pixels", int, 25)
     if pixels < 1:
         raise c.fail(f"must be at least 1 pixel, got {pixels}", "min_visible_pixels")
-    if detector == "visibility" and c.has("min_visible_pixels"):
-        raise c.fail("has no effect with the visibility detector (it draws each detection from "
-                     "[camera.visibility]); remove it or use detector = \"threshold\"",
-                     "min_visible_pixels")
+    detector_kind(detector).check_camera(c)
     curve_r = c.child("visibility", required=False)
-    if detector == "threshold" and curve_r is not None:
-        raise c.fail("has no effect with the threshold detector; remove it or use "
-                     "detector = \"visibility\"", "visibility")
-    if detector == "visibility" and curve_r is None:
-        raise c.fail("missing: the visibility detector draws each detection from this curve "
-                     "(half_pixels, slope, max_probability; the bundled cameras/visibility.toml "
-                     "has one)", "visibility")
     curve = read_curve(curve_r) if curve_r is not None else None
     camera = Camera(name=name, detector=detector, min_visible_pixels=pixels,
                     site_association=c.opt("site_association", bool, True),
@@ -147,9 +143,7 @@ def load_camera(ref: str | Path | Camera) -> Camera:
 
 def default_camera(detector: str) -> str:
     """The bundled camera an agent that assumes `detector` runs with when none is named."""
-    if detector not in DETECTORS:
-        raise ValueError(f"unknown detector {detector!r} (known: {', '.join(DETECTORS)})")
-    return detector
+    return detector_kind(detector).default_camera
 
 
 def camera_names() -> list[str]:

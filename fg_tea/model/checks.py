@@ -30,14 +30,6 @@ def _fail(r: "Reader", path: str, fault: str) -> InputError:
     return InputError(r.file_of(path), path, fault)
 
 
-def _has(data: Any, *keys: str) -> bool:
-    for key in keys:
-        if not isinstance(data, dict) or key not in data:
-            return False
-        data = data[key]
-    return True
-
-
 def check_model(model: Any, r: "Reader") -> None:
     """Refuse a model whose values are in their plain ranges but make it degenerate.
 
@@ -95,11 +87,8 @@ def check_model(model: Any, r: "Reader") -> None:
             raise _fail(r, f"$.relations[{i}].categories",
                         f"a category name must not be empty, got {list(relation.categories)!r} (a "
                         "relation naming no category adds no factor, silently)")
-    if model.detector == "visibility" and not _has(r.data, "perception", "visibility"):
-        raise _fail(r, "$.perception.visibility",
-                    "missing: detector = \"visibility\" needs the curve the agent assumes "
-                    "(half_pixels, slope, max_probability; the bundled models/factorised.toml has "
-                    "one), or there would be no telling which curve it assumes")
-
+    fault = model.detector_kind.check_model(r.data)
+    if fault is not None:
+        raise _fail(r, *fault)
 
 __all__ = ["MIN_ABSENT_PROBABILITY", "check_model"]

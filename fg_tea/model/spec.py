@@ -21,7 +21,8 @@ from fg_tea.common.inputs import Reader
 from fg_tea.model.checks import check_model
 from fg_tea.model.documents import load_document, origin_lookup
 from fg_tea.model.learning import Learning, apply_to_sensors, apply_to_transitions, read_learning
-from fg_tea.world.visibility import DETECTORS, VisibilityCurve, read_curve
+from fg_tea.world.detectors import Detector, detector_kind, detector_names
+from fg_tea.world.visibility import VisibilityCurve, read_curve
 
 STRUCTURES = ("factorised", "joint")
 #: Where the camera's settings live now, for the one line that refuses them in a model file.
@@ -234,7 +235,12 @@ class Model:
     @property
     def close_looks_only(self) -> bool:
         """The pre-viewpoint behaviour: threshold detector, one close look per site."""
-        return self.detector == "threshold" and not self.room_glances
+        return self.detector_kind.pixel_free and not self.room_glances
+
+    @property
+    def detector_kind(self) -> Detector:
+        """The registered kind of :attr:`detector` (:mod:`fg_tea.world.detectors`)."""
+        return detector_kind(self.detector, self.source or f"<model {self.name}>", "$.perception.detector")
 
     def sensor(self, name: str = "state") -> Sensor:
         return self.sensors[name]
@@ -411,7 +417,8 @@ def parse_model(data: dict, file: str | Path = "<model>",
     if structure == "factorised" and relations:
         raise r.fail("relational factors need structure = \"joint\"", "relations")
     miss = detection.probability("miss_likelihood")  # its ranges: fg_tea.model.checks
-    detector = perception.choice("detector", DETECTORS, "threshold")
+    detector = perception.choice("detector", detector_names(), "threshold")
+    kind = detector_kind(detector)
     # The model says what the agent assumes; the camera file says what the camera does
     # (docs/design.md §1.3). Keys that used to set the camera from here are refused by name.
     if perception.has("site_association"):
@@ -419,27 +426,21 @@ def parse_model(data: dict, file: str | Path = "<model>",
     if detection.has("visibility"):
         raise detection.fail("moved: the agent's assumed curve is [perception.visibility]; "
                              f"{CAMERA_KEY_MOVED}", "visibility")
-    if detector == "visibility" and perception.has("min_visible_pixels"):
-        raise perception.fail("has no effect with detector = \"visibility\" (the agent assumes the "
-                              "curve of [perception.visibility]); remove it, or assume the "
-                              "threshold detector", "min_visible_pixels")
-    if detector == "threshold" and origins and any(
-            k.startswith("$.perception.visibility.") and f == str(file) for k, f in origins.items()):
-        # written in this very file (a parent's curve, inherited, is the parent's business)
-        raise perception.fail("has no effect with detector = \"threshold\" (an object is seen iff "
-                              "it covers min_visible_pixels); remove it, or assume the visibility "
-                              "detector", "visibility")
+    # written in this very file (a parent's curve, inherited, is the parent's business)
+    curve_here = origins is not None and any(
+        k.startswith("$.perception.visibility.") and f == str(file) for k, f in origins.items())
+    kind.check_perception(perception, curve_here)
     facing_tolerance = perception.opt("facing_tolerance", bool, False)
     occlusion = perception.opt("occlusion", bool, False)
     for key, on in (("facing_tolerance", facing_tolerance), ("occlusion", occlusion)):
-        if on and detector != "visibility":  # named on the detector: a file that extends a
+        if on and not kind.company:  # named on the detector: a file that extends a
             # company model and switches the detector is the one at fault
             raise perception.fail(f"\"{detector}\" cannot be combined with {key} = true, which "
                                   "needs the visibility detector (docs/design.md §3.4); set "
                                   f"{key} = false too", "detector")
     assumed_r = perception.child("visibility", required=False)
     detection_curve = (read_curve(assumed_r) if assumed_r is not None
-                       else VisibilityCurve() if detector == "visibility" else None)
+                       else VisibilityCurve() if kind.curve else None)
     viewpoints = r.child("viewpoints", required=False) or Reader({}, file, "$.viewpoints")
     learning = None
     declared_sensors = None

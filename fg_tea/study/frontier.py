@@ -37,7 +37,7 @@ def episode_setup(world: str, seed: int, model_name: str, env_kind: str, miss_ra
     model = load_model(model_path(model_name))
     scenario = load_world(world_path(world)).sample(seed)
     rate = model.miss_likelihood if miss_rate is None else miss_rate
-    if model.detector != "threshold":  # the camera's curve draws the misses (docs/design.md §3.4)
+    if not model.detector_kind.miss_rate:  # the camera's curve draws the misses (docs/design.md §3.4)
         rate = 0.0
     return model, scenario, job_env(env_kind, scenario, env_config_for(model, detection_miss_rate=rate)), rate
 
@@ -205,9 +205,9 @@ def check_inputs(world: str, worlds: int, models: list[str], planners: list[str]
         raise InputError("<command line>", "--world", f"unknown world {world!r}")
     for model in models:
         loaded = load_model(model_path(model, "--models"))  # InputError naming the file and fault
-        if miss_rate is not None and loaded.detector != "threshold":
+        if miss_rate is not None and not loaded.detector_kind.miss_rate:
             raise InputError("<command line>", "--miss-rate", f"has no effect with model {model!r}: "
-                             "its visibility detector draws each detection from the camera's curve")
+                             f"its {loaded.detector} detector draws each detection from the camera's curve")
     for name in planners:
         check_planner(name)
 

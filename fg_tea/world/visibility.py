@@ -26,7 +26,6 @@ from typing import TYPE_CHECKING, Mapping
 if TYPE_CHECKING:
     from fg_tea.common.inputs import Reader
 
-DETECTORS = ("threshold", "visibility")
 #: Smallest half-probability pixel count n_50: a count of pixels, so below one pixel every object
 #: in view would be seen with P near p_max, whatever its size or distance.
 MIN_HALF_PIXELS = 1.0
@@ -125,4 +124,4 @@ def _slope(r: "Reader", default: float) -> float:
     return slope
 
 
-__all__ = ["DETECTORS", "MIN_HALF_PIXELS", "MIN_SLOPE", "CurveParams", "VisibilityCurve", "read_curve"]
+__all__ = ["MIN_HALF_PIXELS", "MIN_SLOPE", "CurveParams", "VisibilityCurve", "read_curve"]
