@@ -57,10 +57,7 @@ def measure(name: str, scenario: Any, repeats: int = 20) -> dict[str, Any]:
         return {o: c.location(o) for o in objects}
 
     def compiled_update() -> dict[str, np.ndarray]:
-        c = compiled
-        for o in objects:
-            c = c.observe(o, misses[o])
-        return c.marginals(objects)
+        return compiled.observe_many(misses).marginals(objects)
 
     def engine_decision() -> np.ndarray:
         return engine.copy().hypothetical_all()[0]

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -388,6 +388,16 @@ class CompiledModel:
     def observe(self, name: str, likelihood: Any, label: str | None = None) -> "CompiledModel":
         """A new model with a likelihood vector on `name` multiplied in (evidence: a detection,
         a miss, a reading), held in log space so long runs of evidence never underflow."""
+        return self._rebuild(self._vars, self._factors + (self._evidence(name, likelihood, label),))
+
+    def observe_many(self, evidence: Mapping[str, Any]) -> "CompiledModel":
+        """A new model with several likelihood vectors (variable name -> likelihood) multiplied in
+        at once: the model :meth:`observe` gives one by one, compiled once instead of once each."""
+        added = tuple(self._evidence(name, likelihood, None) for name, likelihood in evidence.items())
+        return self._rebuild(self._vars, self._factors + added)
+
+    def _evidence(self, name: str, likelihood: Any, label: str | None) -> _Factor:
+        """The log-space factor of a likelihood vector on `name`, checked."""
         i = self._id(name)
         lik = np.asarray(likelihood, dtype=float)
         if lik.shape != (self._cards[i],) or not np.all(np.isfinite(lik)) or np.any(lik < 0):
@@ -396,8 +406,7 @@ class CompiledModel:
         if not np.any(lik > 0):
             raise ContradictionError(f"{self.source}: evidence on {name!r} is zero for every value")
         with np.errstate(divide="ignore"):
-            factor = _Factor(label or f"evidence {name}", (i,), np.log(lik))
-        return self._rebuild(self._vars, self._factors + (factor,))
+            return _Factor(label or f"evidence {name}", (i,), np.log(lik))
 
     def condition(self, name: str, value: Any) -> "CompiledModel":
         """A new model in which `name` is known to take `value` (one of its values or labels)."""
