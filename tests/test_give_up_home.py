@@ -49,3 +49,30 @@ def test_the_executor_gives_up_at_the_homes_bound():
         agent = fg.Agent(scenario, model, planner="efe")
         threshold = agent.executor.search_outlook("mug")["threshold"]
         assert threshold == remaining_below(model.planning)
+
+
+def test_both_rules_are_decided_by_the_agent_and_the_executor_only_records():
+    from fg_tea.agent import give_up
+    from fg_tea.tasks.executor import TaskExecutor
+
+    assert not hasattr(TaskExecutor, "_give_up")  # the executor gives a search up when told to
+    assert callable(give_up.probability_rule) and callable(give_up.weigh)
+    budget_writers = [str(p.relative_to(ROOT)) for p in sorted((ROOT / "fg_tea").rglob("*.py"))
+                      if "math.log(mu)" in p.read_text()]
+    assert budget_writers == ["fg_tea/model/give_up.py"]
+
+
+def test_the_executor_alone_never_gives_a_search_up():
+    import fg_tea as fg
+
+    scenario = fg.load_scenario("default_apartment")
+    model = fg.load_model("factorised_close")
+    model = replace(model, planning=replace(model.planning, give_up="probability",
+                                            max_inspections_per_object=1))
+    agent = fg.Agent(scenario, model, planner="efe", task="find_mug")
+    search = agent.next_action()
+    decision = agent.decide(search, scenario.start_position)
+    agent.observe_look(decision.viewpoint, {"mug": None})  # one miss: the budget of one look spent
+    assert agent.executor.next_action().id == search.id  # the executor goes on searching
+    assert agent.next_action() is None  # the agent's rule gives it up
+    assert agent.end_reason().startswith("not_found: mug") and "budget of 1 looks" in agent.end_reason()

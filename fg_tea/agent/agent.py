@@ -27,7 +27,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from fg_tea.agent import records as _records
-from fg_tea.agent.give_up import sweep_length, weigh
+from fg_tea.agent.give_up import probability_rule, sweep_length, weigh
 from fg_tea.beliefs.detection import PixelTable, ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, LookUpdate
 from fg_tea.beliefs.occlusion import CompanyTable
@@ -267,14 +267,20 @@ class Agent:
         """The next ready task action (skipping what the belief says is done), or None: the task
         is done, or stuck (:attr:`stuck_reason` says why, e.g. a search given up).
 
-        Under the cost give-up (docs/design.md §7.8) a SEARCH action is weighed first
-        (:meth:`weigh_search`) from `position` (default: where the agent last looked from, else
-        the scenario's start) with `distances` (None: on the floor plan); a search given up there
-        makes this None.
+        A SEARCH action is first checked by the probability rule (R_o below its bound, or the
+        look budget spent: :func:`fg_tea.agent.give_up.probability_rule`); under the cost give-up
+        (docs/design.md §7.8) it is then weighed (:meth:`weigh_search`) from `position`
+        (default: where the agent last looked from, else the scenario's start) with `distances`
+        (None: on the floor plan); a search given up there makes this None.
         """
-        action = self.executor.next_action()
-        if action is None or action.verb != "SEARCH" or self.model.planning.give_up != "cost" \
-                or self.views is None:
+        action = self.executor.ready_action()
+        if action is None:
+            return None
+        given = probability_rule(self.executor, self.model.planning) if action.verb == "SEARCH" else None
+        if given is not None and self.executor.give_up(*given) is not None:
+            return None  # stuck (a search given up with no substitute to stand in)
+        action = self.executor.activate(action.id)
+        if action.verb != "SEARCH" or self.model.planning.give_up != "cost" or self.views is None:
             return action
         if position is None:
             position = self._looked_from or self.scenario.start_position

@@ -71,3 +71,24 @@ def weigh(belief, obj: str, views, distances: DistanceModel, excluded: frozenset
     return {"object": obj, "findable": chance_findable, "viewpoint": viewpoint, "cost": cost,
             "chance": chance, "cost_per_find": per_find, "value": value,
             "give_up": bool(per_find > value)}
+
+
+def probability_rule(executor, planning) -> tuple[str, dict, str] | None:
+    """The search the probability rule gives up, as (object, outlook, why), or None: the first
+    searched object whose R_o is below :func:`~fg_tea.model.give_up.remaining_below` (under the
+    cost rule, its safety net) or whose look budget is spent (docs/design.md §7.8). Asked before
+    a SEARCH is marked active, whichever rule the model gives up by."""
+    budget = executor.search_budget()
+    for obj in executor.pending_search_objects():
+        outlook = executor.search_outlook(obj)
+        remaining = outlook["remaining_probability"]
+        low = remaining is not None and remaining < outlook["threshold"]
+        if not low and (budget is None or outlook["looks"] < budget):
+            continue
+        if not low:
+            return obj, outlook, f"search budget of {budget} looks spent"
+        why = f"remaining probability {remaining:.3g} < {outlook['threshold']:.3g}"
+        if planning.give_up == "cost":
+            why += " (the safety net of the cost rule)"
+        return obj, outlook, why
+    return None

@@ -16,6 +16,8 @@ with :func:`findable`: one formula, read both ways here.
 
 from __future__ import annotations
 
+import math
+
 
 def findable(remaining: float, absent: float) -> float:
     """F_o of eq. (58): the chance the object can still be found, from R_o and the absence prior."""
@@ -34,3 +36,13 @@ def remaining_below(planning) -> float:
     `planning` is a model's :class:`~fg_tea.model.spec.PlanningWeights`."""
     p = planning.give_up_probability
     return findable_below(p, planning.absent_probability) if planning.give_up == "cost" else p
+
+
+def look_budget(planning, miss_likelihood: float, sites: int) -> int | None:
+    """Looks that may miss one object before its search is given up (None: no budget):
+    ``max_inspections_per_object``, or if 0, K x (ceil(log p / log mu) + 1) for K `sites`."""
+    if planning.max_inspections_per_object > 0:
+        return planning.max_inspections_per_object
+    p, mu = planning.give_up_probability, miss_likelihood
+    ok = 0.0 < p < 1.0 and 0.0 < mu < 1.0
+    return sites * (math.ceil(math.log(p) / math.log(mu)) + 1) if ok else None

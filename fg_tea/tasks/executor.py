@@ -67,13 +67,12 @@ state) pair is offered at most ``max_verifications`` times, after which the list
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 
 import numpy as np
 
 from fg_tea.beliefs.engine import BeliefEngine
-from fg_tea.model.give_up import remaining_below
+from fg_tea.model.give_up import look_budget, remaining_below
 from fg_tea.model.spec import Condition, Model, Sensor
 from fg_tea.tasks.actions import TaskAction
 from fg_tea.tasks.graph import TaskGraph
@@ -170,12 +169,27 @@ class TaskExecutor(TaskRecovery):
         """The next action to carry out, after skipping every ready action whose goals hold [19].
 
         The returned action is marked active; an action that is already active (a search still
-        under way) is returned again. Ties break by insertion order.
+        under way) is returned again. Ties break by insertion order. Whether a SEARCH is given up
+        first is the agent's decision (fg_tea/agent/give_up.py), between :meth:`ready_action` and
+        :meth:`activate`.
 
         Returns:
             The action, or None when the task is done or stuck (see :attr:`done`,
             :attr:`stuck_reason`).
         """
+        action = self.ready_action()
+        return None if action is None else self.activate(action.id)
+
+    def activate(self, node: str) -> TaskAction:
+        """Mark the ready action `node` active (an ``activate`` event, unless it already is)."""
+        if self.graph.status(node) == "pending":
+            self.graph.set_status(node, "active")
+            self.events.append({"event": "activate", "action": node})
+        return self.graph.action(node)
+
+    def ready_action(self) -> TaskAction | None:
+        """The next ready action, after skipping every ready action whose goals hold [19], not yet
+        marked active; None when the task is done or stuck."""
         if self._stuck_reason is not None:
             return None
         while True:
@@ -209,16 +223,7 @@ class TaskExecutor(TaskRecovery):
                     self._stuck(f"no action can run: {', '.join(blocked)} wait on failed "
                                 f"action(s) {', '.join(failed) or 'none'}")
                 return None
-            node = frontier[0]
-            if self.graph.action(node).verb == "SEARCH":
-                given_up = self._give_up()
-                if given_up is not None:
-                    self._stuck(given_up)
-                    return None
-            if self.graph.status(node) == "pending":
-                self.graph.set_status(node, "active")
-                self.events.append({"event": "activate", "action": node})
-            return self.graph.action(node)
+            return self.graph.action(frontier[0])
 
     def _relation_holds(self, action: TaskAction) -> str | None:
         """For a relational action, a sentence saying its outcome already holds, else None."""
@@ -235,12 +240,7 @@ class TaskExecutor(TaskRecovery):
     def search_budget(self) -> int | None:
         """Looks that may miss one object before its search is given up (None = no budget):
         ``max_inspections_per_object``, or if 0, K x (ceil(log p / log mu) + 1) (docs/design.md §7.8)."""
-        planning = self.model.planning
-        if planning.max_inspections_per_object > 0:
-            return planning.max_inspections_per_object
-        p, mu = planning.give_up_probability, self.model.miss_likelihood
-        ok = 0.0 < p < 1.0 and 0.0 < mu < 1.0
-        return len(self.scenario.sites) * (math.ceil(math.log(p) / math.log(mu)) + 1) if ok else None
+        return look_budget(self.model.planning, self.model.miss_likelihood, len(self.scenario.sites))
 
     def search_outlook(self, obj: str) -> dict:
         """R_o (the remaining probability of `obj` at a reachable site), its looks, and the R_o to give
@@ -263,22 +263,6 @@ class TaskExecutor(TaskRecovery):
             return None
         return (f"{NOT_FOUND}{obj} (remaining probability {'n/a' if remaining is None else f'{remaining:.3g}'} "
                 f"after {outlook.get('looks')} looks; {why})")
-
-    def _give_up(self) -> str | None:
-        """The give-up reason when some searched object is almost surely not findable, else None."""
-        budget = self.search_budget()
-        for obj in self.pending_search_objects():
-            outlook = self.search_outlook(obj)
-            remaining = outlook["remaining_probability"]
-            low = remaining is not None and remaining < outlook["threshold"]
-            if low or (budget is not None and outlook["looks"] >= budget):
-                if not low:
-                    return self._given_up(obj, outlook, f"search budget of {budget} looks spent")
-                why = f"remaining probability {remaining:.3g} < {outlook['threshold']:.3g}"
-                if self.model.planning.give_up == "cost":
-                    why += " (the safety net of the cost rule)"
-                return self._given_up(obj, outlook, why)
-        return None
 
     def _stuck(self, reason: str) -> None:
         self._stuck_reason = reason
