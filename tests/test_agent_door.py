@@ -47,10 +47,14 @@ def reach_throughs(source: str, filename: str = "<source>", modules=RUNNER_PART_
 
 
 def _checked_files() -> dict[Path, dict]:
-    """The runner, every study module and the experiments that drive an agent or a runner."""
+    """The runner, every study module, the rest of episode/, cli/ and render/, and the experiments
+    that drive an agent or a runner."""
     files = {ROOT / "fg_tea" / "episode" / "runner.py": RUNNER_PART_MODULES}
     for path in sorted((ROOT / "fg_tea" / "study").glob("*.py")):
         files[path] = PART_MODULES
+    for folder in ("episode", "cli", "render"):  # every other reader of an agent: its attributes only
+        for path in sorted((ROOT / "fg_tea" / folder).glob("*.py")):
+            files.setdefault(path, {})
     for path in sorted((ROOT / "experiments").glob("*.py")):
         if "Agent(" in (text := path.read_text()) or "EpisodeRunner(" in text:
             files[path] = {}  # a benchmark may build parts of its own to time a planner on
