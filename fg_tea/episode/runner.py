@@ -6,8 +6,9 @@ Stepping (docs/design.md §9, "Stepping"): the first :meth:`EpisodeRunner.step` 
 :meth:`EpisodeRunner.start`, or :meth:`EpisodeRunner.reset`) only resets the environment and
 writes ``episode_start``, so the prior belief can be read before the first decision. Every later
 step asks the agent for the next action and carries it out, writing the records the agent's
-verbs return (:meth:`fg_tea.agent.agent.Agent.records`) and one ``belief`` snapshot; the step that finds nothing left to do writes ``episode_end`` and
-``metrics``. What one action's step covers:
+verbs return (:meth:`fg_tea.agent.agent.Agent.records`) and one ``belief`` snapshot; the step
+that finds nothing left to do writes ``episode_end`` and ``metrics``. What one action's step
+covers:
 
 - SEARCH: the planner scores every (unresolved object, site) pair on the task frontier; the
   environment goes to the chosen site and looks; the belief engine absorbs every detection and
@@ -20,8 +21,9 @@ verbs return (:meth:`fg_tea.agent.agent.Agent.records`) and one ``belief`` snaps
 The runner never reads truth: it passes the environment's observations to the agent and logs
 both, and it reaches the belief, the executor and the views only through the agent's verbs
 (``tests/test_agent_door.py``); ``start_event``, ``start_truth`` and ``end_event`` are its own
-records, public so that a loop of one's own writes the same log (docs/how-to/own-loop.md). It stops on completion, on an unrecoverable failure, or on the frame limit, and says
-which (``terminated`` vs ``truncated``).
+records, public so that a loop of one's own writes the same log (docs/how-to/own-loop.md). It
+stops on completion, on an unrecoverable failure, or on the frame limit, and says which
+(``terminated`` vs ``truncated``).
 """
 
 from __future__ import annotations
