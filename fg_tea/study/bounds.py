@@ -36,7 +36,6 @@ def start_bound(world: str, world_seed: int, model: str, task: str, knobs: tuple
     from fg_tea.episode.distances import EnvDistances
     from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
     from fg_tea.planning.limit_bound import bound_fault, lower_bound
-    from fg_tea.planning.problem import build_problem
     from fg_tea.study.sweep import job_env, job_model, job_world
 
     the_model = job_model(model, overrides)
@@ -46,11 +45,9 @@ def start_bound(world: str, world_seed: int, model: str, task: str, knobs: tuple
         runner = EpisodeRunner(scenario, the_model, env, RunConfig(seed=world_seed, task=task))
         runner.start()  # resets the house and hands the agent its views; no look yet
         agent = runner.agent
-        objects = agent.executor.pending_search_objects()
-        if not objects:
+        if not agent.searching():
             return 0.0
-        views = None if the_model.close_looks_only else agent.views
-        problem = build_problem(agent.belief, objects, EnvDistances(env), frozenset(), views, 0.0)
+        problem = agent.search_problem(EnvDistances(env), 0.0)
     finally:
         env.close()
     fault = bound_fault(problem)
