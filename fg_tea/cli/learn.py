@@ -74,9 +74,11 @@ def add_parser(sub) -> None:
     p.add_argument("logs", nargs="*", metavar="LOG", help="episode.jsonl logs, counted in this order")
     p.add_argument("--base", default=DEFAULT_MODEL,
                    help="base model file (.toml), or bundled model or ablation name; or a model program "
-                   "(my_model.py, module:attr), whose tables marked learnable are counted: tables over "
-                   "locations and task states, from where objects were found and the first readings of "
-                   "a state (docs/design.md §12.6) (default: %(default)s)")
+                   "(my_model.py, module:attr), whose tables marked learnable are counted from what "
+                   "the agent observed: a location where its first confirm_search found the object, a "
+                   "state where its first readings agree; a table over several variables counts an "
+                   "episode only when all of them were observed (docs/design.md §12.6); logs must come "
+                   "from that program (episode_start.program.sha256) (default: %(default)s)")
     p.add_argument("--out", required=True, type=out_path,
                    help="the learned model file to write (.toml; .py for a program's, a program itself)")
     p.add_argument("--scenario", default=None,
