@@ -93,6 +93,20 @@ def main(argv=None) -> int:
     return 0
 
 
+def _check_planner(planner: str, house, models) -> None:
+    """A plug-in planner's factory and check() run once before any episode, as compare's do: a
+    fault is one line and status 2, not a failed household."""
+    from fg_tea.cli.common import planner_size_fault, plugin_planner
+    from fg_tea.tasks.load import load_task
+
+    if not plugin_planner(planner):
+        return
+    for model in models:
+        fault = planner_size_fault(planner, house, load_task("make_tea", model, house), model)
+        if fault is not None:
+            raise InputError("<command line>", f"--planner {planner}", f"{fault} ({house.name})")
+
+
 def _specs(args) -> list[HouseholdSpec]:
     from fg_tea.model.spec import load_model
     from fg_tea.world.scenario import load_scenario
@@ -118,6 +132,7 @@ def _specs(args) -> list[HouseholdSpec]:
         move = (args.move[0], args.move[1], after)
         check_move(move, house, args.episodes)
     models = [load_model(m) for m in args.models]
+    _check_planner(args.planner, house, models)
     pairs = relation_pairs(models)
     from fg_tea.env.truth import check_effect_success
 

@@ -48,3 +48,17 @@ def test_a_plugin_check_that_fails_in_a_lifelong_sweep_is_status_2_before_any_ep
     err = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and len(err) == 1 and "its check() raised RuntimeError: cannot check" in err[0], err
     assert not (out / "episodes.csv").exists()
+
+
+def test_the_lifelong_experiment_checks_a_plugin_planner_before_any_episode(tmp_path):
+    import subprocess
+
+    out = tmp_path / "ll"
+    env = {**__import__("os").environ, "PYTHONPATH": str(HERE)}
+    done = subprocess.run([sys.executable, str(HERE.parent / "experiments" / "lifelong.py"), "--planner",
+                           "plugin_fault_planners:CheckRaises", "--households", "1", "--episodes", "2",
+                           "--models", "factorised", "--out", str(out)], capture_output=True, text=True,
+                          timeout=600, stdin=subprocess.DEVNULL, env=env)
+    err = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(err) == 1 and "its check() raised RuntimeError: cannot check" in err[0], err
+    assert not (out / "episodes.csv").exists()
