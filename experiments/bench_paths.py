@@ -14,13 +14,18 @@ Two CPU times (``time.process_time``, best of the repeats), each ratio compiled 
   site as one candidate each (``hypothetical_all`` on the engine, ``hypothetical`` per object on
   the compiled model), all posterior location marginals.
 
-The miss posteriors of both paths are compared (max |difference|, must be ~1e-12). Run through
-``python experiments/bench_inference.py --paths`` (``--out`` names the committed table).
+The miss posteriors of both paths are compared (max |difference|, must be ~1e-12). Run it alone
+or through ``python experiments/bench_inference.py --paths``; it writes under
+``runs/experiments/bench_paths/`` unless ``--out`` names the committed table:
+
+    python experiments/bench_paths.py --out experiments/results/bench_paths.md
 """
 
 from __future__ import annotations
 
+import argparse
 import time
+from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
@@ -109,5 +114,29 @@ def run(repeats: int = 20) -> str:
             "--out experiments/results/bench_paths.md`.\n\n" + table(rows) + "\n\n" + verdict + "\n")
 
 
+DEFAULT_OUT = Path("runs") / "experiments" / "bench_paths" / "bench_paths.md"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from fg_tea.common.files import out_file
+    from fg_tea.common.options import experiment_parser
+
+    p = experiment_parser(__doc__, __file__, "§4.8")
+    p.add_argument("--repeats", type=int, default=20, help="calls timed per measurement (the best is kept)")
+    p.add_argument("--out", type=out_file, default=DEFAULT_OUT, help="the Markdown table to write")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    from fg_tea.common.files import atomic_write_text
+
+    args = build_parser().parse_args(argv)
+    atomic_write_text(Path(args.out), run(args.repeats))
+    print(f"wrote {args.out}")
+    return 0
+
+
 if __name__ == "__main__":
-    print(run())
+    from fg_tea.common.errors import run_script
+
+    run_script(main, "bench_paths.py")

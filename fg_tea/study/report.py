@@ -105,9 +105,9 @@ def comparison_report(rows: Sequence[Mapping[str, Any]], out: str | Path, *, tit
     bounds = bound_table(summary, ordered)
     lines += ["## Search travel beside a lower bound on the optimum", "",
               "Per model and planner: mean search travel, and the mean over the same worlds of a lower "
-              "bound on the optimal expected search travel from the start under the model's own prior "
-              "(perfect looks, one object at a time, each look at its cheapest arrival; docs/design.md "
-              "§6.9). The optimum lies between them, so travel ÷ bound is an upper end of the "
+              "bound on the least expected search travel any policy achieves from the start under the "
+              "model's own prior (perfect looks, one object at a time, each look at its cheapest arrival; "
+              "docs/design.md §6.9). The optimum lies between them, so travel ÷ bound is an upper end of the "
               "planner's ratio to it, in worlds drawn from the model's prior (elsewhere a reference "
               "point). Where there is none, the reason.", "",
               bound_markdown(bounds), ""]
