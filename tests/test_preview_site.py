@@ -35,3 +35,15 @@ def test_an_unknown_site_is_one_line_naming_the_known_ones(tmp_path):
     done = _preview(tmp_path, "--site", "kitchen_countr")
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
     assert "--site" in done.stderr and "kitchen_counter" in done.stderr
+
+
+def test_the_search_sequence_a_planner_would_follow_is_printed(tmp_path):
+    done = _preview(tmp_path, "--search", "--planner", "greedy", "--looks", "5", "--out", "s.png")
+    assert done.returncode == 0, done.stderr
+    lines = [line for line in done.stdout.splitlines() if re.match(r"\s+\d+\. ", line)]
+    assert len(lines) == 5 and "search sequence of greedy if no look finds anything" in done.stdout
+    assert "ended: 5 looks (--looks)" in done.stdout
+    views = [re.match(r"\s+\d+\. (\S+) \((site|room), [\d.]+ m\)", line).group(1) for line in lines]
+    assert len(set(views)) > 1  # misses move the search on
+    bad = _preview(tmp_path, "--search", "--looks", "0")
+    assert bad.returncode == 2 and "--looks" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1

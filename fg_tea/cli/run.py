@@ -229,6 +229,14 @@ def cmd_preview(args: argparse.Namespace) -> int:
         caption = f"{scenario.name}: start pose ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw_deg:.0f} deg)"
         if args.site is not None:
             pose, caption = _look_from(house, scenario, args.site)
+        sequence = None
+        if args.search:
+            from fg_tea.cli.search_preview import search_sequence
+
+            sequence = search_sequence(scenario, model, house, args.planner, args.task, args.seed, args.looks)
+            pose = house.reset(args.seed)  # the picture shows the start (or --site) pose
+            if args.site is not None:
+                pose, caption = _look_from(house, scenario, args.site)
         overlay = OverlayState(phase="preview", caption=caption)
         frame = compose_frame(house, options, (pose, house.placements(), None), overlay,
                               MiniMap(scenario, config.ego_hfov_deg), {s.name: s.position for s in scenario.sites})
@@ -236,6 +244,10 @@ def cmd_preview(args: argparse.Namespace) -> int:
         house.close()
     write_png(out, frame)
     write_floor_plan(scenario, plan_out)
+    if sequence is not None:
+        from fg_tea.cli.search_preview import describe
+
+        print(describe(*sequence, args.planner))
     print(f"preview: {out}")
     print(f"floor plan: {plan_out}")
     return 0
@@ -299,6 +311,13 @@ def add_parser(sub) -> None:
     p.add_argument("--camera", default=None, help=CAMERA_HELP)
     p.add_argument("--seed", type=integer(0, MAX_SEED), default=0,
                    help="seed of the start pose and world (default: %(default)s)")
+    p.add_argument("--search", action="store_true",
+                   help="also print the looks --planner would make for --task if no look found anything "
+                   "(the agent walks the house; its beliefs and planner as in an episode, never the truth)")
+    p.add_argument("--planner", default="efe", type=planner_name, help="the planner of --search (default: %(default)s)")
+    p.add_argument("--task", default="make_tea", help="the task of --search (default: %(default)s)")
+    p.add_argument("--looks", type=integer(1, 1000), default=12, help="at most this many looks with --search "
+                   "(default: %(default)s)")
     p.add_argument("--site", default=None, metavar="NAME",
                    help="render the view from this site's or room vantage's inspection pose (the agent "
                    "walks there from the start pose and looks, as in an episode) and print each "
