@@ -102,6 +102,35 @@ def model(scenario):
     return path
 
 
+def random_steps(engine, brute, model, states, rng) -> int:
+    """1-6 random looks at the kettle, readings of `states` and transitions, given to the engine
+    and to brute force alike; every marginal compared after each. Returns the steps checked."""
+    sensor, checked = model.sensors["state"], 0
+    for _ in range(int(rng.integers(1, 7))):
+        op = int(rng.integers(0, 4))
+        try:
+            if op == 0:
+                j, seen = int(rng.integers(0, K)), bool(rng.random() < 0.3)
+                engine.observe_site(SITES[j], {"kettle": seen})
+                brute.look(j, seen, model.miss_likelihood, model.false_positive_rate)
+            elif op == 1:
+                s, v = states[int(rng.integers(0, len(states)))], bool(rng.random() < 0.5)
+                engine.observe_state(s, v, sensor)
+                brute.read(s, v, sensor.sensitivity, sensor.specificity)
+            else:
+                e = (Effect("kettle.contains_water", True, 0.9) if op == 2 or len(states) == 1 else
+                     Effect("kettle.water_hot", True, 0.8, ("kettle.contains_water",)))
+                engine.apply_effects([e], direct=False)
+                brute.effect(e)
+        except ContradictionError:
+            break
+        np.testing.assert_allclose(engine.location("kettle"), brute.marginal("L"), rtol=0, atol=1e-12)
+        for s in states:
+            assert engine.state(s) == pytest.approx(brute.marginal(brute.current[s])[1], abs=1e-12)
+        checked += 1
+    return checked
+
+
 @pytest.mark.parametrize("base", ["factorised", "joint"])
 def test_coupled_beliefs_match_brute_force(tmp_path, base):
     rng = np.random.default_rng(11 if base == "factorised" else 12)
@@ -120,29 +149,7 @@ def test_coupled_beliefs_match_brute_force(tmp_path, base):
         joint = BeliefEngine(SCENARIO, fg.load_model(str(tmp_path / f"{base}_likelihood.toml"))).location_joint()
         site_of = np.indices(joint.shape)[k].ravel()
         brute = _Brute(joint.ravel(), site_of, priors, states, table)
-        sensor = model.sensors["state"]
-        for _ in range(int(rng.integers(1, 7))):
-            op = int(rng.integers(0, 4))
-            try:
-                if op == 0:
-                    j, seen = int(rng.integers(0, K)), bool(rng.random() < 0.3)
-                    engine.observe_site(SITES[j], {"kettle": seen})
-                    brute.look(j, seen, model.miss_likelihood, model.false_positive_rate)
-                elif op == 1:
-                    s, v = states[int(rng.integers(0, len(states)))], bool(rng.random() < 0.5)
-                    engine.observe_state(s, v, sensor)
-                    brute.read(s, v, sensor.sensitivity, sensor.specificity)
-                else:
-                    e = (Effect("kettle.contains_water", True, 0.9) if op == 2 or len(states) == 1 else
-                         Effect("kettle.water_hot", True, 0.8, ("kettle.contains_water",)))
-                    engine.apply_effects([e], direct=False)
-                    brute.effect(e)
-            except ContradictionError:
-                break
-            np.testing.assert_allclose(engine.location("kettle"), brute.marginal("L"), rtol=0, atol=1e-12)
-            for s in states:
-                assert engine.state(s) == pytest.approx(brute.marginal(brute.current[s])[1], abs=1e-12)
-            checked += 1
+        checked += random_steps(engine, brute, model, states, rng)
     assert checked >= 100
 
 

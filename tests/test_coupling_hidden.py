@@ -11,14 +11,11 @@ along the site axis — and random looks, readings and transitions agree to 1e-1
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 import fg_tea as fg
 from fg_tea.beliefs.engine import BeliefEngine
 from fg_tea.beliefs.graph import build_graph
-from fg_tea.common.errors import ContradictionError
-from fg_tea.model.spec import Effect
-from tests.test_coupling_exact import K, SCENARIO, SITES, STATES, _Brute
+from tests.test_coupling_exact import K, SCENARIO, SITES, STATES, _Brute, random_steps
 
 PROGRAM = '''import numpy as np
 import fg_tea as fg
@@ -72,29 +69,7 @@ def test_hidden_and_states_only_couplings_match_brute_force(tmp_path):
                   if f.variables[0] in states}
         joint = BeliefEngine(SCENARIO, fg.load_model(base)).location_joint()
         brute = _Brute(joint.ravel(), np.indices(joint.shape)[k].ravel(), priors, states, table)
-        sensor = model.sensors["state"]
-        for _ in range(int(rng.integers(1, 7))):
-            op = int(rng.integers(0, 4))
-            try:
-                if op == 0:
-                    j, seen = int(rng.integers(0, K)), bool(rng.random() < 0.3)
-                    engine.observe_site(SITES[j], {"kettle": seen})
-                    brute.look(j, seen, model.miss_likelihood, model.false_positive_rate)
-                elif op == 1:
-                    s, v = states[int(rng.integers(0, len(states)))], bool(rng.random() < 0.5)
-                    engine.observe_state(s, v, sensor)
-                    brute.read(s, v, sensor.sensitivity, sensor.specificity)
-                else:
-                    e = (Effect("kettle.contains_water", True, 0.9) if op == 2 or len(states) == 1 else
-                         Effect("kettle.water_hot", True, 0.8, ("kettle.contains_water",)))
-                    engine.apply_effects([e], direct=False)
-                    brute.effect(e)
-            except ContradictionError:
-                break
-            np.testing.assert_allclose(engine.location("kettle"), brute.marginal("L"), rtol=0, atol=1e-12)
-            for s in states:
-                assert engine.state(s) == pytest.approx(brute.marginal(brute.current[s])[1], abs=1e-12)
-            checked += 1
+        checked += random_steps(engine, brute, model, states, rng)
         if n < 6:
             assert engine.check_against_gtsam() < 1e-9
     assert checked >= 60
