@@ -209,9 +209,10 @@ def test_a_sweep_on_a_two_node_loopback_cluster_writes_the_local_csv_and_talks_o
     # no CPUs).
     assert sum(name == "raylet" for name, _ in processes.values()) == 2 and "gcs_server" in \
         {name for name, _ in processes.values()}
-    # A worker is titled ray::<function> while it runs a task (run_job_timed; the kernel keeps 15
-    # characters) and ray::IDLE between tasks, so every title seen counts.
-    ran = {pid for pid, name, ppid in titles if name.startswith("ray::run_job") and ppid == worker_raylet}
+    # A worker is titled ray::<function> while it runs a task (sweep_job, the executor's wrapper of
+    # run_job_timed; the kernel keeps 15 characters) and ray::IDLE between tasks, so every title
+    # seen counts.
+    ran = {pid for pid, name, ppid in titles if name.startswith("ray::sweep_job") and ppid == worker_raylet}
     assert ran, sorted(titles)
     # Every socket of every Ray process (and the driver), listening or connected, is on loopback.
     assert any(status == "LISTEN" for *_, status, _, _ in seen)
