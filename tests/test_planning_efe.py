@@ -374,9 +374,9 @@ def test_planners_do_not_mutate_the_belief():
 
 # ------------------------------------------------------------------------------- registry, baselines
 def test_registry_builds_every_planner_from_the_model_file():
-    assert planner_names()[:9] == ("efe", "factorised_efe", "mi_efe", "nearest", "greedy", "random",
-                                   "optimal", "lookahead", "exact")
-    assert set(planner_names()[9:]) <= {"pouct:100", "pouct:1000", "pomcp:1000"}
+    assert planner_names()[:10] == ("efe", "factorised_efe", "mi_efe", "nearest", "greedy", "random",
+                                    "optimal", "lookahead", "exact", "near_exact")
+    assert set(planner_names()[10:]) <= {"pouct:100", "pouct:1000", "pomcp:1000"}
     expectations = {"no_epistemic": ("information_weight", 0.0),
                     "no_relevance": ("relevance_weight", 0.0),
                     "no_repeat_penalty": ("repeat_penalty", 0.0),

@@ -9,9 +9,11 @@ and its registry name the same planners.
 from __future__ import annotations
 
 #: The planners named without settings, in the registry's order.
-PLAIN = ("efe", "factorised_efe", "mi_efe", "nearest", "greedy", "random", "optimal", "lookahead", "exact")
+PLAIN = ("efe", "factorised_efe", "mi_efe", "nearest", "greedy", "random", "optimal", "lookahead", "exact",
+         "near_exact")
 #: The planner families whose names take settings after a colon, and how the settings are written.
 FAMILY_FORMS = {"lookahead": "lookahead:depth=2,width=3,...", "exact": "exact:cap=N",
+                "near_exact": "near_exact:cap=N,budget=E",
                 "pouct": "pouct:N", "pomcp": "pomcp:N"}
 
 

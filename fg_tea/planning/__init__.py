@@ -12,10 +12,12 @@ from a model file, so every ablation (docs/design.md §11) is a switch in the TO
 
 Registry names: ``efe`` (eqs. 10-11 for factorised beliefs, exact mutual information for joint
 ones), ``factorised_efe`` (eqs. 10-11 always), ``mi_efe`` (exact mutual information always),
-``nearest``, ``greedy``, ``random``, ``optimal``,
-``lookahead``, and, when pomdp-py (the optional ``[peers]`` extra) is installed, the peers
-``pouct:100``, ``pouct:1000``, ``pomcp:1000``. Families take settings after a colon: ``lookahead:depth=2,width=4``
-(:class:`~fg_tea.planning.lookahead.LookaheadSettings`), ``pouct:N`` and ``pomcp:N`` (N
+``nearest``, ``greedy``, ``random``, ``optimal``, ``lookahead``, ``exact``, ``near_exact``,
+and, when pomdp-py (the optional ``[peers]`` extra) is installed, the peers ``pouct:100``,
+``pouct:1000``, ``pomcp:1000``. Families take settings after a colon: ``lookahead:depth=2,width=4``
+(:class:`~fg_tea.planning.lookahead.LookaheadSettings`), ``exact:cap=N``,
+``near_exact:cap=N,budget=E`` (:class:`~fg_tea.planning.near_exact.NearExactSettings`),
+``pouct:N`` and ``pomcp:N`` (N
 simulations per decision); :func:`check_planner_name` accepts any well-formed one.
 Planners of your own plug in by name without editing the package: an entry point in the group
 ``fg_tea.planners``, or ``module:attribute`` (:mod:`fg_tea.planning.plugins`); they satisfy the
@@ -48,6 +50,7 @@ from fg_tea.planning.baselines import (
 from fg_tea.planning.efe import EFEPlanner, FactorisedEFEPlanner
 from fg_tea.planning.exact import ExactPlanner, ExactSettings
 from fg_tea.planning.lookahead import LookaheadPlanner, LookaheadSettings
+from fg_tea.planning.near_exact import NearExactPlanner, NearExactSettings
 from fg_tea.planning.optimal import OptimalPlanner
 from fg_tea.planning.plugins import PlannerSpecError
 from fg_tea.world.scenario import Scenario
@@ -80,6 +83,7 @@ _REGISTRY: dict[str, Callable[[Model, np.random.Generator | None], Planner]] = {
     "optimal": lambda model, rng: OptimalPlanner(),
     "lookahead": lambda model, rng: LookaheadPlanner(model.planning),
     "exact": lambda model, rng: ExactPlanner(),
+    "near_exact": lambda model, rng: NearExactPlanner(model.planning),
 }
 if importlib.util.find_spec("pomdp_py") is not None:  # the optional [peers] extra
     _REGISTRY.update({
@@ -99,6 +103,8 @@ _FAMILIES: dict[str, Callable[[str, Model, np.random.Generator | None], Planner]
     "lookahead": lambda spec, model, rng: LookaheadPlanner(model.planning,
                                                            LookaheadSettings.parse(spec)),
     "exact": lambda spec, model, rng: ExactPlanner(ExactSettings.parse(spec)),
+    "near_exact": lambda spec, model, rng: NearExactPlanner(model.planning,
+                                                            NearExactSettings.parse(spec)),
     "pouct": lambda spec, model, rng: _peer("pouct", spec, model, rng),
     "pomcp": lambda spec, model, rng: _peer("pomcp", spec, model, rng),
 }
@@ -120,6 +126,9 @@ def _check_family_spec(family: str, spec: str) -> None:
         return
     if family == "exact":
         ExactSettings.parse(spec)
+        return
+    if family == "near_exact":
+        NearExactSettings.parse(spec)
         return
     if not (spec.isdigit() and 1 <= int(spec) <= MAX_SIMULATIONS):
         raise ValueError(f"planner {family}:{spec}: the setting is the number of simulations "
@@ -251,5 +260,6 @@ __all__ = ["Candidate", "Decision", "DistanceModel", "DistanceTable", "Planner",
            "FactorisedEFEPlanner", "MutualInformationEFEPlanner",
            "NearestPlanner", "GreedyProbabilityPlanner", "RandomPlanner",
            "OptimalPlanner", "LookaheadPlanner", "LookaheadSettings", "ExactPlanner", "ExactSettings",
+           "NearExactPlanner", "NearExactSettings",
            "euclidean_distances", "distances_for", "make_planner", "planner_names", "planner_help",
            "check_planner_name", "is_family_spec", "check_planner", "register_planner"]
