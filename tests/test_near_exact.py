@@ -132,7 +132,9 @@ def test_it_decides_as_the_exact_planner_at_the_same_cap():
 
 
 def test_where_the_tables_do_not_fit_or_hold_it_is_the_lookahead_and_says_so():
-    _, a1, a2 = _decisions("near_exact:budget=1000", "find_three")
+    with pytest.warns(UserWarning, match="near_exact: deciding as the lookahead does") as said:
+        _, a1, a2 = _decisions("near_exact:budget=1000", "find_three")
+    assert len([w for w in said if "near_exact" in str(w.message)]) == 1  # said once, not per decision
     _, b1, b2 = _decisions("lookahead", "find_three")
     assert (a1.viewpoint, a2.viewpoint) == (b1.viewpoint, b2.viewpoint)
     assert decision_route(a1) == "lookahead" and "more than the budget 1000" in a1.info["near_exact"]

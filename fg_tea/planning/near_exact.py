@@ -16,8 +16,10 @@ cyclic sweep), solved once and reused while they describe the belief. Two things
   smallest largest distance from the limit among the designs within 4 ms of CPU per decision;
   2^21 allows cap 3 with two objects in 8 viewpoints, a 50 ms solve). The cap used is recorded
   in every decision (``info["near_exact"]``). Below cap 2 the tables are not used: the cut at
-  one look per viewpoint forbids re-looking a viewpoint before every other has been looked from,
-  and its policy is further from the limit than the lookahead's. The decision is then the
+  one look per viewpoint forbids looking again from a viewpoint before every other has been
+  looked from, the very looks the lookahead misses, and its policy is further from the limit than
+  the lookahead's in most discovery houses (``exact:cap=1`` in
+  ``experiments/results/planner_gap/discovery.md``). The decision is then the
   default lookahead's (:class:`fg_tea.planning.lookahead.LookaheadPlanner`), and
   ``info["near_exact"]`` says so and why; so does a correlated belief, for which the tables do
   not hold.
@@ -30,6 +32,7 @@ Planner specs: ``near_exact`` or ``near_exact:cap=2,budget=524288`` (the default
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
@@ -139,6 +142,7 @@ class NearExactPlanner(PlannerBase):
         self.lookahead = LookaheadPlanner(weights)
         # the last search whose tables did not fit, and why: (key, views, reason)
         self._too_large: tuple[tuple, object, str] | None = None
+        self._said = False  # whether the first decision by the lookahead was announced on stderr
 
     @property
     def solves(self) -> int:
@@ -182,6 +186,10 @@ class NearExactPlanner(PlannerBase):
                 return Decision(d.object, d.viewpoint, d.total, d.candidates, self.name,
                                 {**d.info, "near_exact": route, "budget": float(self.settings.budget)})
         self.tables._solved = None
+        if not self._said:
+            self._said = True
+            warnings.warn(f"near_exact: deciding as the lookahead does where the tables do not hold ({why}); "
+                          "each decision's info['near_exact'] records how it was made", stacklevel=2)
         d = self.lookahead.choose(belief, objects, relevance, distances, inspected, excluded_sites, views)
         return Decision(d.object, d.viewpoint, d.total, d.candidates, self.name,
                         {**d.info, "near_exact": f"lookahead: {why}", "budget": float(self.settings.budget)})
