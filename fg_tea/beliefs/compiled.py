@@ -26,6 +26,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.beliefs.compiled_hypothetical import Hypothetical, hypothetical_many
 from fg_tea.beliefs.elimination import (
     LogFactor,
     log_product,
@@ -89,20 +90,6 @@ class Component:
 
 
 @dataclass(frozen=True)
-class Hypothetical:
-    """Posteriors under each of C candidate likelihoods on one variable.
-
-    Attributes:
-        probability: (C,) the probability of each candidate's evidence, sum_x P(x) l_c(x).
-        marginals: variable name -> (C, values) posterior marginals; rows of candidates whose
-            evidence has probability zero are NaN.
-    """
-
-    probability: np.ndarray
-    marginals: dict[str, np.ndarray]
-
-
-@dataclass(frozen=True)
 class Arrangement:
     """One joint assignment of every reported variable, with its posterior probability."""
 
@@ -120,7 +107,8 @@ class CompiledModel:
     """
 
     def __init__(self, variables: Sequence[_Var], factors: Sequence[_Factor], source: str,
-                 method: str = "auto", budget: int = BUDGET, dense_states: int = DENSE_STATES) -> None:
+                 method: str = "auto", budget: int = BUDGET, dense_states: int = DENSE_STATES,
+                 *, components: tuple[Component, ...] | None = None) -> None:
         if method not in METHODS:
             raise InputError(source, "method", f"unknown method {method!r} (known: {', '.join(METHODS)})")
         self.source, self.method, self.budget, self.dense_states = source, method, budget, dense_states
@@ -128,11 +116,17 @@ class CompiledModel:
         self._factors = tuple(factors)
         self._index = {v.name: i for i, v in enumerate(self._vars) if not v.hidden}
         self._cards = {i: v.card for i, v in enumerate(self._vars)}
-        self.components = self._components()
+        # `components` is passed only by evidence on single variables, which leaves the plan as it is
+        self.components = self._components() if components is None else components
         self._component_of = {i: c for c in self.components for i in c.ids}
+        # Caches, each keyed by a component's first id: the log table of a dense component and
+        # the summed log factors of a closed-form one (both shifted to a maximum of 0), and the
+        # components known to have non-zero weight; marginals by variable id.
         self._dense: dict[int, np.ndarray] = {}
+        self._unary: dict[int, np.ndarray] = {}
+        self._possible: set[int] = set()
         self._marginal_cache: dict[int, np.ndarray] = {}
-        self._possible = False
+        self._dense_prob_cache: dict[int, np.ndarray] = {}
 
     # -- compiling ------------------------------------------------------------------------
 
@@ -210,10 +204,7 @@ class CompiledModel:
 
     def marginal(self, name: str) -> np.ndarray:
         """P(name): a normalised vector over its values."""
-        i = self._id(name)
-        if i not in self._marginal_cache:
-            self._marginal_cache[i] = self._joint_ids([i])
-        return self._marginal_cache[i].copy()
+        return self._marginal_id(self._id(name)).copy()
 
     def marginals(self, names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
         """The marginal of each of `names` (default: every variable)."""
@@ -236,12 +227,25 @@ class CompiledModel:
     def _check_possible(self) -> None:
         """Raise ContradictionError when some component has total weight zero (then the whole
         program, evidence included, has probability zero and no query has an answer)."""
-        if not self._possible:
-            for comp in self.components:
-                if not np.isfinite(self._log_partition(comp)):
-                    raise ContradictionError(f"{self.source}: the evidence has probability zero under the program "
-                                             f"({', '.join(comp.variables)})")
-            self._possible = True
+        for comp in self.components:
+            if not self._weighs(comp):
+                raise ContradictionError(f"{self.source}: the evidence has probability zero under the program "
+                                         f"({', '.join(comp.variables)})")
+
+    def _weighs(self, comp: Component) -> bool:
+        """Whether `comp` has non-zero total weight (remembered once known)."""
+        if comp.ids[0] not in self._possible:
+            try:
+                if comp.method == "closed form":
+                    weighs = bool(np.isfinite(np.max(self._unary_log(comp))))
+                else:
+                    weighs = bool(np.isfinite(self._log_partition(comp)))
+            except ContradictionError:  # a dense table of zero weight says so when built
+                return False
+            if not weighs:
+                return False
+            self._possible.add(comp.ids[0])
+        return True
 
     def _joint_ids(self, ids: Sequence[int]) -> np.ndarray:
         self._check_possible()
@@ -256,6 +260,8 @@ class CompiledModel:
 
     def _component_log(self, comp: Component, keep: Sequence[int]) -> np.ndarray:
         """An unnormalised log table over `keep` (all in `comp`), axes in `keep` order."""
+        if comp.method == "closed form":
+            return self._unary_log(comp)
         if comp.method == "dense joint":
             full = self._dense_log(comp)
             drop = tuple(a for a, i in enumerate(comp.ids) if i not in keep)
@@ -275,6 +281,14 @@ class CompiledModel:
         members = set(comp.ids)
         return [(f.scope, f.log_table) for f in self._factors if f.scope[0] in members]
 
+    def _unary_log(self, comp: Component) -> np.ndarray:
+        """The summed log factors of a closed-form component's one variable, maximum 0 (or all
+        -inf: probability zero)."""
+        key = comp.ids[0]
+        if key not in self._unary:
+            self._unary[key] = _shifted(log_product(self._log_factors(comp), [key], self._cards))
+        return self._unary[key]
+
     def _dense_log(self, comp: Component) -> np.ndarray:
         key = comp.ids[0]
         if key not in self._dense:
@@ -289,7 +303,7 @@ class CompiledModel:
         """Posterior marginals of every variable under each candidate likelihood on `name`.
 
         Exact: P(Y | l_c) = sum_x P(x, Y) l_c(x) / sum_x P(x) l_c(x), from the pairwise joints
-        (a dense component answers all candidates and variables with one matrix product).
+        (a dense component answers all candidates and variables with one contraction).
 
         Args:
             name: the observed variable.
@@ -299,38 +313,29 @@ class CompiledModel:
         Returns:
             A :class:`Hypothetical`; the belief itself is unchanged.
         """
-        x = self._id(name)
-        lik = np.atleast_2d(np.asarray(likelihoods, dtype=float))
-        if lik.ndim != 2 or lik.shape[1] != self._cards[x] or not np.all(np.isfinite(lik)) or np.any(lik < 0):
-            raise InputError(self.source, f"hypothetical {name!r}",
-                             f"likelihoods must be finite, non-negative, shape (C, {self._cards[x]})")
-        comp = self._component_of[x]
-        prior = self.marginal(name)
-        prob = lik @ prior
-        out: dict[str, np.ndarray] = {}
-        with np.errstate(invalid="ignore", divide="ignore"):
-            scale = np.where(prob > 0, 1.0 / np.where(prob > 0, prob, 1.0), np.nan)[:, None]
-            shown = [i for i in comp.ids if not self._vars[i].hidden]
-            if comp.method == "dense joint":
-                full = _normalised(self._dense_log(comp), self.source)
-                hidden = tuple(a for a, i in enumerate(comp.ids) if self._vars[i].hidden)
-                full = full.sum(axis=hidden) if hidden else full
-                ax = shown.index(x)
-                weighted = np.tensordot(lik, full, axes=([1], [ax]))  # (C, other shown axes...)
-                rest = [i for i in shown if i != x]
-                for a, i in enumerate(rest):
-                    axes = tuple(b + 1 for b in range(len(rest)) if b != a)
-                    out[self._vars[i].name] = weighted.sum(axis=axes) * scale
-            else:
-                for i in shown:
-                    if i != x:
-                        out[self._vars[i].name] = (lik @ self._joint_ids([x, i])) * scale
-            out[self._vars[x].name] = lik * prior * scale
-        for v in self.variables:
-            if v not in out:
-                out[v] = np.tile(self.marginal(v), (lik.shape[0], 1))
-            out[v][prob <= 0] = np.nan  # evidence the program rules out: no posterior
-        return Hypothetical(prob, {v: out[v] for v in self.variables})
+        return self.hypothetical_many({name: likelihoods})[name]
+
+    def hypothetical_many(self, likelihoods: Mapping[str, Any],
+                          report: Sequence[str] | None = None) -> dict[str, Hypothetical]:
+        """:meth:`hypothetical` for several observed variables at once (name -> (C, values)
+        likelihoods), reporting the posteriors of `report` only (default: every variable): what
+        a planner asks before a decision (:func:`fg_tea.beliefs.compiled_hypothetical.hypothetical_many`)."""
+        return hypothetical_many(self, likelihoods, report)
+
+    def _marginal_id(self, i: int) -> np.ndarray:
+        """The cached marginal of variable id `i` (not a copy: callers must not write to it)."""
+        if i not in self._marginal_cache:
+            self._marginal_cache[i] = self._joint_ids([i])
+        return self._marginal_cache[i]
+
+    def _dense_prob(self, comp: Component) -> tuple[np.ndarray, list[int]]:
+        """A dense component's normalised joint over its reported variables, and their ids."""
+        key = comp.ids[0]
+        if key not in self._dense_prob_cache:
+            full = _normalised(self._dense_log(comp), self.source)
+            hidden = tuple(a for a, i in enumerate(comp.ids) if self._vars[i].hidden)
+            self._dense_prob_cache[key] = full.sum(axis=hidden) if hidden else full
+        return self._dense_prob_cache[key], [i for i in comp.ids if not self._vars[i].hidden]
 
     def kbest(self, k: int) -> list[Arrangement]:
         """The `k` most probable joint arrangements of all variables, best first, exactly.
@@ -375,6 +380,8 @@ class CompiledModel:
         """log of the component's total weight (its normalising constant)."""
         if comp.method == "dense joint":
             return float(logsumexp(self._dense_log(comp), None))
+        if comp.method == "closed form":
+            return float(logsumexp(self._unary_log(comp), None))
         factors = self._log_factors(comp)
         rest = sum_out(factors, min_fill_order([s for s, _ in factors], list(comp.ids), self._cards), self._cards)
         return float(sum(float(t) for _, t in rest))
@@ -388,13 +395,43 @@ class CompiledModel:
     def observe(self, name: str, likelihood: Any, label: str | None = None) -> "CompiledModel":
         """A new model with a likelihood vector on `name` multiplied in (evidence: a detection,
         a miss, a reading), held in log space so long runs of evidence never underflow."""
-        return self._rebuild(self._vars, self._factors + (self._evidence(name, likelihood, label),))
+        return self._with_evidence((self._evidence(name, likelihood, label),))
 
     def observe_many(self, evidence: Mapping[str, Any]) -> "CompiledModel":
         """A new model with several likelihood vectors (variable name -> likelihood) multiplied in
         at once: the model :meth:`observe` gives one by one, compiled once instead of once each."""
-        added = tuple(self._evidence(name, likelihood, None) for name, likelihood in evidence.items())
-        return self._rebuild(self._vars, self._factors + added)
+        return self._with_evidence(tuple(self._evidence(name, likelihood, None)
+                                         for name, likelihood in evidence.items()))
+
+    def _with_evidence(self, added: tuple[_Factor, ...]) -> "CompiledModel":
+        """The model with single-variable factors `added`: the plan is unchanged, so it is kept;
+        an untouched component keeps its caches, and a touched closed-form or dense component
+        has the evidence added to its cached log table (exact: the same sum, in another order)."""
+        new = CompiledModel(self._vars, self._factors + added, self.source, self.method, self.budget,
+                            self.dense_states, components=self.components)
+        touched: dict[int, list[_Factor]] = {}
+        for f in added:
+            touched.setdefault(self._component_of[f.scope[0]].ids[0], []).append(f)
+        for comp in self.components:
+            key = comp.ids[0]
+            mine = touched.get(key)
+            if mine is None:
+                if key in self._possible or (comp.method != "elimination" and self._weighs(comp)):
+                    new._possible.add(key)  # (_weighs fills this model's caches, which carry over)
+                if key in self._dense_prob_cache:
+                    new._dense_prob_cache[key] = self._dense_prob_cache[key]
+                for cache, old in ((new._unary, self._unary), (new._dense, self._dense)):
+                    if key in old:
+                        cache[key] = old[key]
+                new._marginal_cache.update({i: self._marginal_cache[i] for i in comp.ids
+                                            if i in self._marginal_cache})
+            elif key in self._unary:
+                new._unary[key] = _shifted(self._unary[key] + sum(f.log_table for f in mine))
+            elif key in self._dense:
+                table = self._dense[key] + sum(_expand_to(f.scope, f.log_table, comp.ids) for f in mine)
+                if np.isfinite(np.max(table)):  # else left to _dense_log, which says so
+                    new._dense[key] = _shifted(table)
+        return new
 
     def _evidence(self, name: str, likelihood: Any, label: str | None) -> _Factor:
         """The log-space factor of a likelihood vector on `name`, checked."""
@@ -474,6 +511,12 @@ def _expand_to(group: Sequence[int], table: np.ndarray, target: Sequence[int]) -
     from fg_tea.beliefs.elimination import expand
 
     return expand(tuple(group), table, list(target))
+
+
+def _shifted(log: np.ndarray) -> np.ndarray:
+    """`log` less its maximum (unchanged where every entry is -inf)."""
+    top = np.max(log)
+    return log - top if np.isfinite(top) else log
 
 
 def _normalised(log: np.ndarray, source: str) -> np.ndarray:
