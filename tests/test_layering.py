@@ -2,7 +2,7 @@
 
 1. The agent side never imports the simulator (truth lives only in the environment): every module
    under common/, world/, model/, beliefs/, planning/ and tasks/, and the simulator-free
-   environment modules (base, truth, adapter, motion, fake), is checked statically (its import
+   environment modules (base, truth, adapter, verbs, motion, fake), is checked statically (its import
    statements, parsed with ast) and dynamically (imported in a fresh interpreter, after which
    'pybullet' must not be in sys.modules).
 2. Folder rules: each folder of fg_tea/ imports only the folders below it (``LAYERS``), the import
@@ -22,8 +22,8 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 AGENT_DIRS = ("fg_tea/common", "fg_tea/world", "fg_tea/model", "fg_tea/beliefs", "fg_tea/planning",
               "fg_tea/tasks", "fg_tea/agent")
-AGENT_FILES = ("fg_tea/env/base.py", "fg_tea/env/truth.py", "fg_tea/env/adapter.py", "fg_tea/env/motion.py",
-               "fg_tea/env/fake.py")
+AGENT_FILES = ("fg_tea/env/base.py", "fg_tea/env/truth.py", "fg_tea/env/adapter.py", "fg_tea/env/verbs.py",
+               "fg_tea/env/motion.py", "fg_tea/env/fake.py")
 #: Modules that import pybullet themselves: importing them from the agent side is just as bad.
 FORBIDDEN = ("pybullet", "pybullet_data", "pybullet_utils", "fg_tea.env.house", "fg_tea.env.assets")
 

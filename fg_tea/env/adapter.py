@@ -1,11 +1,12 @@
-"""The environment adapter over the hidden truth: how a declarative verb happens in the house.
+"""The environment adapter over the hidden truth: where the agent walks and what it sees.
 
 This module answers *given a task verb, what happens in the house, and what does the agent get
 back?* (docs/design.md §8). :class:`TruthBackedAdapter` implements the
 :class:`~fg_tea.env.base.EnvAdapter` contract over :class:`~fg_tea.env.truth.TeaTruth` and the
 floor plan: walking (:mod:`fg_tea.env.motion`), looking (eqs. 28-29, with the pixel counts a
-subclass supplies), reading states (eqs. 23-24) and carrying out actions with their effects;
-its subclasses are the PyBullet house and the fake house."""
+subclass supplies), reading states (eqs. 23-24), and carrying out actions with their effects
+(:class:`~fg_tea.env.verbs.ActionVerbs`, the verbs' half of the adapter); its subclasses are the
+PyBullet house and the fake house."""
 
 from __future__ import annotations
 
@@ -18,24 +19,11 @@ import numpy as np
 from fg_tea.env.company import company_from_alone, facing_offsets
 from fg_tea.env.base import EnvAdapter, EnvConfig
 from fg_tea.env.motion import held_position, motion_of
-from fg_tea.env.truth import EFFECTS, TeaTruth, effect_happens
-from fg_tea.world.interface import (
-    ActionRequest,
-    ActionResult,
-    InspectionResult,
-    Pose,
-    StateReading,
-)
+from fg_tea.env.truth import TeaTruth
+from fg_tea.env.verbs import ActionVerbs
+from fg_tea.world.interface import InspectionResult, Pose, StateReading
 from fg_tea.world.scenario import ObjectSpec, Scenario
 from fg_tea.world.relative import start_layout
-
-#: Truth effect a verb applies when the request names none.
-DEFAULT_EFFECT = {"FILL": "fill", "POUR": "pour"}
-
-
-#: Horizontal reach (m) of the kinematic gripper: an object closer than this to the agent can be
-#: used, filled or poured into without moving. Vantage points stand 1.0-1.3 m from their surface.
-REACH_M = 1.6
 
 
 #: Lateral spacing (m) of the deterministic slots on a surface, perpendicular to the view direction.
@@ -46,7 +34,7 @@ SLOT_SPACING_M = 0.16
 SLOT_MARGIN_M = 0.06
 
 
-class TruthBackedAdapter(EnvAdapter):
+class TruthBackedAdapter(ActionVerbs, EnvAdapter):
     """Verb semantics shared by every adapter: truth, relations, failures, reasons.
 
     A subclass supplies geometry and perception through hooks: :meth:`_build` (reset the world),
@@ -55,12 +43,8 @@ class TruthBackedAdapter(EnvAdapter):
     :meth:`_sync` (mirror object positions into the simulator after they change) and
     :meth:`_on_frames` (see every frame of motion, e.g. to render it).
 
-    Failure reasons (``ActionResult.reason``): ``injected_failure`` (seeded fault injection,
-    ``config.failure_rates[verb]``), ``unreachable``, ``object_not_at_site``, ``not_graspable``,
-    ``hands_full``, ``not_held``, ``not_a_container``, ``destination_not_at_site``,
-    ``destination_out_of_reach``, ``object_out_of_reach``, ``site_full``. A failed action has no
-    truth effect. A malformed request (unknown verb, object, site or effect, or a missing field the
-    verb needs) raises ``ValueError``: that is a caller bug, not a world event.
+    The practical verbs, their truth effects and failure reasons are
+    :class:`~fg_tea.env.verbs.ActionVerbs`'s (:meth:`execute`).
 
     Randomness: one ``numpy.random.Generator`` seeded in :meth:`reset`; a state reading draws once,
     an action once for fault injection when its verb has a failure rate, an inspection once per
@@ -315,29 +299,6 @@ class TruthBackedAdapter(EnvAdapter):
         return StateReading(name, value, sensitivity, specificity, distance=self._travelled(frames),
                             frames=len(frames), motion=motion_of(frames))
 
-    def execute(self, request: ActionRequest) -> ActionResult:
-        self._require_reset()
-        self._start = self._pose
-        verb = request.verb.upper()
-        handler = {"NAVIGATE": self._navigate, "PICK": self._pick, "PLACE": self._place,
-                   "INSERT": self._insert, "FILL": self._effect_action, "USE": self._effect_action,
-                   "POUR": self._pour, "WAIT": self._wait}.get(verb)
-        if handler is None:
-            raise ValueError(f"verb {request.verb!r} is not an executable action here "
-                             "(SEARCH and INSPECT go through inspect_viewpoint and observe_state)")
-        self._spec(request.object)
-        if request.site is not None:
-            self._site_index(request.site)
-        if request.destination is not None:
-            self._spec(request.destination)
-        effect = request.effect if request.effect is not None else DEFAULT_EFFECT.get(verb)
-        if effect is not None and effect not in EFFECTS:
-            raise ValueError(f"unknown truth effect {effect!r} (known: {', '.join(EFFECTS)})")
-        rate = float(self.config.failure_rates.get(verb, 0.0))
-        if rate > 0.0 and float(self._rng.random()) < rate:
-            return self._result(False, "injected_failure", [])
-        return handler(request, effect)
-
     def truth_report(self) -> dict:
         self._require_reset()
         truth = self._truth
@@ -365,114 +326,6 @@ class TruthBackedAdapter(EnvAdapter):
         self._truth.place(name, site)
         self._positions[name] = position
         self._sync()
-
-    # --- verbs -----------------------------------------------------------------------------
-
-    def _navigate(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        frames, arrived = self._go_to_site(self._needs_site(request))
-        if not arrived:
-            return self._result(False, "unreachable", frames)
-        return self._finish(effect, request, frames)
-
-    def _pick(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        k = self._needs_site(request)
-        site = self.scenario.sites[k]
-        if "graspable" not in self._spec(request.object).affordances:
-            return self._result(False, "not_graspable", [])
-        if self._truth.held is not None:
-            return self._result(False, "hands_full", [])
-        frames, arrived = self._go_to_site(k)
-        if not arrived:
-            return self._result(False, "unreachable", frames)
-        frames += self._face(site.position)
-        if self._truth.site_of.get(request.object) != site.name:
-            return self._result(False, "object_not_at_site", frames)
-        self._truth.pick(request.object)
-        self._carry()
-        return self._finish(effect, request, frames)
-
-    def _place(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        k = self._needs_site(request)
-        site = self.scenario.sites[k]
-        if self._truth.held != request.object:
-            return self._result(False, "not_held", [])
-        frames, arrived = self._go_to_site(k)
-        if not arrived:
-            return self._result(False, "unreachable", frames)
-        frames += self._face(site.position)
-        occupants = self._occupants(site.name)
-        if site.capacity is not None and len(occupants) >= site.capacity:
-            return self._result(False, "site_full", frames)
-        position = self._free_slot(site.name)
-        self._truth.place(request.object, site.name)
-        self._put(request.object, position)
-        return self._finish(effect, request, frames)
-
-    def _to_container(self, request: ActionRequest, verb: str) -> tuple[str, list[Pose], ActionResult | None]:
-        """INSERT and POUR: the held object taken to its container destination; a failure result,
-        or None when the action may go ahead."""
-        dest = request.destination
-        if dest is None:
-            raise ValueError(f"{verb} needs a destination object")
-        if self._truth.held != request.object:
-            return dest, [], self._result(False, "not_held", [])
-        if "container" not in self._spec(dest).affordances:
-            return dest, [], self._result(False, "not_a_container", [])
-        frames, ok, reason = self._approach(request.site, dest, "destination")
-        return dest, frames, (None if ok else self._result(False, reason, frames))
-
-    def _insert(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        dest, frames, failed = self._to_container(request, "INSERT")
-        if failed is not None:
-            return failed
-        self._truth.insert(request.object, dest)
-        self._put(dest, self._positions[dest])
-        self._carry()
-        return self._finish(effect, request, frames)
-
-    def _pour(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        _, frames, failed = self._to_container(request, "POUR")
-        return failed if failed is not None else self._finish(effect, request, frames)
-
-    def _effect_action(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        frames, ok, reason = self._approach(request.site, request.object, "object")
-        if not ok:
-            return self._result(False, reason, frames)
-        return self._finish(effect, request, frames)
-
-    def _wait(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        return self._finish(effect, request, [])
-
-    # --- helpers ---------------------------------------------------------------------------
-
-    def _approach(self, site: str | None, obj: str, role: str) -> tuple[list[Pose], bool, str]:
-        """Go to `site` if given, then check `obj` is held, at that site, or within reach."""
-        frames: list[Pose] = []
-        if self._truth.held == obj:
-            return frames, True, ""
-        if site is not None:
-            k = self._site_index(site)
-            frames, arrived = self._go_to_site(k)
-            if not arrived:
-                return frames, False, "unreachable"
-            frames += self._face(self.scenario.sites[k].position)
-            if self._truth.site_of.get(obj) != site:
-                return frames, False, f"{role}_not_at_site"
-            return frames, True, ""
-        x, y, _ = self._positions[obj]
-        if math.hypot(x - self._pose.x, y - self._pose.y) > REACH_M:
-            return frames, False, f"{role}_out_of_reach"
-        return frames, True, ""
-
-    def _finish(self, effect: str | None, request: ActionRequest, frames: list[Pose]) -> ActionResult:
-        if effect is not None and effect_happens(self.config.effect_success, effect, self._rng):
-            self._truth.apply_effect(effect, request.object, request.destination, self._rng)
-        return self._result(True, "", frames)
-
-    def _result(self, ok: bool, reason: str, frames: list[Pose]) -> ActionResult:
-        self._sync()
-        return ActionResult(ok, reason, distance=self._travelled(frames), frames=len(frames),
-                            motion=motion_of(frames), placements=self.placements())
 
     def _go_to_site(self, k: int) -> tuple[list[Pose], bool]:
         return self._go_to(k)
@@ -565,11 +418,6 @@ class TruthBackedAdapter(EnvAdapter):
         x, y, z = self._positions[obj]
         px, py, pz = self.scenario.sites[k].position
         return math.dist((x, y, z), (px, py, pz)) <= self.config.site_association_radius
-
-    def _needs_site(self, request: ActionRequest) -> int:
-        if request.site is None:
-            raise ValueError(f"{request.verb} needs a site")
-        return self._site_index(request.site)
 
     def _target_index(self, name: str) -> int:
         try:
