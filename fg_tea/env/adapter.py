@@ -302,8 +302,11 @@ class TruthBackedAdapter(ActionVerbs, EnvAdapter):
     def truth_report(self) -> dict:
         self._require_reset()
         truth = self._truth
-        return {"states": dict(sorted(truth.states.items())), "sites": dict(sorted(truth.site_of.items())),
-                "held": truth.held, "contained_in": dict(sorted(truth.contained_in.items()))}
+        report = {"states": dict(sorted(truth.states.items())), "sites": dict(sorted(truth.site_of.items())),
+                  "held": truth.held, "contained_in": dict(sorted(truth.contained_in.items()))}
+        if truth.uses_left:  # only a scenario with consumables has the key (older logs stay as they were)
+            report["uses_left"] = dict(sorted(truth.uses_left.items()))
+        return report
 
     def placements(self) -> Mapping[str, tuple[float, float, float]]:
         self._require_reset()

@@ -151,7 +151,8 @@ class EnvAdapter(abc.ABC):
 
         Experiments and the episode log's final record use it; the runner never passes it to the
         agent side. Returns ``{"states": {name: bool}, "sites": {object: site or None},
-        "held": object or None, "contained_in": {object: container}}``.
+        "held": object or None, "contained_in": {object: container}}``, and ``"uses_left":
+        {object: uses}`` when the scenario has consumables (:mod:`fg_tea.world.consumables`).
         """
         return {}
 

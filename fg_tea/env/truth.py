@@ -48,6 +48,7 @@ class TeaTruth:
     Args:
         objects: the scenario's object specs. Each ``hidden_state_truth`` entry becomes the state
             ``"<object>.<state>"``; a state no spec mentions reads False until an effect sets it.
+            A ``consumable`` object starts with its count of uses (:meth:`take_use`).
     """
 
     def __init__(self, objects: Iterable[ObjectSpec]) -> None:
@@ -59,6 +60,25 @@ class TeaTruth:
         self.site_of: dict[str, str | None] = {spec.name: spec.true_site for spec in specs}
         self.held: str | None = None
         self.contained_in: dict[str, str] = {}
+        #: consumable object -> uses left (fg_tea.world.consumables); the verb that takes one
+        self.uses_left: dict[str, int] = {s.name: s.consumable.uses for s in specs if s.consumable}
+        self._used_by: dict[str, str] = {s.name: s.consumable.verb for s in specs if s.consumable}
+
+    # --- consumables ---------------------------------------------------------------------
+
+    def take_use(self, obj: str, verb: str) -> bool:
+        """Take one use of `obj` for an action with `verb` that is about to succeed.
+
+        False when `obj` is a consumable used by `verb` with no use left (nothing changes: the
+        action fails with ``used_up``); otherwise True, with one use fewer if it is such a
+        consumable. Other verbs and other objects use nothing.
+        """
+        if self._used_by.get(obj) != verb:
+            return True
+        if self.uses_left[obj] <= 0:
+            return False
+        self.uses_left[obj] -= 1
+        return True
 
     # --- hidden states -------------------------------------------------------------------
 

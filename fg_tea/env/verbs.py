@@ -9,8 +9,10 @@ carries out NAVIGATE, PICK, PLACE, INSERT, FILL, POUR, USE and WAIT over the ada
 Failure reasons (``ActionResult.reason``): ``injected_failure`` (seeded fault injection,
 ``config.failure_rates[verb]``), ``unreachable``, ``object_not_at_site``, ``not_graspable``,
 ``hands_full``, ``not_held``, ``not_a_container``, ``destination_not_at_site``,
-``destination_out_of_reach``, ``object_out_of_reach``, ``site_full``. A failed action has no
-truth effect. A malformed request (unknown verb, object, site or effect, or a missing field the
+``destination_out_of_reach``, ``object_out_of_reach``, ``site_full``, ``used_up`` (a consumable
+object with no use left, :mod:`fg_tea.world.consumables`: checked last, when everything else
+would let the action succeed, so a use is taken only by an action that happens). A failed action
+has no truth effect. A malformed request (unknown verb, object, site or effect, or a missing field the
 verb needs) raises ``ValueError``: that is a caller bug, not a world event.
 """
 
@@ -24,6 +26,7 @@ import numpy as np
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.motion import motion_of
 from fg_tea.env.truth import EFFECTS, TeaTruth, effect_happens
+from fg_tea.world.consumables import USED_UP
 from fg_tea.world.interface import ActionRequest, ActionResult, Pose
 from fg_tea.world.scenario import ObjectSpec, Scenario
 
@@ -118,6 +121,8 @@ class ActionVerbs:
         frames += self._face(site.position)
         if self._truth.site_of.get(request.object) != site.name:
             return self._result(False, "object_not_at_site", frames)
+        if (empty := self._take_use(request, frames)) is not None:
+            return empty
         self._truth.pick(request.object)
         self._carry()
         return self._finish(effect, request, frames)
@@ -134,6 +139,8 @@ class ActionVerbs:
         occupants = self._occupants(site.name)
         if site.capacity is not None and len(occupants) >= site.capacity:
             return self._result(False, "site_full", frames)
+        if (empty := self._take_use(request, frames)) is not None:
+            return empty
         position = self._free_slot(site.name)
         self._truth.place(request.object, site.name)
         self._put(request.object, position)
@@ -154,6 +161,8 @@ class ActionVerbs:
 
     def _insert(self, request: ActionRequest, effect: str | None) -> ActionResult:
         dest, frames, failed = self._to_container(request, "INSERT")
+        if failed is None:
+            failed = self._take_use(request, frames)
         if failed is not None:
             return failed
         self._truth.insert(request.object, dest)
@@ -163,16 +172,18 @@ class ActionVerbs:
 
     def _pour(self, request: ActionRequest, effect: str | None) -> ActionResult:
         _, frames, failed = self._to_container(request, "POUR")
+        if failed is None:
+            failed = self._take_use(request, frames)
         return failed if failed is not None else self._finish(effect, request, frames)
 
     def _effect_action(self, request: ActionRequest, effect: str | None) -> ActionResult:
         frames, ok, reason = self._approach(request.site, request.object, "object")
         if not ok:
             return self._result(False, reason, frames)
-        return self._finish(effect, request, frames)
+        return self._take_use(request, frames) or self._finish(effect, request, frames)
 
     def _wait(self, request: ActionRequest, effect: str | None) -> ActionResult:
-        return self._finish(effect, request, [])
+        return self._take_use(request, []) or self._finish(effect, request, [])
 
     # --- helpers ---------------------------------------------------------------------------
 
@@ -194,6 +205,13 @@ class ActionVerbs:
         if math.hypot(x - self._pose.x, y - self._pose.y) > REACH_M:
             return frames, False, f"{role}_out_of_reach"
         return frames, True, ""
+
+    def _take_use(self, request: ActionRequest, frames: list[Pose]) -> ActionResult | None:
+        """Take a use of the request's object if it is a consumable of this verb (the action is
+        about to succeed); the ``used_up`` failure when none is left, else None."""
+        if self._truth.take_use(request.object, request.verb.upper()):
+            return None
+        return self._result(False, USED_UP, frames)
 
     def _finish(self, effect: str | None, request: ActionRequest, frames: list[Pose]) -> ActionResult:
         if effect is not None and effect_happens(self.config.effect_success, effect, self._rng):

@@ -427,8 +427,10 @@ def caption(e: Mapping[str, Any]) -> str:
     if kind == "alternative_method":
         return f"another way to {e.get('action')}: {e.get('description') or (e.get('after') or {}).get('verb')}"
     if kind == "substitute":
-        return (f"substitute: the {e.get('substitute')} stands in for the {e.get('object')} "
-                f"({_count(len(e.get('retargeted') or []), 'action')} retargeted)")
+        used_up = "used-up " if e.get("cause") == "used_up" else ""
+        again = f", {len(e['reopened'])} reopened" if e.get("reopened") else ""
+        return (f"substitute: the {e.get('substitute')} stands in for the {used_up}{e.get('object')} "
+                f"({_count(len(e.get('retargeted') or []), 'action')} retargeted{again})")
     if kind in CAPTIONS:
         return CAPTIONS[kind].format_map({k: e.get(k) for k in ("action", "reason", "object", "site")})
     if kind in ("fail", "reopen", "stuck", "alternative_site"):

@@ -155,10 +155,11 @@ def plan_frames(events: list[dict], options: VideoOptions) -> FramePlan:
                 ov.caption = f"{e.get('state')} read {'true' if e.get('value') else 'false'}: " \
                              f"q {e.get('before', 0):.2f} -> {e.get('after', 0):.2f}"
             emit([], repeat_last=hold)
-        elif kind == "substitute":  # a search given up: another object serves its role (§7.6)
+        elif kind == "substitute":  # a search given up or an object used up: another serves its role (§7.6)
             clear_look()
             ov.phase, ov.focus_object, ov.candidates = "SUBSTITUTE", e["substitute"], []
-            ov.caption = f"{e['object']} given up: the {e['substitute']} stands in for it"
+            why = "used up" if e.get("cause") == "used_up" else "given up"
+            ov.caption = f"{e['object']} {why}: the {e['substitute']} stands in for it"
             emit([], repeat_last=hold)
         elif kind == "alternative_method":  # retries spent: the action is done another way (§7.6)
             ov.phase = "ALTERNATIVE"

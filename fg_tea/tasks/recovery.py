@@ -1,5 +1,6 @@
 """Failure and recovery of task actions (docs/design.md §7.6): retries, re-inspections, excluded
-sites, transient failures, task-level reopenings and alternative sites.
+sites, transient failures, task-level reopenings, alternative sites, and consumables found used up
+(:mod:`fg_tea.tasks.consumables`).
 
 :class:`TaskRecovery` holds these rules for :class:`~fg_tea.tasks.executor.TaskExecutor`, which
 is built from it: they read and write the executor's graph, belief, symbolic object state and
@@ -14,6 +15,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from fg_tea.tasks.actions import TRANSIENT_REASONS, UNREACHABLE_REASONS, TaskAction
+from fg_tea.tasks.consumables import USED_UP, run_out, stuck_note
 from fg_tea.tasks.methods import switch as switch_method
 from fg_tea.tasks.records import ObjectState, RecoveryDecision, Violation
 
@@ -139,6 +141,13 @@ class TaskRecovery:
                                     "graph": self.graph.to_json()})
                 return decision
 
+        if reason == USED_UP:  # its object has no use left: a retry cannot help (fg_tea.tasks.consumables)
+            if run_out(self, action) is not None:  # a substitute takes its place; the action is pending
+                decision = RecoveryDecision(action.id, reason, attempt, True, (), excluded, reopened)
+                self.events.append({"event": "fail", **decision.to_json(), "graph": self.graph.to_json()})
+                return decision
+            suffix = stuck_note(action)
+
         if reason in TRANSIENT_REASONS:
             # The action did not happen and nothing changed: retry it on the same evidence (no
             # re-inspection), up to k tries in a row from the model's failure model.
@@ -153,7 +162,7 @@ class TaskRecovery:
                          f"{tries} tries with probability <= {rate:g}^{tries} = {rate ** tries:.2g})")
                 decision = RecoveryDecision(action.id, reason, attempt, False, (), excluded,
                                             reopened, stuck)
-        elif attempt - self.transient_failures[action.id] <= policy.max_retries:
+        elif reason != USED_UP and attempt - self.transient_failures[action.id] <= policy.max_retries:
             self.graph.set_status(action.id, "pending")
             decision = RecoveryDecision(action.id, reason, attempt, True, policy.reinspect,
                                         excluded, reopened)

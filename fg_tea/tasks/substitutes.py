@@ -8,7 +8,9 @@ destination is replaced by the same action built for the substitute (the task do
 name changed, loaded as the task itself is: effects, goals and preconditions are the model's for
 the substitute), its declared states enter the belief, and a ``substitute`` event records the
 switch in the log. Finished actions keep what they did. When every substitute is given up too,
-the episode ends as before (``not_found``).
+the episode ends as before (``not_found``). The same switch serves an object found used up (a
+consumable with no use left, :mod:`fg_tea.tasks.consumables`); then the finished actions that
+fetched it are done again for the substitute.
 
 A substitute must be an object of the scenario that the task does not already act on, different
 from the original, listed once, and afford everything the original affords that a task verb
@@ -18,7 +20,7 @@ checks (so it can serve the same role); each fault is one line naming the field.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Collection
 
 from fg_tea.tasks.actions import TaskAction
 
@@ -90,14 +92,10 @@ def read_substitutes(r, data: dict, acted_on: set[str], scenario, checked: froze
         checked: the affordances some task verb checks.
     """
     out = Substitutes()
-    table = r.child(KEY, required=False)
-    if table is None:
-        return out
-    for obj in table.names():
+    for obj, names in r.mapping(KEY, list).items():  # object -> a list (one schema for every entry)
         where = f"{KEY}.{obj}"
         if obj not in acted_on:
             raise r.fail(f"object {obj!r} is not an object this task acts on", where)
-        names = table.req(obj, list)
         if not names:
             raise r.fail("expected a list of at least one object name", where)
         for k, sub in enumerate(names):
@@ -123,12 +121,16 @@ def read_substitutes(r, data: dict, acted_on: set[str], scenario, checked: froze
     return out
 
 
-def switch(executor, obj: str) -> dict | None:
-    """After the search for `obj` was given up: switch the task to its next substitute, if any.
+def switch(executor, obj: str, cause: str = "given_up", reopen: Collection[str] = ()) -> dict | None:
+    """Switch the task to the next substitute of `obj`, if any: after its search was given up
+    (`cause` ``"given_up"``), or after it was found used up (``"used_up"``,
+    :mod:`fg_tea.tasks.consumables`).
 
-    Replaces every unfinished action that names `obj` with the substitute's, declares the
-    substitute's states in the belief, and appends a ``substitute`` event (returned). None when
-    `obj` has no substitute left (the executor then ends the episode as before).
+    Replaces every unfinished action that names `obj` with the substitute's, and the actions of
+    `reopen` that name it too, whatever their status, which become pending with their attempts
+    cleared (the chain that fetched a used-up object is done again for the substitute); declares
+    the substitute's states in the belief, and appends a ``substitute`` event (returned). None
+    when `obj` has no substitute left (the executor then ends the episode as before).
     """
     subs: Substitutes | None = getattr(executor.graph, "substitutes", None)
     if subs is None:
@@ -138,16 +140,22 @@ def switch(executor, obj: str) -> dict | None:
         return None
     root = subs.original(obj)
     graph = executor.graph
-    retargeted = []
+    retargeted, reopened = [], []
     for node, action in subs.actions[(root, new)].items():
         current = graph.action(node)
-        if not graph.is_finished(node) and obj in (current.object, current.destination):
+        if (node in reopen or not graph.is_finished(node)) and obj in (current.object, current.destination):
             graph.replace_action(node, action)
             retargeted.append(node)
+            if node in reopen:
+                graph.set_status(node, "pending")
+                executor.attempts.pop(node, None)
+                executor.transient_failures.pop(node, None)
+                reopened.append(node)
     for state, prior in subs.declared[(root, new)].items():
         executor.belief.ensure_state(state, prior)
     subs.switched.append((obj, new))
-    event = {"event": "substitute", "object": obj, "substitute": new, "retargeted": retargeted,
+    event = {"event": "substitute", "object": obj, "substitute": new, "cause": cause,
+             "retargeted": retargeted, "reopened": reopened,
              "remaining": [s for s in subs.candidates[root] if s != new and s not in
                            {b for _, b in subs.switched}],
              "graph": graph.to_json()}

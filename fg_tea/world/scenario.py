@@ -10,7 +10,8 @@ stand (z = surface height); its ``vantage_position`` is the floor point from whi
 inspects it. A site on furniture is that box's top (docs/design.md §8.1): its surface height is
 the box's height (within :data:`SURFACE_TOLERANCE`). Furniture boxes stand on the floor inside its
 bounds, no taller than the walls, with colour channels in [0, 1], and may touch but not overlap.
-Hidden truth (``true_site``, ``hidden_state_truth``) is read only by the environment.
+Hidden truth (``true_site``, ``hidden_state_truth``, ``consumable``) is read only by the
+environment.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from typing import Mapping
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.inputs import Reader, read_json
+from fg_tea.world.consumables import Consumable, read_consumable
 
 SCHEMA_VERSIONS = (1, 2)
 #: Farthest a site's vantage point may stand from the site (horizontal distance, m). Chosen
@@ -139,7 +141,9 @@ class ObjectSpec:
     """A task object. `true_site` and `hidden_state_truth` are environment truth, never beliefs.
 
     `relative_to` is ``(relation, anchor)`` for an object placed ``beside`` or ``inside`` another
-    (:mod:`fg_tea.world.relative`; its `true_site` is then the anchor's), else None.
+    (:mod:`fg_tea.world.relative`; its `true_site` is then the anchor's), else None. `consumable`
+    is its count of uses and the verb that takes one (:mod:`fg_tea.world.consumables`; hidden
+    truth too), else None.
     """
 
     name: str
@@ -151,6 +155,7 @@ class ObjectSpec:
     state_priors: Mapping[str, float]
     hidden_state_truth: Mapping[str, bool]
     relative_to: tuple[str, str] | None = None
+    consumable: Consumable | None = None
 
 
 @dataclass(frozen=True)
@@ -370,6 +375,7 @@ def _read_object(o: Reader, site_names: set[str]) -> ObjectSpec:
         state_priors=_frozen(priors),
         hidden_state_truth=_frozen(truth),
         relative_to=relative_to,
+        consumable=read_consumable(o),
     )
 
 
