@@ -187,3 +187,21 @@ def test_the_parsed_scenario_holds_the_count():
     doc = json.loads(SCENARIO.read_text())
     box = parse_scenario(doc, "x").object("teabag_box").consumable
     assert box is not None and (box.uses, box.verb) == (0, "PICK")
+
+
+def test_a_world_over_the_scenario_keeps_the_count(tmp_path, capsys):
+    """A world distribution draws where objects stand; the box's count of uses is the base
+    scenario's, so a world episode with it switches to the tin just the same."""
+    from fg_tea.world.distributions import parse_world
+
+    doc = {"name": "tea_box_worlds", "base_scenario": str(SCENARIO),
+           "placement": {"order": ["kettle", "teabag_box", "tea_tin", "mug"], "prior_violation": 0.0}}
+    world = parse_world(doc, tmp_path / "w.json").sample(3)
+    box = world.object("teabag_box").consumable
+    assert box is not None and (box.uses, box.verb) == (0, "PICK")
+    from fg_tea.episode.run import run_episode
+    from fg_tea.model.spec import load_model
+
+    events = run_episode(world, load_model("factorised"), task=str(TASK), env="fake").events
+    assert [e["cause"] for e in events if e["event"] == "substitute"] == ["used_up"]
+    assert events[-1]["success"] is True
