@@ -31,12 +31,13 @@ def test_a_correlated_belief_is_refused_before_the_episode():
 @pytest.mark.slow
 def test_the_exact_policy_is_the_limit_and_the_lookahead_is_not():
     """Evaluated exactly (every outcome enumerated, a give-up finished by a sweep), the exact
-    planner's policy costs the limit; the lookahead's costs more."""
+    planner's policy (the upper cut's at cap 3) costs the limit to 0.05 %; the lookahead's costs
+    more than the limit's upper end (the upper cut at cap 4) by 2 %."""
     limit, objects = yardstick.start_limit("independent", "factorised_close", "find_three", tolerance=0.01)
     assert objects == ["mug", "kettle", "teabag"] and limit.width <= 0.01
     exact = yardstick.evaluate_policy("independent", "factorised_close", "exact", "find_three")
     assert exact.unexpanded < 1e-6 and exact.given_up < 0.01
-    assert limit.lower <= exact.cost <= limit.upper + 1e-9
+    assert limit.lower <= exact.cost <= limit.lower * 1.0005
     lookahead = yardstick.evaluate_policy("independent", "factorised_close", "lookahead", "find_three")
     assert lookahead.cost > limit.upper * 1.02
 

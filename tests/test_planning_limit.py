@@ -87,14 +87,29 @@ def test_perfect_detection_equals_the_perfect_detection_dp(seed):
     assert found.lower == pytest.approx(dp, abs=1e-9) and found.upper == pytest.approx(dp, abs=1e-9)
 
 
-@pytest.mark.parametrize("seed,m,cap", [(0, 1, 1), (1, 1, 2), (2, 2, 1), (3, 2, 2), (4, 2, 1)])
+@pytest.mark.parametrize("seed,m,cap", [(0, 1, 1), (1, 1, 2), (2, 2, 1), (3, 2, 2), (4, 2, 1), (5, 2, 0), (6, 1, 0)])
 def test_both_cuts_equal_a_brute_force_expectimax(seed, m, cap):
     rng = np.random.default_rng(100 + seed)
     problem = _random_problem(rng, 3, m, 2 if cap == 2 and m == 2 else 3)
     views, sites, q0 = limit._useful(problem)
-    for upper in (False, True):
+    for upper in (False, True) if cap else (False,):  # cap 0: the lower cut's perfect first look
         solved = limit._solve(problem, views, sites, q0, cap, upper=upper)
         assert solved == pytest.approx(_brute(problem, cap, upper), rel=1e-12, abs=1e-12), upper
+
+
+def test_the_limit_pairs_each_upper_cut_with_the_lower_cut_one_cap_below():
+    """Both count 0 to c looks per viewpoint (the same tables): a budget that holds only that
+    many stops at the pair, whose bracket is the narrowest of the cuts that fit."""
+    rng = np.random.default_rng(11)
+    problem = _random_problem(rng, 4, 2, 4)
+    views, sites, q0 = limit._useful(problem)
+    budget = limit.table_bytes(views.size, 2, sites.size, 3)
+    found = limit.search_limit(problem, tolerance=0.0, max_bytes=budget)
+    assert (found.cap, found.lower_cap, found.entries) == (2, 1, 3 ** views.size * views.size * 4)
+    lows = [limit._solve(problem, views, sites, q0, c, upper=False) for c in (0, 1)]
+    highs = [limit._solve(problem, views, sites, q0, c, upper=True) for c in (1, 2)]
+    assert found.lower == max(lows) and found.upper == min(highs)
+    assert limit.table_bytes(views.size, 2, sites.size, 4) > budget  # the lower cut at cap 2 did not fit
 
 
 def test_the_bounds_bracket_and_tighten_with_the_cap():

@@ -43,14 +43,15 @@ def shorten_long_words(text: str) -> str:
 
 def run_script(main: Callable[[], int], prog: str) -> None:
     """Run an experiment script's `main` and exit with its status; an :class:`InputError` (bad
-    flag, file or name) becomes one line ``prog: error: file: path: fault`` and status 2, and an
-    interrupt (Ctrl-C) one line ``prog: interrupted`` and status 130 (what was written stays:
-    sweeps resume from it)."""
+    flag, file or name) becomes one line ``prog: error: file: path: fault`` and status 2, as does
+    a :class:`PlannerRefused` (a planner asked for that cannot plan in the house: ``prog: error:
+    <its reason>``), and an interrupt (Ctrl-C) one line ``prog: interrupted`` and status 130 (what
+    was written stays: sweeps resume from it)."""
     import sys
 
     try:
         status = main()
-    except InputError as exc:
+    except (InputError, PlannerRefused) as exc:
         sys.stderr.write(f"{prog}: error: {shorten_long_words(str(exc))}\n")
         raise SystemExit(2) from None
     except KeyboardInterrupt:

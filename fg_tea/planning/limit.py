@@ -33,12 +33,14 @@ ways:
   summed exactly, with a geometric bound on the tail. This is the value of a real policy, so it
   is at least V*.
 
-Both tighten as ``cap`` grows: :func:`search_limit` raises it until the interval is narrower than
-``tolerance`` or the next cap's solve would need more than ``max_bytes`` of memory, as
-:func:`table_bytes` estimates it (checked against the measured peak allocation, tested). With a perfect
-detector (p = 1 at every site in view) both equal the perfect-detection dynamic program of
-:mod:`fg_tea.planning.optimal` (tested), and on small problems they equal a brute-force
-expectimax over the truth table with the same cuts (tested).
+Both tighten as ``cap`` grows. The upper cut at cap c and the lower cut at cap c - 1 count the
+same 0 to c looks per viewpoint, so they cost the same memory: :func:`search_limit` pairs them
+(the lower cut at cap 0 makes the first look from each viewpoint perfect) and raises c until the
+interval is narrower than ``tolerance`` or the next pair would need more than ``max_bytes`` of
+memory, as :func:`table_bytes` estimates it (checked against the measured peak allocation,
+tested). With a perfect detector (p = 1 at every site in view) both equal the perfect-detection
+dynamic program of :mod:`fg_tea.planning.optimal` (tested), and on small problems they equal a
+brute-force expectimax over the truth table with the same cuts (tested).
 """
 
 from __future__ import annotations
@@ -60,12 +62,14 @@ class Limit:
     """The bracketed optimal expected cost of a search problem (metres-equivalent).
 
     Attributes:
-        lower: a lower bound of V* (perfect looks past the cap).
+        lower: a lower bound of V* (perfect looks past the lower cut's cap).
         upper: an upper bound of V* (the capped policy, then a cyclic sweep).
-        cap: looks per viewpoint the state space was cut at.
+        cap: looks per viewpoint the upper cut allows before its sweep.
         entries: table entries of the larger of the two solves.
         viewpoints: viewpoints that can find something (the others are never worth a look).
         objects: objects searched.
+        lower_cap: looks per viewpoint after which the lower cut's looks are perfect (one less
+            than ``cap``: both cuts then count 0 to ``cap`` looks per viewpoint, the same tables).
     """
 
     lower: float
@@ -74,6 +78,11 @@ class Limit:
     entries: int
     viewpoints: int
     objects: int
+    lower_cap: int = -1
+
+    def __post_init__(self) -> None:
+        if self.lower_cap < 0:
+            object.__setattr__(self, "lower_cap", self.cap - 1)
 
     @property
     def width(self) -> float:
@@ -125,7 +134,7 @@ def limit_fault(problem: SearchProblem, max_bytes: int = MAX_BYTES) -> str | Non
                 "objects only (a factorised model)")
     views, sites, _ = _useful(problem)
     a, m = views.size, len(problem.objects)
-    need = table_bytes(a, m, sites.size, 3)
+    need = table_bytes(a, m, sites.size, 2)
     if need > max_bytes:
         return (f"search limit: {a} viewpoints and {m} objects need about {human_bytes(need)} "
                 f"at one look per viewpoint, more than {human_bytes(max_bytes)}")
@@ -353,14 +362,16 @@ def search_limit(problem: SearchProblem, tolerance: float = 1e-3, max_bytes: int
     views, sites, q0 = _useful(problem)
     a, m = views.size, len(problem.objects)
     best: Limit | None = None
+    # The upper cut at cap c and the lower cut at cap c - 1 both count 0 to c looks per
+    # viewpoint: the same tables, so the same memory; each step raises both by one.
     for cap in range(1, max_cap + 1):
-        if table_bytes(a, m, sites.size, cap + 2) > max_bytes and best is not None:
+        if table_bytes(a, m, sites.size, cap + 1) > max_bytes and best is not None:
             break
-        lo = _solve(problem, views, sites, q0, cap, upper=False)
+        lo = _solve(problem, views, sites, q0, cap - 1, upper=False)
         hi = _solve(problem, views, sites, q0, cap, upper=True)
         lo_best = lo if best is None else max(lo, best.lower)
         hi_best = hi if best is None else min(hi, best.upper)
-        best = Limit(lo_best, hi_best, cap, _entries(a, m, cap + 2), a, m)
+        best = Limit(lo_best, hi_best, cap, _entries(a, m, cap + 1), a, m, cap - 1)
         if best.width <= tolerance:
             break
     assert best is not None

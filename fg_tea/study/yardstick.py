@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fg_tea.common.errors import InputError
+from fg_tea.common.errors import InputError, PlannerRefused
 from fg_tea.common.files import atomic_path, atomic_write_text
 from fg_tea.episode.distances import EnvDistances
 from fg_tea.study.episode_files import file_part, kept_or_run
@@ -55,6 +55,21 @@ def start_problem(world: str, model_name: str, task: str):
     finally:
         env.close()
     return problem, objects
+
+
+def check_fits(world: str, model_name: str, planner: str, task: str) -> None:
+    """Refuse, before any episode, a planner that cannot plan the task in world seed 0's house.
+
+    Raises:
+        InputError: on ``--planners``, with the planner's own one-line reason.
+    """
+    model, scenario, env, _ = episode_setup(world, 0, model_name, "fake", None)
+    try:
+        EpisodeRunner(scenario, model, env, RunConfig(seed=0, planner=planner, task=task))
+    except PlannerRefused as exc:
+        raise InputError("<command line>", "--planners", str(exc)) from None
+    finally:
+        env.close()
 
 
 def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3) -> tuple[Limit, list[str]]:
@@ -177,8 +192,8 @@ def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], worl
     for task in sorted({r["task"] for r in rows}):
         limit, objects = limits[task]
         lines += [f"## task `{task}` ({', '.join(objects)})", "",
-                  f"Limit: [{limit.lower:.6f}, {limit.upper:.6f}] m (cap {limit.cap}, "
-                  f"{limit.viewpoints} viewpoints).", "",
+                  f"Limit: [{limit.lower:.6f}, {limit.upper:.6f}] m (upper cut at cap {limit.cap}, lower "
+                  f"at cap {limit.lower_cap}; {limit.viewpoints} viewpoints).", "",
                   "| planner | policy cost (m) | policy / optimum | given up | unexpanded | sweep (m) | "
                   "worlds | episodes: mean cost (m) [95 %] | episodes / optimum [95 %] | looks | "
                   "success | CPU ms mean | CPU ms median | CPU ms p95 | CPU ms per episode |",
@@ -282,6 +297,9 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
     """
     from fg_tea.study.rows import sweep_progress
 
+    for task in tasks:
+        for planner in planners:
+            check_fits(world, model, planner, task)
     limits = {}
     for task in tasks:
         try:
@@ -289,7 +307,8 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
         except ValueError as exc:  # the limit does not fit, or the belief is correlated
             raise InputError("<command line>", model_flag, str(exc)) from None
         lim = limits[task][0]
-        print(f"{task}: limit [{lim.lower:.4f}, {lim.upper:.4f}] m (cap {lim.cap})", flush=True)
+        print(f"{task}: limit [{lim.lower:.4f}, {lim.upper:.4f}] m (caps {lim.lower_cap} and {lim.cap})",
+              flush=True)
     rows = []
     for task in tasks:
         bar = sweep_progress(len(planners) * len(seeds), label=task)
