@@ -7,9 +7,9 @@ the same bytes with any number of workers (tests/test_video_speed.py).
 
 A frame held for reading (a decision, an observation: ``FrameSpec.repeat`` > 1) is rendered
 once and encoded once, shown for its whole hold by its timestamps (no repeated pictures). A frame
-whose scene (pose, placements, held object) is the previous frame's reuses that frame's camera
-views (:class:`RepeatedViews`; the hold after a motion ends where it ended): only its overlays
-are drawn anew.
+whose scene (pose, placements, held object) is the previous frame's, or one shortly before it,
+reuses that frame's camera views (:class:`RepeatedViews`; the hold after a motion ends where it
+ended, a turn back retraces the turn): only its overlays are drawn anew.
 
 Workers are started with the ``spawn`` method (no inherited simulator or encoder state), build
 the render-only house once (:class:`~fg_tea.render.scene.SceneViews`), and die with the command
@@ -19,6 +19,7 @@ that started them (:func:`fg_tea.common.process.die_with_parent`).
 from __future__ import annotations
 
 import os
+from collections import OrderedDict
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable, Iterator, Sequence
@@ -29,6 +30,9 @@ from fg_tea.common.files import atomic_path
 
 #: Rendered frames per MP4 piece (each a separate encoding that starts with a key frame).
 PIECE_FRAMES = 120
+#: Bytes of camera images a worker keeps for scenes that come again (:class:`RepeatedViews`):
+#: the default video's images are about 0.8 MB a scene, so about the last 80 scenes.
+KEPT_BYTES = 64 * 2 ** 20
 
 
 def pieces(count: int, size: int | None = None) -> list[tuple[int, int]]:
@@ -48,24 +52,30 @@ def default_workers() -> int:
 
 
 class RepeatedViews:
-    """Camera views that render only when the scene or the camera changes.
+    """Camera views that render only when the scene or the camera is new.
 
     Wraps a :class:`~fg_tea.render.scene.SceneViews`: a view asked for with the same arguments
-    as before, the scene unchanged since, is a copy of the image it gave then (the same pixels:
-    rendering is a function of the scene and the camera). ``rendered`` and ``reused`` count.
+    at a scene seen before (the previous frame's, or an earlier one still kept: a drone that turns
+    and turns back, a walk retraced) is a copy of the image it gave then (the same pixels:
+    rendering is a function of the scene and the camera). The images of the most recent scenes
+    are kept, up to :data:`KEPT_BYTES` in all. ``rendered`` and ``reused`` count.
     """
 
-    def __init__(self, views) -> None:
+    def __init__(self, views, kept_bytes: int | None = None) -> None:
         self.views, self.config = views, views.config
+        self.kept_bytes = KEPT_BYTES if kept_bytes is None else kept_bytes
         self._scene: tuple | None = None
-        self._images: dict[tuple, np.ndarray] = {}
+        self._kept: OrderedDict[tuple, dict[tuple, np.ndarray]] = OrderedDict()  # oldest first
+        self._bytes = 0
         self.rendered = self.reused = 0
 
     def set_scene_state(self, pose, placements, held: str | None) -> None:
         scene = (tuple(pose), tuple(sorted((k, tuple(v)) for k, v in placements.items())), held)
         if scene != self._scene:
-            self._scene, self._images = scene, {}
+            self._scene = scene
             self.views.set_scene_state(pose, placements, held)
+        self._kept.setdefault(scene, {})
+        self._kept.move_to_end(scene)
 
     def chase_camera(self, *args):
         return self.views.chase_camera(*args)
@@ -78,12 +88,25 @@ class RepeatedViews:
 
     def _view(self, name: str, args: tuple) -> np.ndarray:
         key = (name, *args)
-        if key in self._images:
+        assert self._scene is not None, "set_scene_state first"
+        images = self._kept[self._scene]
+        if key in images:
             self.reused += 1
         else:
             self.rendered += 1
-            self._images[key] = getattr(self.views, name)(*args)
-        return self._images[key].copy()  # the frame is drawn on: the kept image stays clean
+            images[key] = getattr(self.views, name)(*args)
+            self._bytes += images[key].nbytes
+            self._forget()
+        return images[key].copy()  # the frame is drawn on: the kept image stays clean
+
+    def _forget(self) -> None:
+        """Drop the oldest scenes' images (never the current scene's) while over the budget."""
+        while self._bytes > self.kept_bytes and len(self._kept) > 1:
+            scene = next(iter(self._kept))
+            if scene == self._scene:
+                self._kept.move_to_end(scene)
+                continue
+            self._bytes -= sum(image.nbytes for image in self._kept.pop(scene).values())
 
     def close(self) -> None:
         self.views.close()

@@ -64,6 +64,7 @@ class SceneViews:
         self._cut_walls(self.chase_house, wall_cutaway)
         self._cut_walls(self.ego_house, None)
         self.calls = 0
+        self._floor_images: dict[tuple[int, int], np.ndarray] = {}
 
     def _floor_colour(self) -> np.ndarray:
         """The floor's colour as the renderer shades it: one floor-only image, looking down."""
@@ -122,14 +123,25 @@ class SceneViews:
         return self._render(self.ego_house, camera, width, height)
 
     def _render(self, house: PyBulletHouse, camera: tuple[list, list], width: int, height: int) -> np.ndarray:
+        import cv2
+
         self.calls += 1
         rgb, depth, _ = house._render(camera, width, height, segmentation=False)  # noqa: SLF001
-        rgb = np.array(rgb)  # writable, contiguous
+        rgb = _contiguous_rgb(rgb)
         empty = depth >= 1.0
         if empty.any():
             empty &= floor_mask(camera, width, height, self.floor_rect).view(bool)
-            rgb[empty] = self.floor_rgb
+            # OpenCV, not numpy's indexing: the same pixels, about 0.7 ms less per chase image.
+            cv2.copyTo(self._floor_image(height, width), empty.view(np.uint8), rgb)
         return rgb
+
+    def _floor_image(self, height: int, width: int) -> np.ndarray:
+        """An image of the floor's colour (kept per size)."""
+        image = self._floor_images.get((height, width))
+        if image is None:
+            image = self._floor_images[(height, width)] = np.empty((height, width, 3), np.uint8)
+            image[:] = self.floor_rgb
+        return image
 
     def close(self) -> None:
         self.ego_house.close()
@@ -163,6 +175,18 @@ class HouseViews:
 
     def close(self) -> None:
         self.house.close()
+
+
+def _contiguous_rgb(rgb: np.ndarray) -> np.ndarray:
+    """A writable, contiguous copy of `rgb`; when it is the first three channels of a contiguous
+    RGBA image (as the renderer gives it), copied by OpenCV (about 0.6 ms less at 640x360)."""
+    import cv2
+
+    rgba = rgb.base
+    if (isinstance(rgba, np.ndarray) and rgba.dtype == np.uint8 and rgba.shape == rgb.shape[:2] + (4,)
+            and rgba.flags.c_contiguous and rgb.ctypes.data == rgba.ctypes.data):
+        return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
+    return np.array(rgb)
 
 
 def floor_mask(camera: tuple[Sequence[float], Sequence[float]], width: int, height: int,
