@@ -256,12 +256,13 @@ def model(scenario):
                    ["not a Python model program", "SyntaxError"]),
     "raises on import": ("raise RuntimeError('boom')\n", ["importing it raised RuntimeError: boom"]),
     "exits": ("def model(scenario):\n    raise SystemExit(0)\n", ["called exit(0)"]),
-    "couples a task state with two locations": ('''
+    "couples four task states with locations": ('''
 def model(scenario):
     m = fg.program_from_model(scenario, fg.load_model("factorised"))
-    m.function(["mug", "kettle", "mug.served"], lambda mug, kettle, s: 2.0 if s else 1.0, name="served where")
+    m.function(["mug", "kettle", "mug.served", "mug.tea_brewed", "mug.water_hot", "kettle.water_hot"],
+               lambda mug, kettle, s, b, w, h: 2.0 if s else 1.0, name="served where")
     return m
-''', ["factor 'served where'", "couples task states with 2 objects' locations", "§4.8"]),
+''', ["factor 'served where'", "couples 4 task states with locations; at most 3", "§4.8"]),
     "never returns": ("def model(scenario):\n    while True:\n        pass\n",
                       ["did not finish within 0.3 s", "FG_TEA_MODEL_SECONDS"]),
 }

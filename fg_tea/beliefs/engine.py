@@ -33,7 +33,7 @@ import numpy as np
 from fg_tea.beliefs.factors import Factor, location_var, state_prior
 from fg_tea.beliefs.graph import (DENSE_LIMIT, BeliefGraph, build_graph, check_exact_method,
                                   pair_weight_matrices)
-from fg_tea.beliefs.eliminated import EliminatedLocationModel, eliminated_model, elimination_plan
+from fg_tea.beliefs.eliminated import EliminatedLocationModel, eliminated_model, elimination_plan, plan_for
 from fg_tea.beliefs.occlusion import CompanyEvidence
 from fg_tea.beliefs.solvers import GtsamSolver, NumpySolver
 from fg_tea.beliefs.structured import (
@@ -42,7 +42,7 @@ from fg_tea.beliefs.structured import (
     PairWeights,
     StructuredLocationModel,
 )
-from fg_tea.beliefs.coupling import CoupledBlocks
+from fg_tea.beliefs.coupling import CoupledBlocks, holding_coupling
 from fg_tea.beliefs.location_evidence import LocationEvidence
 from fg_tea.beliefs.state_block import StateBlock, UnknownVariableError  # noqa: F401 - re-exported
 from fg_tea.beliefs.updates import LookUpdate, StateUpdate  # noqa: F401 - re-exported
@@ -86,6 +86,7 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
             raise ValueError(f"unknown location solver {location_solver!r}; "
                              "use 'auto', 'dense', 'structured' or 'elimination'")
         graph = scenario if isinstance(scenario, BeliefGraph) else build_graph(scenario, model)
+        graph = holding_coupling(graph)  # g over several coupled objects' locations, if any
         self.model = model
         self.graph = graph
         self.backend = backend
@@ -124,12 +125,13 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
         """Evidence tried on the belief: if anything in the block raises (a contradiction, an
         interrupt), the belief is restored exactly as it was, and the exception goes on."""
         saved = (self._unary.copy(), list(self._loc_factors), list(self._state_factors),
-                 dict(self._slice), dict(self._cache), self._company, dict(self._prior_tables))
+                 dict(self._slice), dict(self._cache), self._company, dict(self._prior_tables),
+                 self.graph, self._rel_joint, self._elim_plan)  # a coupling's g replaces the graph
         try:
             yield
         except BaseException:
-            (self._unary, self._loc_factors, self._state_factors, self._slice,
-             self._cache, self._company, self._prior_tables) = saved
+            (self._unary, self._loc_factors, self._state_factors, self._slice, self._cache, self._company,
+             self._prior_tables, self.graph, self._rel_joint, self._elim_plan) = saved
             raise
 
     def copy(self) -> "BeliefEngine":
@@ -225,6 +227,11 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
             self._cache["eliminated"] = eliminated_model(self._elim_plan, self.graph, self._pair_weights,
                                                          self._unary, self._company)
         return self._cache["eliminated"]
+
+    def _replan(self) -> None:
+        """The elimination plan of a new graph (a coupling's g replaced it; the scopes are the same)."""
+        if self._elim_plan is not None:
+            self._elim_plan = plan_for(self.graph, self._pair_weights, budget=self._elim_plan.budget)
 
     def eliminated_model(self) -> EliminatedLocationModel | None:
         """The elimination method's queries (:mod:`fg_tea.beliefs.eliminated`), or None under another."""

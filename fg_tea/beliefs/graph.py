@@ -26,10 +26,11 @@ queries on, exactly — no factor is approximated:
   scenario does not declare — are summed out exactly, one connected group at a time, into one
   factor over the locations they touch;
 - a factor over one task state (a state the scenario declares, which the task observes or
-  changes) multiplies into its Bernoulli prior; a factor coupling task states with one object's
-  location or with each other is a coupling the engine holds exactly (fg_tea/beliefs/coupling.py,
-  docs/design.md §4.8), after the user's own variables in its group are summed out; a coupling
-  with several objects' locations is refused in one line.
+  changes) multiplies into its Bernoulli prior; a factor coupling task states with objects'
+  locations or with each other is a coupling the engine holds exactly (fg_tea/beliefs/coupling.py,
+  docs/design.md §4.8), after the user's own variables in its group are summed out; couplings over
+  more than three states, or whose table over states and locations exceeds the dense limit, are
+  refused in one line.
 
 Objects and task states the program does not declare keep the base model's priors (eq. 2 and
 eq. 21). Every refusal is an :class:`~fg_tea.common.errors.InputError` naming the program's
@@ -90,7 +91,7 @@ class BeliefGraph:
     pairs: tuple[PairRelation, ...] = ()
     capacity_penalty: float | None = None
     extra: tuple[Factor, ...] = ()
-    #: factors over task states and one object's location (docs/design.md §4.8), held by
+    #: factors over task states and objects' locations (docs/design.md §4.8), held by
     #: :mod:`fg_tea.beliefs.coupling` between the state block and the location block
     couplings: tuple[Factor, ...] = ()
 
