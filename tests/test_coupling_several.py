@@ -7,9 +7,9 @@ zeros). Random looks at any object, readings and transitions of the coupled stat
 belief engine and, independently, to a brute-force enumeration of the joint over every object's
 location and every time slice of the coupled states (tests/test_coupling_exact.py's, with F over
 several locations). Every object's marginal, the coupled objects' joint and the states agree to
-1e-12, on factorised and joint bases, by the dense joint and by variable elimination; gtsam agrees
-on the same factors (and as the engine's backend); every hypothetical look equals the posterior of
-making it. What stays refused is refused in one line.
+1e-12, on factorised and joint bases, by the dense joint and by variable elimination, and when two
+coupling factors make one F; gtsam agrees on the same factors (and as the engine's backend); every
+hypothetical look equals the posterior of making it. What stays refused is refused in one line.
 """
 
 from __future__ import annotations
@@ -159,6 +159,34 @@ def test_several_coupled_locations_match_brute_force(tmp_path, base):
         if n % 4 == 0:
             assert engine.check_against_gtsam() < 1e-9  # gtsam on the same factors, g included
     assert checked >= 150 and three >= 5 and solvers == {"dense", "elimination"}
+
+
+def test_several_coupling_factors_form_one(tmp_path):
+    """Two factors — one over a state and two locations, one over the other state and the third
+    object (or over the two states only) — are held as one F over their union."""
+    rng = np.random.default_rng(25)
+    for n in range(12):
+        base = ("factorised", "joint")[n % 2]
+        s1, s2 = [str(v) for v in rng.choice(STATES, size=2, replace=False)]
+        o1, o2, o3 = [str(v) for v in rng.permutation(OBJECTS)]
+        second = [s2, o3] if n % 3 else [s1, s2]
+        t1, t2 = rng.uniform(0.05, 3.0, (2, K, K)), rng.uniform(0.05, 3.0, [2 if v in STATES else K for v in second])
+        scope = [s1, s2, o1, o2, o3]
+        letters = dict(zip(scope, "abcde"))
+        table = np.einsum(f"acd,{''.join(letters[v] for v in second)},e->abcde", t1, t2, np.ones(K))
+        np.save(tmp_path / f"first{n}.npy", t1)
+        model, plain = _program(tmp_path, base, second, t2, 100 + n)
+        path = tmp_path / f"several{100 + n}.py"
+        text = path.read_text().replace("    return m\n", f"    m.table({[s1, o1, o2]!r}, np.load("
+                                        f"{str(tmp_path / f'first{n}.npy')!r}), name='first')\n    return m\n")
+        path.write_text(text)
+        model = fg.load_model(str(path))
+        assert len(build_graph(SCENARIO, model).couplings) == 2
+        engine = BeliefEngine(SCENARIO, model)
+        brute = _brute_for(model, plain, [s1, s2], scope, table)
+        located = [o1, o2] if second[1] in STATES else [o1, o2, o3]
+        _compare(engine, brute, [s1, s2], located)
+        _steps(engine, brute, model, [s1, s2], located, rng)
 
 
 def test_the_gtsam_backend_matches_brute_force(tmp_path):
