@@ -189,6 +189,35 @@ def test_several_coupling_factors_form_one(tmp_path):
         _steps(engine, brute, model, [s1, s2], located, rng)
 
 
+def test_a_variable_of_the_programs_own_between_a_state_and_two_locations(tmp_path):
+    """T1(state, weather) T2(weather, mug) T3(weather, teabag): weather is summed out, leaving a
+    coupling of the state with both locations (fg_tea/beliefs/graph.py's _summed_out)."""
+    rng = np.random.default_rng(26)
+    for n in range(8):
+        base = ("factorised", "joint")[n % 2]
+        state = str(rng.choice(STATES))
+        t1, t2, t3 = rng.uniform(0.05, 3.0, (2, 3)), rng.uniform(0.05, 3.0, (3, K)), rng.uniform(0.05, 3.0, (3, K))
+        for name, t in (("t1", t1), ("t2", t2), ("t3", t3)):
+            np.save(tmp_path / f"{name}_{n}.npy", t)
+        model, plain = _program(tmp_path, base, [state], np.ones(2), 200 + n)
+        path = tmp_path / f"several{200 + n}.py"
+        load = {name: f"np.load({str(tmp_path / f'{name}_{n}.npy')!r})" for name in ("t1", "t2", "t3")}
+        path.write_text(path.read_text().replace("    return m\n", (
+            '    m.variable("weather", ["dry", "wet", "windy"])\n'
+            f'    m.table([{state!r}, "weather"], {load["t1"]}, name="state by weather")\n'
+            f'    m.table(["weather", "mug"], {load["t2"]}, name="mug by weather")\n'
+            f'    m.table(["weather", "teabag"], {load["t3"]}, name="teabag by weather")\n    return m\n')))
+        model = fg.load_model(str(path))
+        graph = build_graph(SCENARIO, model)
+        assert [f.variables for f in graph.couplings] == [(state, "L[mug]", "L[teabag]")] and not graph.extra
+        table = np.einsum("aw,wm,wt->amt", t1, t2, t3)
+        engine = BeliefEngine(SCENARIO, model)
+        brute = _brute_for(model, plain, [state], [state, "mug", "teabag"], table)
+        _compare(engine, brute, [state], ["mug", "teabag"])
+        _steps(engine, brute, model, [state], ["mug", "teabag"], rng)
+        assert engine.check_against_gtsam() < 1e-9
+
+
 def test_the_gtsam_backend_matches_brute_force(tmp_path):
     rng = np.random.default_rng(23)
     for n in range(6):
