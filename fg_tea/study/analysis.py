@@ -37,6 +37,7 @@ import numpy as np
 
 from fg_tea.common.files import atomic_path
 from fg_tea.common.stats import Z95, Interval, t_interval, wilson_interval
+from fg_tea.common.tables import markdown_table
 from fg_tea.study.sweep import REFUSED, STEP_LIMIT
 
 #: Metrics summarised by default (search travel first: it is what the planners optimise).
@@ -233,28 +234,6 @@ def _num(v: Any) -> float | None:
 
 
 # ---------------------------------------------------------------------------------- markdown
-def markdown_table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
-    """A GitHub-flavoured markdown table; numbers right-aligned."""
-    def cell(v: Any) -> str:
-        return str(v).replace("|", "\\|")
-
-    numeric = [all(isinstance(r[i], (int, float)) or _looks_numeric(r[i]) for r in rows) and rows
-               for i in range(len(header))]
-    lines = ["| " + " | ".join(cell(h) for h in header) + " |",
-             "|" + "|".join("---:" if numeric[i] else "---" for i in range(len(header))) + "|"]
-    lines += ["| " + " | ".join(cell(v) for v in r) + " |" for r in rows]
-    return "\n".join(lines) + "\n"
-
-
-def _looks_numeric(v: Any) -> bool:
-    s = str(v).split(" ")[0]
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
-
-
 def summary_markdown(summary: Sequence[Mapping[str, Any]], by: Sequence[str] = ("model", "planner"),
                      metrics: Sequence[str] = METRICS, digits: int = 2) -> str:
     """The summary table (means [95 % CI]) as markdown."""

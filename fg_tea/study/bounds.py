@@ -21,6 +21,7 @@ from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
 from fg_tea.common.errors import InputError
+from fg_tea.common.tables import table_lines
 from fg_tea.study.analysis import refused, step_limited
 from fg_tea.study.keys import job_from_key
 
@@ -92,17 +93,16 @@ def bound_table(summary_rows: Sequence[Mapping[str, Any]], rows: Sequence[Mappin
 
 def bound_markdown(table: Sequence[Mapping[str, Any]]) -> str:
     """:func:`bound_table` as a markdown table."""
-    lines = ["| model | planner | episodes | search travel (m) | ≥ bound (m) | travel ÷ bound |",
-             "|---|---|---:|---:|---:|---:|"]
+    body = []
     for t in table:
         travel = "–" if t["search_travel"] is None else f"{t['search_travel']:.2f}"
         if t["bound"] is None:
-            lines.append(f"| {t['model']} | {t['planner']} | {t['episodes']} | {travel} | "
-                         f"– ({t['bound_fault']}) | – |")
+            body.append([t["model"], t["planner"], t["episodes"], travel, f"– ({t['bound_fault']})", "–"])
         else:
             ratio = "–" if t["travel_over_bound"] is None else f"{t['travel_over_bound']:.3f}"
-            lines.append(f"| {t['model']} | {t['planner']} | {t['episodes']} | {travel} | {t['bound']:.3f} | {ratio} |")
-    return "\n".join(lines)
+            body.append([t["model"], t["planner"], t["episodes"], travel, f"{t['bound']:.3f}", ratio])
+    return "\n".join(table_lines(["model", "planner", "episodes", "search travel (m)", "≥ bound (m)",
+                                  "travel ÷ bound"], body, align="llrrrr"))
 
 
 __all__ = ["SEARCH_ONLY_TASKS", "bound_markdown", "bound_table", "row_bound", "start_bound"]

@@ -19,6 +19,7 @@ import numpy as np
 
 from fg_tea.common.errors import InputError
 from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio
+from fg_tea.common.tables import table_lines
 from fg_tea.episode.runner import EpisodeRunner, RunConfig, env_config_for
 from fg_tea.model.spec import load_model
 from fg_tea.planning import check_planner
@@ -96,6 +97,12 @@ def log_ticks(ax) -> None:
     ax.xaxis.set_minor_formatter(NullFormatter())
 
 
+#: Columns of frontier.md's table of each model (SPL [95 %] added where the episodes logged it).
+FRONTIER_HEADER = ("planner", "worlds", "search travel (m)", "ratio to optimal [95 %]", "ms/decision mean",
+                   "ms/decision median", "p95", "CPU ms mean", "CPU ms median", "CPU ms per episode", "inspections",
+                   "success")
+
+
 def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -130,20 +137,17 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
                 by.setdefault(r["planner"], {})[r["seed"]] = r
         ref = by.get(reference, {})
         lines += [f"## model `{model}`, world `{rows[0]['world']}`, env `{rows[0]['env']}`, "
-                  f"detector miss rate {rows[0]['miss_rate']}", "",
-                  "| planner | worlds | search travel (m) | ratio to optimal [95 %] | "
-                  "ms/decision mean | ms/decision median | p95 | CPU ms mean | CPU ms median | "
-                  "CPU ms per episode | inspections | success |" + (" SPL [95 %] |" if with_spl else ""),
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|" + ("---|" if with_spl else "")]
+                  f"detector miss rate {rows[0]['miss_rate']}", ""]
+        body = []
         points = []
         for planner, eps in by.items():
             seeds = sorted(set(eps) & set(ref)) if ref else sorted(eps)
             travel = np.array([eps[s]["search_distance"] for s in seeds])
             times = np.concatenate([eps[s]["decision_seconds"] for s in seeds]) * 1000
             cpu = [t for s in seeds for t in eps[s].get("decision_cpu_seconds", [])]
-            cpu_txt = (f"{np.mean(cpu) * 1000:.2f} | {np.median(cpu) * 1000:.2f} | "
-                       f"{np.mean([sum(eps[s]['decision_cpu_seconds']) for s in seeds]) * 1000:.1f}"
-                       if cpu else "n/a | n/a | n/a")
+            cpu_cells = ([f"{np.mean(cpu) * 1000:.2f}", f"{np.median(cpu) * 1000:.2f}",
+                          f"{np.mean([sum(eps[s]['decision_cpu_seconds']) for s in seeds]) * 1000:.1f}"]
+                         if cpu else ["n/a"] * 3)
             ins = np.mean([eps[s]["inspections"] for s in seeds])
             succ = np.mean([eps[s]["success"] for s in seeds])
             if ref:
@@ -156,17 +160,17 @@ def summarise(rows: list[dict], out: Path, reference: str = "optimal") -> str:
             mean, med, p95 = float(times.mean()), float(np.median(times)), float(np.percentile(times, 95))
             spl = np.array([eps[s]["spl"] for s in seeds if eps[s].get("spl") is not None])
             spl_mean = float(spl.mean()) if len(spl) else float("nan")
-            spl_txt = ""
+            spl_cells = []
             if with_spl:
-                spl_txt = " n/a |"
+                spl_cells = ["n/a"]
                 if len(spl):
                     lo, hi = bootstrap_interval(spl)
                     part = f" (of {len(spl)} worlds)" if len(spl) < len(seeds) else ""
-                    spl_txt = f" {spl_mean:.3f} [{lo:.3f}, {hi:.3f}]{part} |"
-            lines.append(f"| {planner} | {len(seeds)} | {travel.mean():.2f} | {ratio_txt} | "
-                         f"{mean:.2f} | {med:.2f} | {p95:.2f} | {cpu_txt} | {ins:.2f} | {succ:.2f} |{spl_txt}")
+                    spl_cells = [f"{spl_mean:.3f} [{lo:.3f}, {hi:.3f}]{part}"]
+            body.append([planner, len(seeds), f"{travel.mean():.2f}", ratio_txt, f"{mean:.2f}", f"{med:.2f}",
+                         f"{p95:.2f}", *cpu_cells, f"{ins:.2f}", f"{succ:.2f}", *spl_cells])
             points.append((planner, mean, ratio if with_ref else spl_mean))
-        lines.append("")
+        lines += table_lines(FRONTIER_HEADER + (("SPL [95 %]",) if with_spl else ()), body, align="left") + [""]
         for planner, mean_ms, ratio in points:
             if not (np.isfinite(ratio) and mean_ms > 0):  # no reference (and no SPL): nothing to plot
                 continue

@@ -42,6 +42,7 @@ import numpy as np
 from fg_tea.common.errors import InputError
 from fg_tea.common.files import atomic_path, atomic_write_text
 from fg_tea.common.stats import Interval, bootstrap_statistic, t_interval
+from fg_tea.common.tables import table_lines
 
 #: The arms of a lifelong sweep (docs/design.md §12): the written model, learning with the
 #: hand-set correlations, learning the correlations too.
@@ -393,9 +394,8 @@ def summary_markdown(rows: Sequence[Mapping], table: Sequence[Mapping], title: s
     lines = [f"# {title}", "", f"Regenerate: `{command}`", "",
              "Means with 95 % t-intervals over households (calibration error: pooled over "
              "households, 95 % household-bootstrap interval). Paired: episode K minus episode 1 of "
-             "the same household and arm; each arm minus hand-set at episode K (same placements).",
-             "", "| model | arm | metric | episode 1 | episode K | K − 1 (paired) | arm − hand-set at K |",
-             "|---|---|---|---|---|---|---|"]
+             "the same household and arm; each arm minus hand-set at episode K (same placements).", ""]
+    body = []
     keys = sorted({(r["model"], r["arm"]) for r in rows}, key=lambda x: (x[0], _arm_order(x[1])))
     for model, arm in keys:
         for key, label in METRICS:
@@ -408,14 +408,15 @@ def summary_markdown(rows: Sequence[Mapping], table: Sequence[Mapping], title: s
                 continue
             d1 = [last[h] - first[h] for h in first if h in last]
             d2 = [last[h] - hand[h] for h in last if h in hand] if arm != HAND_SET else []
-            lines.append(f"| {model} | {arm} | {label.format(focus=focus)} | {_fmt(t_interval(first.values()))} "
-                         f"| {_fmt(t_interval(last.values()))} | {_fmt(t_interval(d1))} "
-                         f"| {_fmt(t_interval(d2)) if d2 else '–'} |")
+            body.append([model, arm, label.format(focus=focus), _fmt(t_interval(first.values())),
+                         _fmt(t_interval(last.values())), _fmt(t_interval(d1)), _fmt(t_interval(d2)) if d2 else "–"])
         c1 = [c for c in table if c["model"] == model and c["arm"] == arm and c["episode"] == 1]
         cK = [c for c in table if c["model"] == model and c["arm"] == arm and c["episode"] == K]
         if c1 and cK:
-            lines.append(f"| {model} | {arm} | calibration error of q0 (ECE, pooled) | "
-                         f"{_fmt(_ece(c1[0]))} | {_fmt(_ece(cK[0]))} | – | – |")
+            body.append([model, arm, "calibration error of q0 (ECE, pooled)", _fmt(_ece(c1[0])), _fmt(_ece(cK[0])),
+                         "–", "–"])
+    lines += table_lines(["model", "arm", "metric", "episode 1", "episode K", "K − 1 (paired)",
+                          "arm − hand-set at K"], body, align="left")
     lines += _between_arms(rows, keys, focus)
     lines += ["", f"{len(rows)} episodes; success rate "
               f"{np.mean([r['success'] for r in rows]):.3f}."]
@@ -454,9 +455,8 @@ def _between_arms(rows: Sequence[Mapping], keys: Sequence[tuple[str, str]], focu
             a.startswith(LEARNED_CORRELATIONS), -_gamma_of(a)))
         episodes = sorted({r["episode"] for r in rows})
         out += ["", f"**{model}: paired differences between learned arms, per episode** (mean "
-                f"[95 % t-interval] over households, reference arm `{ref}`)", "",
-                "| arm − " + ref + " | metric | " + " | ".join(f"ep. {k}" for k in episodes) + " |",
-                "|---|---|" + "---|" * len(episodes)]
+                f"[95 % t-interval] over households, reference arm `{ref}`)", ""]
+        body = []
         for arm in others:
             for key, label in BETWEEN:
                 cells = []
@@ -469,7 +469,8 @@ def _between_arms(rows: Sequence[Mapping], keys: Sequence[tuple[str, str]], focu
                     cells.append(d.fmt(2))
                 if all(c == "–" for c in cells):
                     continue
-                out.append(f"| {arm} | {label.format(focus=focus)} | " + " | ".join(cells) + " |")
+                body.append([arm, label.format(focus=focus), *cells])
+        out += table_lines([f"arm − {ref}", "metric", *(f"ep. {k}" for k in episodes)], body, align="left")
     return out
 
 

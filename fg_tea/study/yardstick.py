@@ -28,6 +28,7 @@ from fg_tea.episode.distances import EnvDistances
 from fg_tea.study.episode_files import file_part, kept_or_run
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
+from fg_tea.common.tables import table_lines
 from fg_tea.planning.limit import Limit, search_limit
 from fg_tea.planning.problem import LOOK_COST
 from fg_tea.study.frontier import DecisionClock, episode_setup
@@ -166,6 +167,12 @@ def cpu_summary(rows: list[dict]) -> dict[str, float]:
             "p95": float(np.percentile(per, 95)), "episode": float(episodes.mean())}
 
 
+#: Columns of each task's table in summary.md.
+SUMMARY_HEADER = ("planner", "policy cost (m)", "policy / optimum", "given up", "unexpanded", "sweep (m)",
+                  "worlds", "episodes: mean cost (m) [95 %]", "episodes / optimum [95 %]", "looks",
+                  "success", "CPU ms mean", "CPU ms median", "CPU ms p95", "CPU ms per episode")
+
+
 def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], world: str, model: str,
               command: str, policies: dict[tuple[str, str], "PolicyCost"] | None = None) -> str:
     """The markdown tables: per task and planner, the exact expected cost of its policy (where it
@@ -193,11 +200,8 @@ def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], worl
         limit, objects = limits[task]
         lines += [f"## task `{task}` ({', '.join(objects)})", "",
                   f"Limit: [{limit.lower:.6f}, {limit.upper:.6f}] m (upper cut at cap {limit.cap}, lower "
-                  f"at cap {limit.lower_cap}; {limit.viewpoints} viewpoints).", "",
-                  "| planner | policy cost (m) | policy / optimum | given up | unexpanded | sweep (m) | "
-                  "worlds | episodes: mean cost (m) [95 %] | episodes / optimum [95 %] | looks | "
-                  "success | CPU ms mean | CPU ms median | CPU ms p95 | CPU ms per episode |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  f"at cap {limit.lower_cap}; {limit.viewpoints} viewpoints).", ""]
+        body = []
         for planner in dict.fromkeys(r["planner"] for r in rows if r["task"] == task):
             mine = sorted((r for r in rows if r["task"] == task and r["planner"] == planner),
                           key=lambda r: r["seed"])
@@ -207,14 +211,13 @@ def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], worl
                        if hi >= limit.lower else "– (the sample lies below the limit)")
             cpu = cpu_summary(mine)
             pol = policies.get((task, planner))
-            exact = (f"{pol.cost:.4f} | {ratio_text(pol.cost, limit)} | {pol.given_up:.2g} | "
-                     f"{pol.unexpanded:.2g} | {pol.completion:.4f}" if pol is not None
-                     else "– | – | – | – | –")
-            lines.append(f"| {planner} | {exact} | {len(mine)} | {cost.mean():.3f} [{lo:.3f}, {hi:.3f}] | "
-                         f"{sampled} | {np.mean([r['looks'] for r in mine]):.2f} | "
-                         f"{np.mean([r['success'] for r in mine]):.3f} | {cpu['mean']:.2f} | "
-                         f"{cpu['median']:.2f} | {cpu['p95']:.2f} | {cpu['episode']:.1f} |")
-        lines.append("")
+            exact = ([f"{pol.cost:.4f}", ratio_text(pol.cost, limit), f"{pol.given_up:.2g}",
+                      f"{pol.unexpanded:.2g}", f"{pol.completion:.4f}"] if pol is not None else ["–"] * 5)
+            body.append([planner, *exact, len(mine), f"{cost.mean():.3f} [{lo:.3f}, {hi:.3f}]", sampled,
+                         f"{np.mean([r['looks'] for r in mine]):.2f}",
+                         f"{np.mean([r['success'] for r in mine]):.3f}", f"{cpu['mean']:.2f}",
+                         f"{cpu['median']:.2f}", f"{cpu['p95']:.2f}", f"{cpu['episode']:.1f}"])
+        lines += table_lines(SUMMARY_HEADER, body, align="left") + [""]
     return "\n".join(lines)
 
 
@@ -328,35 +331,44 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
         w.writerows(rows)
     if not gaps:
         return text
+    found = [(planner, task, gap_analysis(world, model, planner, task)) for planner in gaps for task in tasks]
+    atomic_write_text(out / "gaps.md", gaps_markdown(found))
+    return text
+
+
+#: Columns of gaps.md's summary table, and of its table of each planner's costliest decisions.
+GAP_SUMMARY_HEADER = ("planner", "task", "policy cost (m)", "exact policy (m)", "summed regret (m)",
+                      "at re-looks (m)", "at the first decision (m)")
+GAP_DECISION_HEADER = ("weighted regret (m)", "probability", "stood at", "looks so far", "still searched",
+                       "chose", "best", "regret (m)")
+
+
+def gaps_markdown(found: list[tuple[str, str, dict]]) -> str:
+    """gaps.md: for each (planner, task, :func:`gap_analysis` result), the summed regret in a
+    summary table and its costliest decisions."""
     intro = ["# Where each planner loses against the exact policy", "",
             "At every decision the planner makes (every branch of its policy, reached with the "
             "probability shown), the regret is the exact Q-value of its look minus the best look's "
             "(the tables of the upper cut, docs/design.md §6.9); weighted by the chance of reaching "
             "the decision, the regrets sum to the planner's excess cost over the exact policy.", ""]
-    summary = ["## Summary", "", "| planner | task | policy cost (m) | exact policy (m) | summed regret (m) | "
-               "at re-looks (m) | at the first decision (m) |", "|---|---|---|---|---|---|---|"]
+    summary_rows = []
     details: list[str] = []
-    for planner in gaps:
-        for task in tasks:
-            g = gap_analysis(world, model, planner, task)
-            relook = sum(r["weighted"] for r in g["rows"] if r["best"] == r["here"])
-            root = sum(r["weighted"] for r in g["rows"] if r["here"] is None)
-            summary.append(f"| {planner} | {task} | {g['policy'].cost:.4f} | {g['cut_policy']:.4f} | "
-                           f"{g['excess']:.4f} | {relook:.4f} | {root:.4f} |")
-            details += [f"## `{planner}`, task `{task}`", "",
-                        f"Policy cost {g['policy'].cost:.4f} m; the exact (cut) policy's {g['cut_policy']:.4f} m; "
-                        f"summed weighted regret {g['excess']:.4f} m, of which {relook:.4f} m where the best "
-                        f"look was a re-look from where the agent stood and {root:.4f} m at the first "
-                        f"decision. Decisions beyond the cut (not weighed): probability {g['beyond_cut']:.2g}.",
-                        "", "| weighted regret (m) | probability | stood at | looks so far | still searched | "
-                        "chose | best | regret (m) |", "|---|---|---|---|---|---|---|---|"]
-            for r in g["rows"][:12]:
-                details.append(f"| {r['weighted']:.4f} | {r['weight']:.3f} | {r['here'] or 'start'} | "
-                               f"{sum(r['looks'].values())} | {', '.join(r['pending'])} | {r['chosen']} | "
-                               f"{r['best']} | {r['regret']:.3f} |")
-            details.append("")
-    atomic_write_text(out / "gaps.md", "\n".join(intro + summary + [""] + details))
-    return text
+    for planner, task, g in found:
+        relook = sum(r["weighted"] for r in g["rows"] if r["best"] == r["here"])
+        root = sum(r["weighted"] for r in g["rows"] if r["here"] is None)
+        summary_rows.append([planner, task, f"{g['policy'].cost:.4f}", f"{g['cut_policy']:.4f}",
+                             f"{g['excess']:.4f}", f"{relook:.4f}", f"{root:.4f}"])
+        details += [f"## `{planner}`, task `{task}`", "",
+                    f"Policy cost {g['policy'].cost:.4f} m; the exact (cut) policy's {g['cut_policy']:.4f} m; "
+                    f"summed weighted regret {g['excess']:.4f} m, of which {relook:.4f} m where the best "
+                    f"look was a re-look from where the agent stood and {root:.4f} m at the first "
+                    f"decision. Decisions beyond the cut (not weighed): probability {g['beyond_cut']:.2g}.", ""]
+        decisions = [[f"{r['weighted']:.4f}", f"{r['weight']:.3f}", r["here"] or "start", sum(r["looks"].values()),
+                      ", ".join(r["pending"]), r["chosen"], r["best"], f"{r['regret']:.3f}"]
+                     for r in g["rows"][:12]]
+        details += table_lines(GAP_DECISION_HEADER, decisions, align="left") + [""]
+    summary = ["## Summary", ""] + table_lines(GAP_SUMMARY_HEADER, summary_rows, align="left")
+    return "\n".join(intro + summary + [""] + details)
 
 
 @dataclass(frozen=True)
