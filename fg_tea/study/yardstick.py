@@ -58,6 +58,16 @@ def start_problem(world: str, model_name: str, task: str):
     return problem, objects
 
 
+def cuts_text(limit: Limit) -> str:
+    """Where the limit's cuts were made: ``upper cut at cap 4, lower at cap 3``, or the caps of
+    each viewpoint where a cap per viewpoint narrowed it (docs/design.md §6.9)."""
+    uniform = f"upper cut at cap {limit.cap}, lower at cap {limit.lower_cap}"
+    if limit.caps:
+        return (f"{uniform}, and at caps {', '.join(map(str, limit.caps))} per viewpoint (lower one less), "
+                "each end the tighter")
+    return uniform
+
+
 def check_fits(world: str, model_name: str, planner: str, task: str) -> None:
     """Refuse, before any episode, a planner that cannot plan the task in world seed 0's house.
 
@@ -199,8 +209,8 @@ def summarise(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]], worl
     for task in sorted({r["task"] for r in rows}):
         limit, objects = limits[task]
         lines += [f"## task `{task}` ({', '.join(objects)})", "",
-                  f"Limit: [{limit.lower:.6f}, {limit.upper:.6f}] m (upper cut at cap {limit.cap}, lower "
-                  f"at cap {limit.lower_cap}; {limit.viewpoints} viewpoints).", ""]
+                  f"Limit: [{limit.lower:.6f}, {limit.upper:.6f}] m ({cuts_text(limit)}; "
+                  f"{limit.viewpoints} viewpoints).", ""]
         body = []
         for planner in dict.fromkeys(r["planner"] for r in rows if r["task"] == task):
             mine = sorted((r for r in rows if r["task"] == task and r["planner"] == planner),
@@ -310,8 +320,7 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
         except ValueError as exc:  # the limit does not fit, or the belief is correlated
             raise InputError("<command line>", model_flag, str(exc)) from None
         lim = limits[task][0]
-        print(f"{task}: limit [{lim.lower:.4f}, {lim.upper:.4f}] m (caps {lim.lower_cap} and {lim.cap})",
-              flush=True)
+        print(f"{task}: limit [{lim.lower:.4f}, {lim.upper:.4f}] m ({cuts_text(lim)})", flush=True)
     rows = []
     for task in tasks:
         bar = sweep_progress(len(planners) * len(seeds), label=task)
