@@ -34,6 +34,7 @@ from typing import Any, Callable, Iterator, Sequence
 from fg_tea.common.files import atomic_write_text, out_file
 from fg_tea.common.options import experiment_parser
 from fg_tea.study import executors
+from fg_tea.common.tables import table_lines
 
 DEFAULT_OUT = Path("runs") / "experiments" / "bench_sweep_driver" / "bench_sweep_driver.md"
 SIZES = (1_000, 10_000, 100_000)
@@ -148,12 +149,12 @@ def table(rows: list[tuple], workers: int, job_seconds: float) -> str:
              f"{os.cpu_count()} cores (shared: wall times are indicative; CPU is the driver's own, "
              "`time.process_time`). *window*: the executors' loop (at most "
              f"{executors.in_flight_window(workers)} jobs in flight); *before*: every job submitted, "
-             "then a wait on all pending jobs per result (the loop the executors had before).", "",
-             "| executor | loop | jobs | driver CPU (s) | driver CPU per job (ms) | wall (s) | jobs/s |",
-             "|---|---|---:|---:|---:|---:|---:|"]
-    for executor, loop, n, m in rows:
-        lines.append(f"| {executor} | {loop} | {n:,} | {m['cpu']:.2f} | {1e3 * m['cpu'] / n:.3f} | "
-                     f"{m['wall']:.1f} | {n / m['wall']:,.0f} |")
+             "then a wait on all pending jobs per result (the loop the executors had before).", ""]
+    lines += table_lines(["executor", "loop", "jobs", "driver CPU (s)", "driver CPU per job (ms)", "wall (s)",
+                          "jobs/s"],
+                         [[executor, loop, n, m["cpu"], 1e3 * m["cpu"] / n, m["wall"], n / m["wall"]]
+                          for executor, loop, n, m in rows],
+                         align="llrrrrr", formats=["", "", ",", ".2f", ".3f", ".1f", ",.0f"])
     return "\n".join(lines) + "\n"
 
 

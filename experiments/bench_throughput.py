@@ -33,6 +33,7 @@ from pathlib import Path
 from fg_tea.common.errors import run_script
 from fg_tea.common.files import atomic_write_text, out_file
 from fg_tea.common.options import experiment_parser
+from fg_tea.common.tables import table_lines
 
 DEFAULT_OUT = Path("runs") / "experiments" / "bench_throughput" / "bench_throughput.md"
 WORLDS = ("generated_small", "generated_medium", "generated_large")
@@ -88,21 +89,23 @@ def measure_cell(env: str, world: str, planner: str, episodes: int) -> dict:
 def markdown(rows: list[dict], command: str) -> str:
     lines = ["# Episodes per CPU-second", "", f"`{command}`", "",
              f"One process on {platform.machine()} ({os.cpu_count()} cores), Python "
-             f"{platform.python_version()}; every episode's CPU included (house, tables, beliefs, planning).",
-             "", "| house | world | sites (mean) | planner | episodes | CPU s / episode (mean) | "
-             "CPU s (max) | episodes / CPU-s | success |", "|---|---|---:|---|---:|---:|---:|---:|---:|"]
-    lines += [f"| {r['env']} | {r['world']} | {r['sites_mean']} | {r['planner']} | {r['episodes']} | "
-              f"{r['cpu_s_mean']} | {r['cpu_s_max']} | {r['episodes_per_cpu_s']} | {r['success']} |" for r in rows]
+             f"{platform.python_version()}; every episode's CPU included (house, tables, beliefs, planning).", ""]
+    columns = ("env", "world", "sites_mean", "planner", "episodes", "cpu_s_mean", "cpu_s_max", "episodes_per_cpu_s",
+               "success")
+    lines += table_lines(["house", "world", "sites (mean)", "planner", "episodes", "CPU s / episode (mean)",
+                          "CPU s (max)", "episodes / CPU-s", "success"], [[r[c] for c in columns] for r in rows],
+                         align="llrlrrrrr")
     lines += ["", f"## {LARGE_RUN:,} worlds", "",
               f"What a comparison of {LARGE_RUN:,} worlds costs with these planners (one model): "
-              f"{LARGE_RUN:,} x the sum of the planners' mean CPU seconds per episode above.", "",
-              "| house | world | planners | episodes | CPU hours (estimate) |", "|---|---|---|---:|---:|"]
+              f"{LARGE_RUN:,} x the sum of the planners' mean CPU seconds per episode above.", ""]
+    estimates = []
     for env in dict.fromkeys(r["env"] for r in rows):
         for world in dict.fromkeys(r["world"] for r in rows if r["env"] == env):
             cell = [r for r in rows if r["env"] == env and r["world"] == world]
             hours = LARGE_RUN * sum(float(r["cpu_s_mean"]) for r in cell) / 3600
-            lines.append(f"| {env} | {world} | {', '.join(r['planner'] for r in cell)} | "
-                         f"{LARGE_RUN * len(cell):,} | {hours:.1f} |")
+            estimates.append([env, world, ", ".join(r["planner"] for r in cell), f"{LARGE_RUN * len(cell):,}",
+                              f"{hours:.1f}"])
+    lines += table_lines(["house", "world", "planners", "episodes", "CPU hours (estimate)"], estimates, align="lllrr")
     return "\n".join(lines) + "\n"
 
 

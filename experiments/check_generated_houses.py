@@ -32,6 +32,7 @@ DEFAULT_OUT = Path("runs") / "experiments" / "check_generated_houses"
 
 from fg_tea.common.files import out_folder, atomic_path, atomic_write_text
 from fg_tea.common.options import MODEL_HELP, WORKERS_HELP, experiment_parser
+from fg_tea.common.tables import table_lines
 
 COLUMNS = ("rooms", "seed", "ok", "stage", "error", "sites", "room_vantages", "success", "reason",
            "frames", "inspections", "generate_s", "build_s", "episode_s")
@@ -118,22 +119,24 @@ def main(argv: list[str] | None = None) -> int:
         writer.writeheader()
         writer.writerows(rows)
 
-    header = "| rooms | houses | failures | sites (min-max, mean) | room vantages (mean) | frames (median) | " \
-             "generate s (mean) | build s (mean) | episode s (mean, max) |"
-    lines = [header, "|" + "---|" * 9]
+    by_rooms = []
     for rooms in args.rooms:
         rs = [r for r in rows if r["rooms"] == rooms]
         good = [r for r in rs if "episode_s" in r]
         sites = [r["sites"] for r in rs if "sites" in r]
         mean = lambda k: statistics.fmean(r[k] for r in good) if good else float("nan")  # noqa: E731
-        lines.append(
-            f"| {rooms} | {len(rs)} | {sum(not r['ok'] for r in rs)} | "
-            f"{min(sites, default=0)}-{max(sites, default=0)}, {statistics.fmean(sites) if sites else 0:.1f} | "
-            f"{mean('room_vantages'):.1f} | "
-            f"{statistics.median(r['frames'] for r in good) if good else 0:.0f} | {mean('generate_s'):.2f} | "
-            f"{mean('build_s'):.2f} | {mean('episode_s'):.2f}, "
-            f"{max((r['episode_s'] for r in good), default=0):.2f} |")
+        by_rooms.append([
+            rooms, len(rs), sum(not r["ok"] for r in rs),
+            f"{min(sites, default=0)}-{max(sites, default=0)}, {statistics.fmean(sites) if sites else 0:.1f}",
+            f"{mean('room_vantages'):.1f}", f"{statistics.median(r['frames'] for r in good) if good else 0:.0f}",
+            f"{mean('generate_s'):.2f}", f"{mean('build_s'):.2f}",
+            f"{mean('episode_s'):.2f}, {max((r['episode_s'] for r in good), default=0):.2f}"])
+    lines = table_lines(["rooms", "houses", "failures", "sites (min-max, mean)", "room vantages (mean)",
+                         "frames (median)", "generate s (mean)", "build s (mean)", "episode s (mean, max)"],
+                        by_rooms, align="left")
     failures = [r for r in rows if not r["ok"]]
+    totals = [len(rows), sum(r["stage"] in ("build", "episode", "done") for r in rows),
+              sum(r["stage"] in ("episode", "done") for r in rows), sum(r["ok"] for r in rows), len(failures)]
     fail_lines = [f"- rooms {r['rooms']} seed {r['seed']}: {r['stage']}: {r.get('error') or r.get('reason')}"
                   for r in failures] or ["- none"]
     text = "\n".join([
@@ -142,9 +145,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{' '.join(map(str, args.rooms))} --model {args.model} --workers {args.workers}`", "",
         f"{len(rows)} houses, {len(failures)} failures, {wall:.0f} s wall clock "
         f"({args.workers} worker(s); times depend on machine load).", "", "## Totals", "",
-        "| houses | validated | built | complete | failures |", "|---|---|---|---|---|",
-        f"| {len(rows)} | {sum(r['stage'] in ('build', 'episode', 'done') for r in rows)} | "
-        f"{sum(r['stage'] in ('episode', 'done') for r in rows)} | {sum(r['ok'] for r in rows)} | {len(failures)} |",
+        *table_lines(["houses", "validated", "built", "complete", "failures"], [totals], align="left"),
         "", "## By room count", "", *lines, "", "## Failures", "",
         *fail_lines, ""])
     atomic_write_text(out / "summary.md", text)

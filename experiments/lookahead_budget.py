@@ -28,6 +28,7 @@ import numpy as np
 from fg_tea.common.errors import InputError, run_script
 from fg_tea.common.files import out_folder, atomic_write_text
 from fg_tea.common.stats import bootstrap_interval, bootstrap_ratio
+from fg_tea.common.tables import table_lines
 from fg_tea.study.frontier import run_frontier, summarise
 
 LADDER = (10, 20, 40, 60, 120, 240)

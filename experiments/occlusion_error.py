@@ -39,6 +39,7 @@ import numpy as np
 
 from fg_tea.common.errors import run_script
 from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.common.tables import markdown_table
 
 WORLDS = ["generated_small", "generated_small_milk_sugar", "generated_medium"]
 MODELS = ["factorised_occlusion", "joint_occlusion"]
@@ -118,14 +119,15 @@ def summary(rows: list[dict], skipped: list[str], command: str) -> str:
     out.write("Per look, KL(exact || update) in nats summed over objects, and the largest absolute "
               "difference of one marginal entry; detections drawn from the company model at the "
               "house's true placement (docs/design.md §3.4).\n\n")
-    out.write("| world | model | houses | sites | objects | looks | KL mean | KL p95 | KL max | "
-              "max abs diff |\n|---|---|---|---|---|---|---|---|---|---|\n")
+    body = []
     for (world, model), g in sorted(groups.items()):
         k = np.array([r["kl"] for r in g])
-        out.write(f"| {world} | {model} | {len({r['house'] for r in g})} | "
-                  f"{min(r['sites'] for r in g)}-{max(r['sites'] for r in g)} | {g[0]['objects']} | "
-                  f"{len(g)} | {k.mean():.2e} | {np.percentile(k, 95):.2e} | {k.max():.2e} | "
-                  f"{max(r['max_abs'] for r in g):.2e} |\n")
+        sites = [r["sites"] for r in g]
+        body.append([world, model, len({r["house"] for r in g}), f"{min(sites)}-{max(sites)}",
+                     g[0]["objects"], len(g), f"{k.mean():.2e}", f"{np.percentile(k, 95):.2e}", f"{k.max():.2e}",
+                     f"{max(r['max_abs'] for r in g):.2e}"])
+    out.write(markdown_table(["world", "model", "houses", "sites", "objects", "looks", "KL mean", "KL p95", "KL max",
+                              "max abs diff"], body, align="left"))
     if skipped:
         out.write(f"\nSkipped (joint too large to enumerate): {', '.join(skipped)}.\n")
     return out.getvalue()

@@ -33,6 +33,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 from fg_tea.common.errors import InputError, run_script
 from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.common.tables import table_lines
 
 #: Tables this script leaves as they are, and why.
 KEPT = {"lookahead_scale/before_grouping.csv": "rows of an earlier planner, kept as they ran",
@@ -189,12 +190,10 @@ def write_summary(summary: list[dict], out: Path, command: str,
              "is below the give-up probability (docs/design.md §7.8); the probability rule gave the "
              "search up there. Every other episode is the same under both rules, so only the rows "
              "below were run again. *Given up later*: the search went on and was given up further "
-             "into the episode; *the same*: given up with the same reason.", "",
-             "| table | rows | run again | complete now | given up later | given up the same |",
-             "|---|---:|---:|---:|---:|---:|"]
-    for r in summary + [{"table": "all", **total}]:
-        lines.append(f"| {r['table']} | {r['rows']} | {r['rerun']} | {r['complete_now']} | "
-                     f"{r['given_up_later']} | {r['given_up_the_same']} |")
+             "into the episode; *the same*: given up with the same reason.", ""]
+    columns = ("table", "rows", "rerun", "complete_now", "given_up_later", "given_up_the_same")
+    lines += table_lines(["table", "rows", "run again", "complete now", "given up later", "given up the same"],
+                         [[r[c] for c in columns] for r in summary + [{"table": "all", **total}]], align="lrrrrr")
     if checked is not None:
         ran, kept, differ = checked
         lines += ["", f"As a check, {ran} rows that were not given up (drawn with seed 0 across the tables) "

@@ -25,6 +25,7 @@ import numpy as np
 from fg_tea.cli.defaults import default_episode, default_options
 from fg_tea.common.files import atomic_write_text, out_file
 from fg_tea.common.options import experiment_parser
+from fg_tea.common.tables import table_lines
 
 
 def cpu_ms(fn, n: int = 5) -> float:
@@ -71,9 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     lines = ["## Renderer, inset size and encoder preset for the video", "",
              f"Made by `python experiments/video_renderers.py`; CPU ms per image (mean of 5), frames of "
              f"the default episode at `fg-tea run`'s options ({options.width}x{options.height}, scene "
-             f"scale {options.scene_scale:.3f}).", "",
-             "| frame | chase plain ms | chase render-only ms | PSNR | inset plain ms | inset render-only ms | PSNR |",
-             "|---|---|---|---|---|---|---|"]
+             f"scale {options.scene_scale:.3f}).", ""]
+    frame_rows = []
     cw, ch = int(options.width * options.scene_scale) // 2 * 2, int(options.height * options.scene_scale) // 2 * 2
     iw = int(options.width * options.inset_scale) // 2 * 2
     ih = int(iw * 3 / 4) // 2 * 2
@@ -86,24 +86,27 @@ def main(argv: list[str] | None = None) -> int:
         a = plain.render_chase(cw, ch, *chase, options.wall_cutaway)
         b = scene.chase(cw, ch, *chase)
         c, d = plain.render_ego(ew, eh)[0], scene.ego(ew, eh)
-        lines.append(f"| {index} | {cpu_ms(lambda: plain.render_chase(cw, ch, *chase, options.wall_cutaway)):.1f} | "
-                     f"{cpu_ms(lambda: scene.chase(cw, ch, *chase)):.1f} | {psnr(a, b):.1f} | "
-                     f"{cpu_ms(lambda: plain.render_ego(ew, eh)):.1f} | {cpu_ms(lambda: scene.ego(ew, eh)):.1f} | "
-                     f"{psnr(c, d):.1f} |")
+        frame_rows.append([index, f"{cpu_ms(lambda: plain.render_chase(cw, ch, *chase, options.wall_cutaway)):.1f}",
+                           f"{cpu_ms(lambda: scene.chase(cw, ch, *chase)):.1f}", f"{psnr(a, b):.1f}",
+                           f"{cpu_ms(lambda: plain.render_ego(ew, eh)):.1f}",
+                           f"{cpu_ms(lambda: scene.ego(ew, eh)):.1f}", f"{psnr(c, d):.1f}"])
+    lines += table_lines(["frame", "chase plain ms", "chase render-only ms", "PSNR", "inset plain ms",
+                          "inset render-only ms", "PSNR"], frame_rows, align="left")
     lines += ["", f"Inset ({iw}x{ih} in the frame) rendered at other sizes and scaled up, against the "
               f"size used ({ew}x{eh}); the inset is {iw * ih / (options.width * options.height):.0%} of "
-              "the frame, so its PSNR plus about 9 dB is the frame's.", "",
-              "| render size | CPU ms | inset PSNR |", "|---|---|---|"]
+              "the frame, so its PSNR plus about 9 dB is the frame's.", ""]
+    size_rows = []
     spec = plan.frames[300]
     scene.set_scene_state(spec.pose, plan.placements[spec.placements], spec.held)
     chosen = cv2.resize(np.ascontiguousarray(scene.ego(ew, eh)), (iw, ih), interpolation=cv2.INTER_LINEAR)
     for frac in (0.5, 0.6, 0.75, 1.0):
         w, h = int(iw * frac) // 2 * 2, int(ih * frac) // 2 * 2
         image = cv2.resize(np.ascontiguousarray(scene.ego(w, h)), (iw, ih), interpolation=cv2.INTER_LINEAR)
-        lines.append(f"| {w}x{h} | {cpu_ms(lambda: scene.ego(w, h)):.1f} | {psnr(image, chosen):.1f} |")
+        size_rows.append([f"{w}x{h}", f"{cpu_ms(lambda: scene.ego(w, h)):.1f}", f"{psnr(image, chosen):.1f}"])
+    lines += table_lines(["render size", "CPU ms", "inset PSNR"], size_rows, align="left")
     frames = [renderer.frame(i) for i in range(300, 360)]
-    lines += ["", "x264 on 60 composed frames (one thread, no B-frames, CRF 23):", "",
-              "| preset | CPU ms per frame | KB | PSNR of decoded frames |", "|---|---|---|---|"]
+    lines += ["", "x264 on 60 composed frames (one thread, no B-frames, CRF 23):", ""]
+    preset_rows = []
     import av
 
     for preset in ("veryfast", "superfast", "ultrafast"):
@@ -117,7 +120,8 @@ def main(argv: list[str] | None = None) -> int:
         with av.open(str(path)) as c:
             decoded = [f.to_ndarray(format="rgb24") for f in c.decode(video=0)]
         quality = np.mean([psnr(a, b) for a, b in zip(frames, decoded)])
-        lines.append(f"| {preset} | {spent:.1f} | {path.stat().st_size // 1024} | {quality:.1f} |")
+        preset_rows.append([preset, f"{spent:.1f}", path.stat().st_size // 1024, f"{quality:.1f}"])
+    lines += table_lines(["preset", "CPU ms per frame", "KB", "PSNR of decoded frames"], preset_rows, align="left")
     lines += ["", egl_line(scene.config), ""]
     renderer.close()
     plain.close()
