@@ -58,6 +58,7 @@ import numpy as np  # noqa: E402
 from fg_tea.common.files import atomic_write_text, out_file  # noqa: E402
 from fg_tea.beliefs.engine import BeliefEngine  # noqa: E402
 from fg_tea.common.options import experiment_parser  # noqa: E402
+from fg_tea.common.tables import table_lines  # noqa: E402
 from fg_tea.beliefs.factors import detection_factor, miss_factor  # noqa: E402
 from fg_tea.beliefs.graph import DENSE_LIMIT, BeliefGraph, assemble_graph  # noqa: E402
 from fg_tea.model.spec import Model, Relation, load_model  # noqa: E402
@@ -368,9 +369,8 @@ def target_check(budget: float) -> dict:
 
 def report(result: dict, sizes, structures, budget: float, target: dict) -> str:
     cells = result["cells"]
-    lines = ["| model | N×K | K^N | " + " | ".join(
-        f"{m} update | {m} planner set" for m in METHODS) + " |",
-             "|---|---|---|" + "---|---|" * len(METHODS)]
+    header = ["model", "N×K", "K^N"] + [f"{m} {what}" for m in METHODS for what in ("update", "planner set")]
+    body = []
     for structure in structures:
         for n, k in sizes:
             ref = cells[(structure, n, k, "engine")]
@@ -379,7 +379,8 @@ def report(result: dict, sizes, structures, budget: float, target: dict) -> str:
                 upd, plan = cells[(structure, n, k, m)]
                 row += [upd.text(None if m == "engine" else ref[0]),
                         plan.text(None if m == "engine" else ref[1])]
-            lines.append("| " + " | ".join(row) + " |")
+            body.append(row)
+    lines = table_lines(header, body, align="left")
     out = ["## Exact location inference: engine vs gtsam vs pgmpy vs dense numpy", "",
            f"One thread; per-call budget {budget:g} s. Update = one evidence update (every object "
            "missed at one site) + all N marginals. Planner set = the same update, then every object × "

@@ -28,6 +28,7 @@ from pathlib import Path
 
 from fg_tea.common.files import atomic_write_text, out_file
 from fg_tea.common.options import experiment_parser
+from fg_tea.common.tables import table_lines
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET = 30.0
@@ -86,12 +87,11 @@ def main(argv: list[str] | None = None) -> int:
         f"{' (quick: a small draft video, not the target)' if args.quick else ''}. CPU = user + system "
         "of the command and its rendering workers.",
         "",
-        "| run | command | CPU s | wall s | ratio |",
-        "|---|---|---|---|---|",
-        f"| headless | `fg-tea run --no-video` (median of {args.repeats}) | {base:.2f} | "
-        f"{statistics.median(w for _, w in headless):.2f} | 1 |",
-        f"| video | `fg-tea run {' '.join(video)}` ({timings.get('video_frames', '?')} output frames) | "
-        f"{with_video[0]:.2f} | {with_video[1]:.2f} | {ratio:.1f} |",
+        *table_lines(["run", "command", "CPU s", "wall s", "ratio"], [
+            ["headless", f"`fg-tea run --no-video` (median of {args.repeats})", f"{base:.2f}",
+             f"{statistics.median(w for _, w in headless):.2f}", 1],
+            ["video", f"`fg-tea run {' '.join(video)}` ({timings.get('video_frames', '?')} output frames)",
+             f"{with_video[0]:.2f}", f"{with_video[1]:.2f}", f"{ratio:.1f}"]], align="left"),
         "",
         f"**Ratio: {ratio:.1f}x** the CPU of the episode without video (target <= {TARGET:.0f}x: "
         f"{'met' if ratio <= TARGET else 'NOT met'}).",

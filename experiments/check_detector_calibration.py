@@ -54,6 +54,7 @@ from fg_tea.beliefs.detection import ViewModel, slot_pixels
 from fg_tea.episode.runner import env_config_for
 from fg_tea.common.files import atomic_write_text, out_file, out_folder
 from fg_tea.common.options import MODEL_HELP, SEED_HELP, experiment_parser
+from fg_tea.common.tables import table_lines
 from fg_tea.model.spec import load_model
 from fg_tea.world.scenario import Scenario, load_scenario
 
@@ -350,23 +351,15 @@ SLOT_HEADER = ["n", "observed", "expected p", "95% interval", "within", "px alon
 
 def markdown_slots(rows: list[dict], keys: tuple[str, ...]) -> str:
     """The by-slot table: the slot prior's share of a gap, and occlusion's."""
-    head = list(keys) + SLOT_HEADER
-    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
-    for r in rows:
-        cells = ([str(r[k]) for k in keys]
-                 + [str(r["n"]), f"{r['observed']:.3f}", f"{r['expected']:.3f}",
-                    f"[{r['lo']:.3f}, {r['hi']:.3f}]", "yes" if r["ok"] else "**NO**",
-                    f"{r['slot_px']:.0f}", f"{r['px']:.0f}", f"{r['p_slot']:.3f}",
-                    f"{r['p_rendered']:.3f}"])
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    body = [[r[k] for k in keys]
+            + [r["n"], f"{r['observed']:.3f}", f"{r['expected']:.3f}", f"[{r['lo']:.3f}, {r['hi']:.3f}]",
+               "yes" if r["ok"] else "**NO**", f"{r['slot_px']:.0f}", f"{r['px']:.0f}", f"{r['p_slot']:.3f}",
+               f"{r['p_rendered']:.3f}"] for r in rows]
+    return "\n".join(table_lines(list(keys) + SLOT_HEADER, body, align="left"))
 
 
 def markdown(rows: list[dict], keys: tuple[str, ...]) -> str:
-    head = list(keys) + HEADER
-    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
-    lines += ["| " + " | ".join(_fmt_row(r, keys)) + " |" for r in rows]
-    return "\n".join(lines)
+    return "\n".join(table_lines(list(keys) + HEADER, [_fmt_row(r, keys) for r in rows], align="left"))
 
 
 def text_table(rows: list[dict], keys: tuple[str, ...]) -> str:

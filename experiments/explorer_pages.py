@@ -27,6 +27,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 from fg_tea.common.files import atomic_write_text, out_folder
+from fg_tea.common.tables import table_lines
 from fg_tea.study.rows import write_csv_atomic
 
 #: Chromium's flags on a machine with no network and no display.
@@ -134,12 +135,11 @@ def main(argv=None) -> int:
     lines = ["# Explorer pages", "",
              "Written by `python experiments/explorer_pages.py --out " + str(args.out) + "`: each page's "
              "size and the time from opening it in headless Chromium until it is drawn and "
-             "interactive (this machine, one run).", "",
-             "| page | what | episodes | sites | objects | steps | size (kB) | ready (ms) | page errors |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r['page']} | {r['what']} | {r['episodes']} | {r['sites']} | {r['objects']} | "
-                     f"{r['steps']} | {r['bytes'] / 1e3:.0f} | {r['ready_ms']:.0f} | {r['errors']} |")
+             "interactive (this machine, one run).", ""]
+    lines += table_lines(["page", "what", "episodes", "sites", "objects", "steps", "size (kB)", "ready (ms)",
+                          "page errors"],
+                         [[r["page"], r["what"], r["episodes"], r["sites"], r["objects"], r["steps"],
+                           f"{r['bytes'] / 1e3:.0f}", f"{r['ready_ms']:.0f}", r["errors"]] for r in rows], align="left")
     atomic_write_text(out / "pages.md", "\n".join(lines) + "\n")
     shutil.rmtree(work, ignore_errors=True)
     for r in rows:

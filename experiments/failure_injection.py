@@ -23,6 +23,7 @@ from pathlib import Path
 
 from fg_tea.common.files import atomic_path, atomic_write_text, out_folder
 from fg_tea.common.options import ENV_HELP, MODELS_HELP, WORKERS_HELP, WORLD_HELP, experiment_parser
+from fg_tea.common.tables import table_lines
 
 #: Default output folder, relative to the working directory like every fg-tea output under runs/.
 DEFAULT_OUT = Path("runs") / "experiments" / "failure_injection"
@@ -88,24 +89,25 @@ def main(argv: list[str] | None = None) -> int:
         w.writeheader()
         w.writerows(rows)
     lines = [f"# Failure injection: rate {a.rate} on every verb, {a.worlds} `{a.world}` worlds, "
-             f"EFE, {a.env}", "",
-             "| model | n | success | success true in the world | recovered by reopening | failed actions, mean | failed actions, max |",
-             "|---|---|---|---|---|---|---|"]
+             f"EFE, {a.env}", ""]
+    by_model = []
     reasons: Counter = Counter()
     for model in a.models:
         mine = [r for r in rows if r["model"] == model]
         ok = sum(r["success"] for r in mine)
         true = sum(bool(r["success"] and r["goals_true"]) for r in mine)
-        lines.append(f"| {model} | {len(mine)} | {ok / len(mine):.3f} | {true / len(mine):.3f} | "
-                     f"{sum(r['reopenings'] > 0 for r in mine)} | "
-                     f"{sum(r['failures'] for r in mine) / len(mine):.2f} | {max(r['failures'] for r in mine)} |")
+        by_model.append([model, len(mine), f"{ok / len(mine):.3f}", f"{true / len(mine):.3f}",
+                         sum(r["reopenings"] > 0 for r in mine), f"{sum(r['failures'] for r in mine) / len(mine):.2f}",
+                         max(r["failures"] for r in mine)])
         for r in mine:
             reasons[(reason_group(r["reason"]), model)] += 1
-    lines += ["", "## End reasons (episodes)", "",
-              "| end reason | " + " | ".join(a.models) + " |",
-              "|---|" + "---|" * len(a.models)]
-    for group in sorted({g for g, _ in reasons}, key=lambda g: (g != "complete", g)):
-        lines.append(f"| {group} | " + " | ".join(str(reasons[(group, m)]) for m in a.models) + " |")
+    lines += table_lines(["model", "n", "success", "success true in the world", "recovered by reopening",
+                          "failed actions, mean", "failed actions, max"], by_model, align="left")
+    lines += ["", "## End reasons (episodes)", ""]
+    lines += table_lines(["end reason", *a.models],
+                         [[group, *(reasons[(group, m)] for m in a.models)]
+                          for group in sorted({g for g, _ in reasons}, key=lambda g: (g != "complete", g))],
+                         align="left")
     text = "\n".join(lines) + "\n"
     atomic_write_text(out / f"summary-{a.world}-{a.env}-{a.rate}.md", text)
     print(text)

@@ -32,6 +32,7 @@ from typing import Callable, Iterator
 from fg_tea.cli.defaults import default_episode, default_options
 from fg_tea.common.files import atomic_write_text, out_file
 from fg_tea.common.options import experiment_parser
+from fg_tea.common.tables import table_lines
 
 DEFAULT_OUT = Path("runs") / "experiments" / "video_stages" / "stages.md"
 
@@ -133,10 +134,11 @@ def main(argv: list[str] | None = None) -> int:
     lines = ["## CPU per rendered frame of the default video, by stage", "",
              f"Made by `{command.strip()}`: rendered frames {args.start} to {hi - 1} of {len(plan.frames)} "
              f"({options.width}x{options.height}, scene scale {options.scene_scale:.3f}), one process; "
-             f"camera images rendered {rendered}, reused {reused}.", "",
-             "| stage | CPU ms per rendered frame | share |", "|---|---|---|"]
-    lines += [f"| {name} | {1000 * v / frames:.2f} | {100 * v / total:.0f}% |" for name, v in rows]
-    lines += [f"| total | {1000 * total / frames:.2f} | 100% |", ""]
+             f"camera images rendered {rendered}, reused {reused}.", ""]
+    lines += table_lines(["stage", "CPU ms per rendered frame", "share"],
+                         [[name, f"{1000 * v / frames:.2f}", f"{100 * v / total:.0f}%"] for name, v in rows]
+                         + [["total", f"{1000 * total / frames:.2f}", "100%"]], align="left")
+    lines += [""]
     text = "\n".join(lines)
     atomic_write_text(args.out, text)
     print(text)
