@@ -39,6 +39,11 @@ def load_rows(folder: Path) -> list[dict]:
     return [json.loads(p.read_text()) for p in sorted((folder / "episodes").glob("*.json"))]
 
 
+#: Columns of each model's table of its ladder of node budgets.
+LADDER_HEADER = ("nodes", "worlds", "travel (m)", "minus largest (m) [95 %]", "ratio to largest [95 %]", "not worse",
+                 "ms median wall", "CPU", "p95 wall", "CPU", "inspections")
+
+
 def budget_table(rows: list[dict], ladder: tuple[int, ...]) -> tuple[list[str], dict]:
     """Markdown lines and ``{(model, N): passes}`` for one house's ladder episodes."""
     lines, verdict = [], {}
@@ -50,10 +55,8 @@ def budget_table(rows: list[dict], ladder: tuple[int, ...]) -> tuple[list[str], 
                 by.setdefault(int(r["planner"].split("=")[1]), {})[r["seed"]] = r
         if top not in by:
             continue
-        lines += [f"### model `{model}`", "",
-                  "| nodes | worlds | travel (m) | minus largest (m) [95 %] | ratio to largest [95 %] "
-                  "| not worse | ms median wall | CPU | p95 wall | CPU | inspections |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+        lines += [f"### model `{model}`", ""]
+        body = []
         for n in ladder:
             if n not in by:
                 continue
@@ -68,11 +71,11 @@ def budget_table(rows: list[dict], ladder: tuple[int, ...]) -> tuple[list[str], 
             wall = np.concatenate([by[n][s]["decision_seconds"] for s in seeds]) * 1000
             cpu = np.concatenate([by[n][s]["decision_cpu_seconds"] for s in seeds]) * 1000
             ins = np.mean([by[n][s]["inspections"] for s in seeds])
-            lines.append(f"| {n} | {len(seeds)} | {x.mean():.2f} | {d.mean():+.2f} [{lo:+.2f}, {hi:+.2f}] | "
-                         f"{x.mean() / y.mean():.3f} [{rlo:.3f}, {rhi:.3f}] | {'yes' if ok else 'no'} | "
-                         f"{np.median(wall):.2f} | {np.median(cpu):.2f} | {np.percentile(wall, 95):.1f} | "
-                         f"{np.percentile(cpu, 95):.1f} | {ins:.2f} |")
-        lines.append("")
+            body.append([n, len(seeds), f"{x.mean():.2f}", f"{d.mean():+.2f} [{lo:+.2f}, {hi:+.2f}]",
+                         f"{x.mean() / y.mean():.3f} [{rlo:.3f}, {rhi:.3f}]", "yes" if ok else "no",
+                         f"{np.median(wall):.2f}", f"{np.median(cpu):.2f}", f"{np.percentile(wall, 95):.1f}",
+                         f"{np.percentile(cpu, 95):.1f}", f"{ins:.2f}"])
+        lines += table_lines(LADDER_HEADER, body, align="left") + [""]
     return lines, verdict
 
 
