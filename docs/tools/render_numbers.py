@@ -51,6 +51,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 from fg_tea.common.files import atomic_path, atomic_write_text  # noqa: E402
+from fg_tea.common.tables import markdown_table  # noqa: E402
 INLINE = re.compile(r"<!-- n (?P<spec>[^>]*?) -->(?P<value>.*?)<!-- /n -->", re.S)
 BLOCK = re.compile(r"<!-- table (?P<spec>[^>]*?) -->\n(?P<value>.*?)<!-- /table -->", re.S)
 FIGURE = re.compile(r"<!-- figure (?P<source>\S+) (?P<copy>\S+) -->")
@@ -174,9 +175,7 @@ def table(spec: str) -> str:
     if not rows:
         raise MarkerError(f"{path}: no row under {headings[-1]!r} matches {keep!r}")
     pick = [names.index(c) for c in columns]
-    out = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    out += ["| " + " | ".join(r[i] for i in pick) + " |" for r in rows]
-    return "\n".join(out) + "\n"
+    return markdown_table(columns, [[r[i] for i in pick] for r in rows], align="left")
 
 
 def render(text: str) -> str:

@@ -1,4 +1,4 @@
-"""The one markdown table writer of the package and of experiments/ (docs/design.md §1.3).
+"""The one markdown table writer of the package and of experiments/ (docs/how-to/new-experiment.md).
 
 Every table a report, a summary or an experiment's result file shows is written here, so every
 table has the same form: a header row, a separator row, one row per record, each row ``| a | b |``
