@@ -34,6 +34,7 @@ from fg_tea.common.errors import InputError, run_script
 from fg_tea.common.files import atomic_path, atomic_write_text, out_folder
 from fg_tea.common.options import OUT_HELP, experiment_parser
 from fg_tea.common.stats import t_interval
+from fg_tea.common.tables import table_lines
 from fg_tea.model import learned_transitions as lt
 from fg_tea.study.households import LEARNED, HouseholdSpec, run_lifelong
 
@@ -135,18 +136,19 @@ def report(table: list[dict], args, command: str) -> str:
             if not mine:
                 continue
             households = sorted({r["household"] for r in mine})
-            lines += [f"## {set_name}: {model} ({len(households)} households)", "",
-                      "| episode | learned boil success (mean over households) | its 95 % posterior interval "
-                      "(mean bounds) | expected successes / failures counted | readings hand-set | "
-                      "readings learned |", "|---|---|---|---|---|---|"]
+            lines += [f"## {set_name}: {model} ({len(households)} households)", ""]
+            body = []
             for k in sorted({r["episode"] for r in mine}):
                 le = [r for r in mine if r["episode"] == k and r["arm"] == LEARNED]
                 hs = [r for r in mine if r["episode"] == k and r["arm"] != LEARNED]
                 mean = lambda key, rows: sum(float(r[key]) for r in rows) / len(rows)  # noqa: E731
-                lines.append(f"| {k} | {mean('boil_learned', le):.3f} | {mean('boil_lo', le):.3f}-"
-                             f"{mean('boil_hi', le):.3f} | {mean('boil_successes', le):.2f} / "
-                             f"{mean('boil_failures', le):.2f} | {mean('state_readings', hs):.2f} | "
-                             f"{mean('state_readings', le):.2f} |")
+                body.append([k, f"{mean('boil_learned', le):.3f}",
+                             f"{mean('boil_lo', le):.3f}-{mean('boil_hi', le):.3f}",
+                             f"{mean('boil_successes', le):.2f} / {mean('boil_failures', le):.2f}",
+                             f"{mean('state_readings', hs):.2f}", f"{mean('state_readings', le):.2f}"])
+            lines += table_lines(["episode", "learned boil success (mean over households)",
+                                  "its 95 % posterior interval (mean bounds)", "expected successes / failures counted",
+                                  "readings hand-set", "readings learned"], body, align="left")
             diffs = []
             for h in households:
                 le = [r["state_readings"] for r in mine if r["household"] == h and r["arm"] == LEARNED]

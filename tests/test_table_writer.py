@@ -229,3 +229,34 @@ def test_search_limit_gaps_page_is_the_hand_built_one():
         "regret (m) |\n|---|---|---|---|---|---|---|---|\n"
         "| 1.0000 | 0.500 | start | 0 | mug, tea | a | b | 2.000 |\n"
         "| 0.2345 | 0.250 | b | 3 | tea | a | b | 0.938 |\n")
+
+
+def _tables(text: str) -> list[str]:
+    """Every markdown table of `text`, each as its lines joined."""
+    blocks, current = [], []
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            current.append(line)
+        elif current:
+            blocks.append("\n".join(current))
+            current = []
+    return blocks
+
+
+def test_learned_transitions_tables_regenerated_from_the_committed_csv():
+    import importlib.util
+    import inspect
+
+    spec = importlib.util.spec_from_file_location("learned_transitions_script",
+                                                  ROOT / "experiments" / "learned_transitions.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    here = RESULTS / "learned_transitions"
+    table = _read_csv(here / "episodes.csv", {"set", "model", "arm"})
+    args = SimpleNamespace(boil=0.6, scenario="default_apartment", env="fake", episodes=20)
+    declared = {m: 0.995 for m in {r["model"] for r in table}}
+    extra = [declared] if "declared" in inspect.signature(script.report).parameters else []
+    text = script.report(table, args, "cmd", *extra)
+    committed = (here / "summary.md").read_text(encoding="utf-8")
+    assert len(_tables(committed)) == 4
+    assert _tables(text) == _tables(committed)
