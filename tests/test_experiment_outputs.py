@@ -128,7 +128,8 @@ def test_inspect_marginals_without_out_writes_only_under_runs(tmp_path):
 #: Scripts whose --out is one file (the others take a folder).
 FILE_OUTPUT = {"bench_inference.py", "bench_paths.py", "bench_program_scale.py", "bench_sweep_driver.py",
                "bench_throughput.py", "bench_video.py",
-               "derive_relations.py", "inspect_marginals.py", "profile_video.py", "video_renderers.py"}
+               "derive_relations.py", "inspect_marginals.py", "profile_video.py", "video_renderers.py",
+               "video_stages.py"}
 
 
 @pytest.mark.parametrize("name", sorted(set(SCRIPTS) - PRINT_ONLY))
