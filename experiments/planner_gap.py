@@ -47,6 +47,7 @@ import numpy as np
 from fg_tea.common.errors import InputError, run_script
 from fg_tea.common.files import atomic_write_text, out_folder
 from fg_tea.common.stats import bootstrap_interval
+from fg_tea.common.tables import table_lines
 from fg_tea.study import yardstick
 
 HOUSES = ("independent", "independent_small_6", "independent_small_8")
@@ -170,42 +171,35 @@ def diagnosis_text(results: list[dict], command: str) -> str:
              "or it was and the lookahead's own value of it (depth 2, rollout leaves) was worse "
              "than of its choice (*misvalued*). *Differing decisions per search*: the expected number of "
              "decisions of one search at which the lookahead's look is not the exact policy's.", "",
-             "## Summary", "",
-             "| house | task | lookahead policy (m) | exact cut policy (m) | summed regret (m) | "
-             "decisions weighed | differing decisions per search | "
-             + " | ".join(f"{w}: {y} (m)" for w in WHERE for y in WHY) + " |",
-             "|" + "---|" * (7 + len(WHERE) * len(WHY))]
-    for res in results:
-        cells = [f"{res['table'].get((w, y), 0.0):.4f}" for w in WHERE for y in WHY]
-        lines.append(f"| {res['world']} | {res['task']} | {res['policy']:.4f} | {res['cut_policy']:.4f} | "
-                     f"{res['excess']:.4f} | {res['decisions']} | {res['differing']:.3f} | "
-                     + " | ".join(cells) + " |")
+             "## Summary", ""]
+    header = ["house", "task", "lookahead policy (m)", "exact cut policy (m)", "summed regret (m)",
+              "decisions weighed", "differing decisions per search"] + [f"{w}: {y} (m)" for w in WHERE for y in WHY]
+    lines += table_lines(header, ([res["world"], res["task"], f"{res['policy']:.4f}", f"{res['cut_policy']:.4f}",
+                                   f"{res['excess']:.4f}", res["decisions"], f"{res['differing']:.3f}"]
+                                  + [f"{res['table'].get((w, y), 0.0):.4f}" for w in WHERE for y in WHY]
+                                  for res in results), align="left")
     lines.append("")
     total = sum(res["excess"] for res in results)
     lines += ["## All searches", "",
               f"The regret of the {len(results)} searches above summed, by where and why "
-              "(the share is of the summed regret).", "",
-              "| where | pruned (m) | misvalued (m) | both (m) | share |", "|---|---|---|---|---|"]
-    for w in WHERE:
-        cells = [sum(res["table"].get((w, y), 0.0) for res in results) for y in WHY]
-        share = sum(cells) / total if total > 0 else float("nan")
-        lines.append(f"| {w} | {cells[0]:.4f} | {cells[1]:.4f} | {sum(cells):.4f} | {share:.1%} |")
-    both = [sum(res["table"].get((w, y), 0.0) for res in results for w in WHERE) for y in WHY]
-    lines += [f"| all | {both[0]:.4f} | {both[1]:.4f} | {sum(both):.4f} | "
-              f"{sum(both) / total if total > 0 else float('nan'):.1%} |", ""]
+              "(the share is of the summed regret).", ""]
+    sums = [[w] + [sum(res["table"].get((w, y), 0.0) for res in results) for y in WHY] for w in WHERE]
+    sums.append(["all"] + [sum(row[1 + i] for row in sums) for i in range(len(WHY))])
+    lines += table_lines(["where", "pruned (m)", "misvalued (m)", "both (m)", "share"],
+                         ([row[0], *row[1:], sum(row[1:]), sum(row[1:]) / total if total > 0 else float("nan")]
+                          for row in sums), align="left", formats=["", ".4f", ".4f", ".4f", ".1%"]) + [""]
     for res in results:
         lines += [f"## {res['world']}, {res['task']} ({', '.join(res['objects'])})", "",
                   f"Decisions beyond the cut (not weighed): probability {res['beyond_cut']:.2g}. The "
                   "largest weighted regrets (lookahead's own values: its depth-2 estimate of the "
-                  "expected cost after each look, m):", "",
-                  "| weighted regret (m) | probability | stood at | looks so far | still searched | "
-                  "chose | exact best | regret (m) | where | why | lookahead's value of best | "
-                  "lookahead's value of its choice |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-        for r in res["differ"][:10]:
-            lines.append(f"| {r['weighted']:.4f} | {r['weight']:.3f} | {r['here'] or 'start'} | "
-                         f"{sum(r['looks'].values())} | {', '.join(r['pending'])} | {r['chosen']} | "
-                         f"{r['best']} | {r['regret']:.3f} | {r['where']} | {r['why']} | "
-                         f"{_num(r['own_best'])} | {_num(r['own_chosen'])} |")
+                  "expected cost after each look, m):", ""]
+        lines += table_lines(["weighted regret (m)", "probability", "stood at", "looks so far", "still searched",
+                              "chose", "exact best", "regret (m)", "where", "why", "lookahead's value of best",
+                              "lookahead's value of its choice"],
+                             ([f"{r['weighted']:.4f}", f"{r['weight']:.3f}", r["here"] or "start",
+                               sum(r["looks"].values()), ", ".join(r["pending"]), r["chosen"], r["best"],
+                               f"{r['regret']:.3f}", r["where"], r["why"], _num(r["own_best"]), _num(r["own_chosen"])]
+                              for r in res["differ"][:10]), align="left")
         lines.append("")
     return "\n".join(lines)
 
@@ -274,18 +268,17 @@ COLUMNS = ["house", "task", "objects", "planner", "limit_lower", "limit_upper", 
 
 
 def table_text(rows: list[dict]) -> list[str]:
-    lines = ["| house | task | planner | limit [lower, upper] (m) | policy cost (m) | policy / optimum | "
-             "worlds | episodes: mean cost (m) | paired cost − lookahead (m) [95 %] | success | "
-             "CPU ms mean | CPU ms median | CPU ms p95 |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    body = []
     for r in rows:
         paired = (f"{r['paired_diff']:+.3f} [{r['paired_low']:+.3f}, {r['paired_high']:+.3f}]"
                   if "paired_diff" in r else "–")
-        lines.append(f"| {r['house']} | {r['task']} | {r['planner']} | [{r['limit_lower']:.4f}, "
-                     f"{r['limit_upper']:.4f}] | {r['policy_cost']:.4f} | [{r['ratio_low']:.4f}, "
-                     f"{r['ratio_high']:.4f}] | {r['worlds']} | {r['episode_cost']:.3f} | {paired} | "
-                     f"{r['success']:.3f} | {r['cpu_mean_ms']:.2f} | {r['cpu_median_ms']:.2f} | "
-                     f"{r['cpu_p95_ms']:.2f} |")
-    return lines
+        body.append([r["house"], r["task"], r["planner"], f"[{r['limit_lower']:.4f}, {r['limit_upper']:.4f}]",
+                     f"{r['policy_cost']:.4f}", f"[{r['ratio_low']:.4f}, {r['ratio_high']:.4f}]", r["worlds"],
+                     f"{r['episode_cost']:.3f}", paired, f"{r['success']:.3f}", f"{r['cpu_mean_ms']:.2f}",
+                     f"{r['cpu_median_ms']:.2f}", f"{r['cpu_p95_ms']:.2f}"])
+    return table_lines(["house", "task", "planner", "limit [lower, upper] (m)", "policy cost (m)", "policy / optimum",
+                        "worlds", "episodes: mean cost (m)", "paired cost − lookahead (m) [95 %]", "success",
+                        "CPU ms mean", "CPU ms median", "CPU ms p95"], body, align="left")
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
@@ -376,11 +369,11 @@ def confirmation(args, out: Path, command: str) -> str:
             "## Planners", ""] + table_text(rows) + ["",
             "## Verdict", "",
             "Targets: policy ratio (upper end) at most 1.02 and mean CPU at most 5 ms per decision, in "
-            "every house and task.", "",
-            "| planner | house-and-task pairs | largest policy ratio (upper end) | largest mean CPU ms | met |",
-            "|---|---|---|---|---|",
-            f"| {planner} | {len(mine)} | {worst_ratio:.4f} | {worst_cpu:.2f} | "
-            f"{'yes' if worst_ratio <= 1.02 and worst_cpu <= 5.0 else 'no'} |", ""]
+            "every house and task.", ""]
+    text += table_lines(["planner", "house-and-task pairs", "largest policy ratio (upper end)", "largest mean CPU ms",
+                         "met"], [[planner, len(mine), f"{worst_ratio:.4f}", f"{worst_cpu:.2f}",
+                                   "yes" if worst_ratio <= 1.02 and worst_cpu <= 5.0 else "no"]], align="left")
+    text += [""]
     atomic_write_text(out / "summary.md", "\n".join(text))
     return "\n".join(text)
 
@@ -421,9 +414,8 @@ def spl_phase(args, out: Path, command: str) -> str:
             "same worlds for both planners. SPL: success weighted by the clairvoyant route's search "
             "travel over the agent's (docs/design.md eq. 48), mean with a 95 % bootstrap interval; "
             "*paired*: the mean difference from the lookahead, world by world. *By tables*: the share of "
-            f"`{planner}`'s decisions made by its tables (the rest are the lookahead's).", "",
-            "| world | planner | worlds | SPL [95 %] | paired SPL − lookahead [95 %] | search travel (m) | "
-            "decisions by tables | CPU ms mean |", "|---|---|---|---|---|---|---|---|"]
+            f"`{planner}`'s decisions made by its tables (the rest are the lookahead's).", ""]
+    body = []
     for world in SPL_WORLDS:
         rows: dict[str, list[dict]] = {}
         for p in ("lookahead", planner):
@@ -448,8 +440,10 @@ def spl_phase(args, out: Path, command: str) -> str:
             share = (f"{sum(r['by_tables'] for r in mine) / max(1, sum(r['decisions'] for r in mine)):.1%}"
                      if p != "lookahead" else "–")
             travel = np.mean([r["search_distance"] for r in mine])
-            text.append(f"| {world} | {p} | {len(mine)} | {spl.mean():.4f} [{lo:.4f}, {hi:.4f}] | {paired} | "
-                        f"{travel:.2f} | {share} | {cpu.mean():.2f} |")
+            body.append([world, p, len(mine), f"{spl.mean():.4f} [{lo:.4f}, {hi:.4f}]", paired, f"{travel:.2f}",
+                         share, f"{cpu.mean():.2f}"])
+    text += table_lines(["world", "planner", "worlds", "SPL [95 %]", "paired SPL − lookahead [95 %]",
+                         "search travel (m)", "decisions by tables", "CPU ms mean"], body, align="left")
     atomic_write_text(out / "spl.md", "\n".join(text) + "\n")
     return "\n".join(text)
 
