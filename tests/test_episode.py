@@ -18,7 +18,9 @@ from fg_tea.model.spec import load_model
 from fg_tea.world.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
-SCENARIOS = sorted(p.stem for p in (ROOT / "scenarios").glob("*.json"))
+#: Every bundled scenario the default task (make_tea) runs in; the tea-box apartment's teabags are
+#: in a box and a tin, so it needs its own task (its episodes: tests/test_consumables.py).
+SCENARIOS = sorted(p.stem for p in (ROOT / "scenarios").glob("*.json") if p.stem != "tea_box_apartment")
 MODELS = ["factorised", "joint"]
 
 

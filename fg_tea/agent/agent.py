@@ -77,7 +77,7 @@ class Agent:
         task: a task file or bundled task name.
         seed: seeds the planner's random generator (random and sampling planners only).
         preparation_site: where the tea is made (default: the scenario's).
-        solver: the exact belief solver, ``"numpy"`` or ``"gtsam"`` (docs/design.md §4).
+        solver: the exact belief solver, ``"numpy"``, ``"gtsam"`` or ``"compiled"`` (docs/design.md §4).
         max_reopenings: task-level reopenings allowed (docs/design.md §10).
         expected_pixels: what each viewpoint would see of each category (from an environment's
             ``expected_pixel_counts``); needed unless the model makes close looks only. It can also

@@ -29,6 +29,9 @@ import numpy as np
 from fg_tea.beliefs.compiled_hypothetical import Hypothetical, hypothetical_many
 from fg_tea.beliefs.elimination import (
     LogFactor,
+    expand,
+    normalised,
+    shifted,
     log_product,
     logsumexp,
     min_fill_order,
@@ -188,6 +191,10 @@ class CompiledModel:
         """The reported variables, in declaration order."""
         return tuple(self._index)
 
+    def component(self, name: str) -> Component:
+        """The component that holds variable `name` (its method answers every query on it)."""
+        return self._component_of[self._id(name)]
+
     def values(self, name: str) -> tuple[Any, ...]:
         """The values of variable `name`, in index order."""
         return self._vars[self._id(name)].values
@@ -252,11 +259,17 @@ class CompiledModel:
         by_component: dict[int, list[int]] = {}
         for i in ids:
             by_component.setdefault(id(self._component_of[i]), []).append(i)
+        comp = self._component_of[ids[0]]
+        if len(by_component) == 1 and comp.method == "dense joint":  # sums of its cached joint
+            full, axes = self._dense_prob(comp)
+            drop = tuple(a for a, i in enumerate(axes) if i not in ids)
+            kept = [i for i in axes if i in ids]
+            return np.array(np.transpose(full.sum(axis=drop) if drop else full, [kept.index(i) for i in ids]))
         log = np.zeros([self._cards[i] for i in ids])
         for group in by_component.values():
             part = self._component_log(self._component_of[group[0]], group)
-            log = log + _expand_to(group, part, ids)
-        return _normalised(log, self.source)
+            log = log + _expand(group, part, ids)
+        return normalised(log, self.source)
 
     def _component_log(self, comp: Component, keep: Sequence[int]) -> np.ndarray:
         """An unnormalised log table over `keep` (all in `comp`), axes in `keep` order."""
@@ -286,7 +299,7 @@ class CompiledModel:
         -inf: probability zero)."""
         key = comp.ids[0]
         if key not in self._unary:
-            self._unary[key] = _shifted(log_product(self._log_factors(comp), [key], self._cards))
+            self._unary[key] = shifted(log_product(self._log_factors(comp), [key], self._cards))
         return self._unary[key]
 
     def _dense_log(self, comp: Component) -> np.ndarray:
@@ -332,7 +345,7 @@ class CompiledModel:
         """A dense component's normalised joint over its reported variables, and their ids."""
         key = comp.ids[0]
         if key not in self._dense_prob_cache:
-            full = _normalised(self._dense_log(comp), self.source)
+            full = normalised(self._dense_log(comp), self.source)
             hidden = tuple(a for a, i in enumerate(comp.ids) if self._vars[i].hidden)
             self._dense_prob_cache[key] = full.sum(axis=hidden) if hidden else full
         return self._dense_prob_cache[key], [i for i in comp.ids if not self._vars[i].hidden]
@@ -426,12 +439,25 @@ class CompiledModel:
                 new._marginal_cache.update({i: self._marginal_cache[i] for i in comp.ids
                                             if i in self._marginal_cache})
             elif key in self._unary:
-                new._unary[key] = _shifted(self._unary[key] + sum(f.log_table for f in mine))
+                new._unary[key] = shifted(self._unary[key] + sum(f.log_table for f in mine))
             elif key in self._dense:
-                table = self._dense[key] + sum(_expand_to(f.scope, f.log_table, comp.ids) for f in mine)
+                table = self._dense[key] + sum(_expand(f.scope, f.log_table, comp.ids) for f in mine)
                 if np.isfinite(np.max(table)):  # else left to _dense_log, which says so
-                    new._dense[key] = _shifted(table)
+                    new._dense[key] = shifted(table)
         return new
+
+    def observe_logs(self, evidence: Mapping[str, Any]) -> "CompiledModel":
+        """:meth:`observe_many` with natural-log likelihoods (name -> log vector, -inf for zero):
+        evidence whose product underflows a float (a thousand misses) stays exact."""
+        added = []
+        for name, log in evidence.items():
+            i = self._id(name)
+            table = np.asarray(log, dtype=float)
+            if table.shape != (self._cards[i],) or np.isnan(table).any() or np.isposinf(table).any():
+                raise InputError(self.source, f"evidence on {name!r}",
+                                 f"a log-likelihood must be {self._cards[i]} numbers below +inf")
+            added.append(_Factor(f"evidence {name}", (i,), table))
+        return self._with_evidence(tuple(added))
 
     def _evidence(self, name: str, likelihood: Any, label: str | None) -> _Factor:
         """The log-space factor of a likelihood vector on `name`, checked."""
@@ -507,24 +533,8 @@ class CompiledModel:
         return "\n".join(plan_lines(self, self._vars, self._factors)) + "\n"
 
 
-def _expand_to(group: Sequence[int], table: np.ndarray, target: Sequence[int]) -> np.ndarray:
-    from fg_tea.beliefs.elimination import expand
-
+def _expand(group: Sequence[int], table: np.ndarray, target: Sequence[int]) -> np.ndarray:
     return expand(tuple(group), table, list(target))
-
-
-def _shifted(log: np.ndarray) -> np.ndarray:
-    """`log` less its maximum (unchanged where every entry is -inf)."""
-    top = np.max(log)
-    return log - top if np.isfinite(top) else log
-
-
-def _normalised(log: np.ndarray, source: str) -> np.ndarray:
-    top = np.max(log)
-    if not np.isfinite(top):
-        raise ContradictionError(f"{source}: the evidence has probability zero under the program")
-    p = np.exp(log - top)
-    return p / p.sum()
 
 
 def compile_program(program: Program, method: str = "auto", budget: int = BUDGET,
@@ -553,6 +563,21 @@ def compile_program(program: Program, method: str = "auto", budget: int = BUDGET
             factors.append(_Factor(f.name, tuple(index[s] for s in f.scope), np.log(f.table),
                                    f.learnable, f.origin))
     return CompiledModel(variables, factors, program.source, method, budget, dense_states)
+
+
+def compile_factors(variables: Sequence[tuple[str, Sequence[Any]]],
+                    factors: Sequence[tuple[str, Sequence[str], np.ndarray]], source: str,
+                    **options: Any) -> CompiledModel:
+    """Compile named variables (name, values) and factors (label, scope names, non-negative
+    table) to exact inference, as :func:`compile_program` does for a program; `options` as there.
+    The belief engine's location block uses it (``BeliefEngine(..., backend="compiled")``)."""
+    index = {name: i for i, (name, _) in enumerate(variables)}
+    var = [_Var(name, tuple(values), tuple(str(v) for v in values)) for name, values in variables]
+    built = []
+    for label, scope, table in factors:
+        with np.errstate(divide="ignore"):
+            built.append(_Factor(label, tuple(index[v] for v in scope), np.log(np.asarray(table, dtype=float))))
+    return CompiledModel(var, built, source, **options)
 
 
 def plan_text(program: Program, **options: Any) -> str:

@@ -263,7 +263,7 @@ class CoupledBlocks:
 
     def _forget_locations(self) -> None:
         for key in ("structured", "structured_previous", "locations", "joint", "pairwise", "eliminated",
-                    "states"):
+                    "compiled", "states"):
             self._cache.pop(key, None)
 
     def _message(self, c: Coupling) -> np.ndarray:

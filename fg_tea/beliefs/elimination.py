@@ -33,6 +33,28 @@ def logsumexp(table: np.ndarray, axis: int | tuple[int, ...] | None) -> np.ndarr
     return np.squeeze(out, axis=axis) if axis is not None else out.reshape(())
 
 
+def shifted(log: np.ndarray) -> np.ndarray:
+    """`log` less its maximum (unchanged where every entry is -inf)."""
+    top = np.max(log)
+    return log - top if np.isfinite(top) else log
+
+
+def normalised(log: np.ndarray, source: str) -> np.ndarray:
+    """exp(`log`) scaled to sum to 1.
+
+    Raises:
+        ContradictionError: every entry is -inf (the evidence has probability zero; `source`
+            names what holds it).
+    """
+    from fg_tea.common.errors import ContradictionError
+
+    top = np.max(log)
+    if not np.isfinite(top):
+        raise ContradictionError(f"{source}: the evidence has probability zero under the program")
+    p = np.exp(log - top)
+    return p / p.sum()
+
+
 def expand(scope: Sequence[int], table: np.ndarray, target: Sequence[int]) -> np.ndarray:
     """`table` (axes `scope`) with its axes moved into `target`'s order, size-1 axes elsewhere."""
     position = {v: i for i, v in enumerate(target)}

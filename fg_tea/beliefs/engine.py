@@ -42,6 +42,7 @@ from fg_tea.beliefs.structured import (
     PairWeights,
     StructuredLocationModel,
 )
+from fg_tea.beliefs.compiled_location import compiled_marginals, compiled_pairwise
 from fg_tea.beliefs.coupling import CoupledBlocks, holding_coupling
 from fg_tea.beliefs.location_evidence import LocationEvidence
 from fg_tea.beliefs.state_block import StateBlock, UnknownVariableError  # noqa: F401 - re-exported
@@ -61,8 +62,10 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
     Args:
         scenario: the house (only its priors are read, never its truth), or a prebuilt graph.
         model: the agent's generative model.
-        backend: ``"numpy"`` (fast exact path) or ``"gtsam"`` (every location and state query,
-            hypothetical ones included, re-solved through gtsam's discrete elimination).
+        backend: ``"numpy"`` (fast exact path), ``"gtsam"`` (every location and state query,
+            hypothetical ones included, re-solved through gtsam's discrete elimination) or
+            ``"compiled"`` (the location block answered by a compiled program,
+            :mod:`fg_tea.beliefs.compiled_location`; the rest as numpy).
         location_solver: how the numpy backend solves a joint location block: ``"auto"`` (the
             cheapest exact method), ``"dense"`` (the K^N joint table), ``"structured"`` (the
             subset dynamic program of :mod:`fg_tea.beliefs.structured`) or ``"elimination"``
@@ -80,8 +83,8 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
                  location_solver: str = "auto") -> None:
         import gtsam
 
-        if backend not in ("numpy", "gtsam"):
-            raise ValueError(f"unknown belief backend {backend!r}; use 'numpy' or 'gtsam'")
+        if backend not in ("numpy", "gtsam", "compiled"):
+            raise ValueError(f"unknown belief backend {backend!r}; use 'numpy', 'gtsam' or 'compiled'")
         if location_solver not in ("auto", "dense", "structured", "elimination"):
             raise ValueError(f"unknown location solver {location_solver!r}; "
                              "use 'auto', 'dense', 'structured' or 'elimination'")
@@ -179,8 +182,8 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
     def _method(self) -> str:
         """Which exact method answers location queries: independent, dense, structured,
         elimination (:mod:`fg_tea.beliefs.eliminated`) or gtsam."""
-        if self.backend == "gtsam":
-            return "gtsam"
+        if self.backend in ("gtsam", "compiled"):
+            return self.backend
         if not self._correlated:
             return "independent"
         if self._elim_plan is not None:
@@ -279,6 +282,8 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
             method = self._method()
             if method == "gtsam":
                 cached = self._gtsam_marginals(self._location_factors())
+            elif method == "compiled":
+                cached = compiled_marginals(self)
             elif method == "independent":
                 cached = self._unary / self._unary.sum(axis=1, keepdims=True)
             elif method == "structured":
@@ -419,6 +424,8 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
             n, k = m.shape
             if method == "elimination":
                 cached = self._eliminated().pairwise()
+            elif method == "compiled":
+                cached = compiled_pairwise(self)
             elif method == "structured":
                 try:
                     cached = self._structured().pairwise()

@@ -108,9 +108,10 @@ class LocationEvidence:
                 self._loc_factors.append(merged)
             else:
                 self._loc_factors[pos] = merged
-            previous = self._cache.pop("structured", None)
-            if previous is not None:     # rooms the evidence left unchanged are reused from it
-                self._cache["structured_previous"] = previous
+            for key in ("structured", "compiled"):  # what the evidence left unchanged is reused from it
+                previous = self._cache.pop(key, None)
+                if previous is not None:
+                    self._cache[key + "_previous"] = previous
             for key in ("locations", "joint", "pairwise", "eliminated"):
                 self._cache.pop(key, None)
             if self._coupling is not None:  # the coupled states' message changes with o's marginal
@@ -293,7 +294,7 @@ class LocationEvidence:
                 self._company = company.absorb(view.conditional, view.sites, {
                     self._obj_index[o]: None if s is None else self._site_index[s]
                     for o, s in found.items()}, view.probability)
-                for key in ("locations", "joint", "pairwise", "structured", "eliminated"):
+                for key in ("locations", "joint", "pairwise", "structured", "eliminated", "compiled"):
                     self._cache.pop(key, None)
             miss = alone_miss(view.conditional) if coupled else view.miss
             self._commit_location([view_miss_factor(o, view.sites, miss[self._obj_index[o]], k, label)

@@ -397,10 +397,15 @@ CAMERA_HELP = ("camera file, or bundled camera name (visibility, threshold, no_s
                "detector the model assumes")
 
 
+#: The exact belief solvers (``BeliefEngine(backend=)``, ``Agent(solver=)``, ``--solver``).
+SOLVERS = ("numpy", "gtsam", "compiled")
+
+
 def add_solver_argument(p: argparse.ArgumentParser) -> None:
     """``--solver`` (the exact belief backend), with ``--backend`` as its deprecated alias."""
-    p.add_argument("--solver", choices=("numpy", "gtsam"), default="numpy",
-                   help="exact belief solver: closed forms and dense tables (numpy) or gtsam's "
-                   "discrete elimination (default: %(default)s)")
-    p.add_argument("--backend", dest="solver", choices=("numpy", "gtsam"), action=DeprecatedAlias,
+    p.add_argument("--solver", choices=SOLVERS, default="numpy",
+                   help="exact belief solver: closed forms and dense tables (numpy), gtsam's "
+                   "discrete elimination, or the location block as a compiled program (compiled) "
+                   "(default: %(default)s)")
+    p.add_argument("--backend", dest="solver", choices=SOLVERS, action=DeprecatedAlias,
                    new="--solver")

@@ -17,7 +17,7 @@ class RunConfig:
     task: str = "make_tea"
     preparation_site: str | None = None
     max_frames: int = 50_000
-    #: The exact belief solver, ``"numpy"`` or ``"gtsam"``: ``Agent(solver=)``, ``--solver``.
+    #: The exact belief solver, ``"numpy"``, ``"gtsam"`` or ``"compiled"``: ``Agent(solver=)``, ``--solver``.
     #: (``belief_backend=``, its former name, still works with a DeprecationWarning.)
     solver: str = "numpy"
     snapshot_every_event: bool = True
