@@ -15,23 +15,9 @@ from fg_tea.render.encoder import PRESET, Mp4Writer
 from fg_tea.render.frames import FrameRenderer, RepeatedViews
 from fg_tea.render.scene import _contiguous_rgb, floor_mask
 from fg_tea.render.video import plan_frames
-from video_reference import FRAMES, default_episode, default_options
+from video_reference import FRAMES, check_frames_against, default_episode, default_options, psnr
 
 BEFORE = Path(__file__).parent / "data" / "video_frames_be13560"
-
-
-def psnr(a: np.ndarray, b: np.ndarray) -> float:
-    mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
-    return float("inf") if mse == 0 else 10 * np.log10(255.0 ** 2 / mse)
-
-
-def _rendered_index(plan, output_frame: int) -> int:
-    seen = 0
-    for index, spec in enumerate(plan.frames):
-        if seen + spec.repeat > output_frame:
-            return index
-        seen += spec.repeat
-    raise AssertionError(output_frame)
 
 
 @pytest.fixture(scope="module")
@@ -42,19 +28,7 @@ def default_events(tmp_path_factory):
 @pytest.mark.slow
 def test_frames_match_the_frames_of_the_code_before(default_events):
     """PSNR >= 40 dB of whole output frames against the code of commit be13560 (they are equal)."""
-    from PIL import Image
-
-    options = default_options()
-    plan = plan_frames(default_events, options)
-    renderer = FrameRenderer(plan, options)
-    try:
-        for n in FRAMES:
-            before = np.asarray(Image.open(BEFORE / f"frame{n:04d}.png").convert("RGB"))
-            frame = renderer.frame(_rendered_index(plan, n))
-            assert frame.shape == before.shape
-            assert psnr(frame, before) >= 40.0, n
-    finally:
-        renderer.close()
+    check_frames_against(BEFORE, default_events)
 
 
 def test_the_check_against_the_frames_before_can_fail():

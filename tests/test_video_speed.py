@@ -16,23 +16,9 @@ import pytest
 from fg_tea.render.encoder import Mp4Writer, probe
 from fg_tea.render.frames import FrameRenderer, pieces
 from fg_tea.render.video import VideoOptions, plan_frames, render_video
-from video_reference import FRAMES, default_episode, default_options
+from video_reference import FRAMES, check_frames_against, default_episode, default_options, psnr
 
 DATA = __import__("pathlib").Path(__file__).parent / "data" / "video_frames"
-
-
-def psnr(a: np.ndarray, b: np.ndarray) -> float:
-    mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
-    return float("inf") if mse == 0 else 10 * np.log10(255.0 ** 2 / mse)
-
-
-def _rendered_index(plan, output_frame: int) -> int:
-    seen = 0
-    for index, spec in enumerate(plan.frames):
-        if seen + spec.repeat > output_frame:
-            return index
-        seen += spec.repeat
-    raise AssertionError(output_frame)
 
 
 @pytest.fixture(scope="module")
@@ -42,19 +28,7 @@ def default_events(tmp_path_factory):
 
 @pytest.mark.slow
 def test_frames_match_the_reference_frames_of_the_old_renderer(default_events):
-    from PIL import Image
-
-    options = default_options()
-    plan = plan_frames(default_events, options)
-    renderer = FrameRenderer(plan, options)
-    try:
-        for n in FRAMES:
-            reference = np.asarray(Image.open(DATA / f"frame{n:04d}.png").convert("RGB"))
-            frame = renderer.frame(_rendered_index(plan, n))
-            assert frame.shape == reference.shape
-            assert psnr(frame, reference) >= 40.0, n
-    finally:
-        renderer.close()
+    check_frames_against(DATA, default_events)
 
 
 def test_a_wrong_frame_falls_below_the_threshold():
