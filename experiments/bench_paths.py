@@ -163,8 +163,9 @@ def episodes(repeats: int = 3) -> str:
             f"run with `--solver numpy` (the engine) and `--solver compiled` (the location block a compiled "
             f"program, docs/design.md §4.8), CPU (time.process_time, best of {repeats}) per episode and per "
             "decision (mean over the episode's decisions, the planner's `choose`); ratio = compiled / numpy.\n\n"
-            + "\n".join(table_lines(["world", "model", "decisions", "episode numpy ms", "episode compiled ms", "ratio",
-                                      "decision numpy ms", "decision compiled ms", "ratio", "same decisions"],
+            + "\n".join(table_lines(["world", "model", "decisions", "episode numpy ms", "episode compiled ms",
+                                      "episode ratio", "decision numpy ms", "decision compiled ms", "decision ratio",
+                                      "same decisions"],
                                      body, align="left"))
             + "\n\n" + verdict + "\n")
 
