@@ -245,9 +245,11 @@ class CompiledModel:
             try:
                 if comp.method == "closed form":
                     weighs = bool(np.isfinite(np.max(self._unary_log(comp))))
+                elif comp.method == "dense joint":
+                    weighs = self._dense_prob(comp) is not None  # normalising it raises if zero
                 else:
                     weighs = bool(np.isfinite(self._log_partition(comp)))
-            except ContradictionError:  # a dense table of zero weight says so when built
+            except ContradictionError:  # a dense table of zero weight says so
                 return False
             if not weighs:
                 return False
@@ -441,9 +443,9 @@ class CompiledModel:
             elif key in self._unary:
                 new._unary[key] = shifted(self._unary[key] + sum(f.log_table for f in mine))
             elif key in self._dense:
-                table = self._dense[key] + sum(_expand(f.scope, f.log_table, comp.ids) for f in mine)
-                if np.isfinite(np.max(table)):  # else left to _dense_log, which says so
-                    new._dense[key] = shifted(table)
+                # kept unshifted (a sum of logs cannot overflow); a table of zero weight is
+                # refused by whatever query normalises it
+                new._dense[key] = self._dense[key] + sum(_expand(f.scope, f.log_table, comp.ids) for f in mine)
         return new
 
     def observe_logs(self, evidence: Mapping[str, Any]) -> "CompiledModel":
