@@ -9,6 +9,7 @@ from fg_tea.common.errors import InputError, PlannerRefused, run_script
 from fg_tea.study import yardstick
 
 
+@pytest.mark.slow
 def test_twelve_viewpoints_fit_the_caps_one_and_two_and_sixteen_the_caps_zero_and_one():
     lim, objects = yardstick.start_limit("independent_small_12", "factorised_close", "find_mug")
     assert objects == ["mug"] and lim.viewpoints == 12
