@@ -46,6 +46,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="width of the limit's bracket to stop at, metres (if memory allows)")
     p.add_argument("--gaps", nargs="*", default=["lookahead"],
                    help="planners whose decisions are compared with the exact policy's (gaps.md)")
+    p.add_argument("--gaps-max-gb", type=float, default=2.0,
+                   help="memory the gap analysis's tables may use, GiB: it uses the largest cap up to 3 "
+                        "that fits (default: %(default)s)")
     p.add_argument("--out", type=out_folder, default="runs/experiments/search_limit",
                    help="output folder")
     return p
@@ -58,9 +61,12 @@ def main(argv: list[str] | None = None) -> int:
     check_inputs(args.world, args.worlds, [args.model], args.planners)
     if not (args.tolerance > 0):
         raise InputError("<command line>", "--tolerance", f"{args.tolerance}: must be above 0")
+    if not (args.gaps_max_gb > 0):
+        raise InputError("<command line>", "--gaps-max-gb", f"{args.gaps_max_gb}: must be above 0")
     command = "python experiments/search_limit.py " + shlex.join(argv if argv is not None else sys.argv[1:])
     text = yardstick.study(args.world, range(args.first_seed, args.first_seed + args.worlds), args.model,
-                           args.tasks, args.planners, Path(args.out), command, args.tolerance, args.gaps)
+                           args.tasks, args.planners, Path(args.out), command, args.tolerance, args.gaps,
+                           int(args.gaps_max_gb * 1024 ** 3))
     print(text)
     return 0
 

@@ -33,3 +33,13 @@ def test_an_experiment_script_reports_a_refused_planner_in_one_line(capsys):
         run_script(main, "search_limit.py")
     assert stop.value.code == 2
     assert capsys.readouterr().err == "search_limit.py: error: exact planner: too large\n"
+
+
+def test_the_gap_analysis_uses_the_largest_cap_that_fits_or_refuses_in_one_line():
+    """At 16 viewpoints the cap-3 tables would need tens of GB (a run once died of it after every
+    episode); the gap analysis takes the largest cap that fits, and the study refuses a budget
+    that fits none before any episode."""
+    assert yardstick.gap_cap("independent_small_16", "factorised_close", "find_three") == 1
+    assert yardstick.gap_cap("independent", "factorised_close", "find_three") == 3
+    with pytest.raises(InputError, match=r"--gaps: the gap analysis of find_mug needs .* at cap 1, more than"):
+        yardstick.gap_cap("independent_small_16", "factorised_close", "find_mug", max_bytes=1000)

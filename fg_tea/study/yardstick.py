@@ -29,7 +29,7 @@ from fg_tea.study.episode_files import file_part, kept_or_run
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.common.tables import table_lines
-from fg_tea.planning.limit import Limit, search_limit
+from fg_tea.planning.limit import MAX_BYTES, Limit, human_bytes, search_limit, table_bytes
 from fg_tea.planning.problem import LOOK_COST
 from fg_tea.study.frontier import DecisionClock, episode_setup
 
@@ -298,6 +298,7 @@ def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
 
 def study(world: str, seeds: range, model: str, tasks: list[str], planners: list[str], out: Path,
           command: str, tolerance: float = 1e-3, gaps: tuple[str, ...] | list[str] = (),
+          gaps_max_bytes: int = MAX_BYTES,
           model_flag: str = "--model") -> str:
     """Every planner against the limit on every task: the limits, the episodes (resumed from
     ``out/episodes``), each deterministic planner's exact policy cost, and, for the planners in
@@ -313,6 +314,8 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
     for task in tasks:
         for planner in planners:
             check_fits(world, model, planner, task)
+        if gaps:
+            gap_cap(world, model, task, max_bytes=gaps_max_bytes)  # refused now, not after the episodes
     limits = {}
     for task in tasks:
         try:
@@ -340,7 +343,8 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
         w.writerows(rows)
     if not gaps:
         return text
-    found = [(planner, task, gap_analysis(world, model, planner, task)) for planner in gaps for task in tasks]
+    found = [(planner, task, gap_analysis(world, model, planner, task, max_bytes=gaps_max_bytes))
+             for planner in gaps for task in tasks]
     atomic_write_text(out / "gaps.md", gaps_markdown(found))
     return text
 
@@ -352,14 +356,23 @@ GAP_DECISION_HEADER = ("weighted regret (m)", "probability", "stood at", "looks 
                        "chose", "best", "regret (m)")
 
 
+def _caps_text(found: list[tuple[str, str, dict]]) -> str:
+    """``cap 3``, or ``cap 3 for find_mug, cap 2 for find_three`` where the tasks' caps differ."""
+    caps = {task: g.get("cap", 3) for _, task, g in found}
+    if len(set(caps.values())) <= 1:
+        return f"cap {next(iter(caps.values()), 3)}"
+    return ", ".join(f"cap {c} for {t}" for t, c in caps.items())
+
+
 def gaps_markdown(found: list[tuple[str, str, dict]]) -> str:
     """gaps.md: for each (planner, task, :func:`gap_analysis` result), the summed regret in a
     summary table and its costliest decisions."""
     intro = ["# Where each planner loses against the exact policy", "",
             "At every decision the planner makes (every branch of its policy, reached with the "
             "probability shown), the regret is the exact Q-value of its look minus the best look's "
-            "(the tables of the upper cut, docs/design.md §6.9); weighted by the chance of reaching "
-            "the decision, the regrets sum to the planner's excess cost over the exact policy.", ""]
+            f"(the tables of the upper cut at {_caps_text(found)}, docs/design.md §6.9); weighted by the "
+            "chance of reaching the decision, the regrets sum to the planner's excess cost over the exact "
+            "policy.", ""]
     summary_rows = []
     details: list[str] = []
     for planner, task, g in found:
@@ -508,15 +521,36 @@ def evaluate_policy(world: str, model_name: str, planner: str, task: str,
     return PolicyCost(cost, totals["unexpanded"], gave, len(memo), rest)
 
 
+def gap_cap(world: str, model_name: str, task: str, cap: int = 3, max_bytes: int = MAX_BYTES) -> int:
+    """The largest cap up to `cap` whose upper-cut tables fit `max_bytes` for the task's search.
+
+    Raises:
+        InputError: on ``--gaps``, when not even cap 1 fits (one line, with the sizes).
+    """
+    from fg_tea.planning.limit import _useful
+
+    problem, objects = start_problem(world, model_name, task)
+    useful, sites, _ = _useful(problem)
+    fits = [c for c in range(cap, 0, -1) if table_bytes(useful.size, len(objects), sites.size, c + 1) <= max_bytes]
+    if not fits:
+        need = table_bytes(useful.size, len(objects), sites.size, 2)
+        raise InputError("<command line>", "--gaps", f"the gap analysis of {task} needs the upper cut's tables: "
+                         f"{useful.size} viewpoints and {len(objects)} objects need {human_bytes(need)} at cap 1, "
+                         f"more than {human_bytes(max_bytes)} (--gaps-max-gb)")
+    return fits[0]
+
+
 def gap_analysis(world: str, model_name: str, planner: str, task: str, cap: int = 3,
-                 floor: float = 1e-7) -> dict:
+                 floor: float = 1e-7, max_bytes: int = MAX_BYTES) -> dict:
     """Where a planner loses against the exact policy: at every decision it makes, the regret
     Q*(state, its look) - min_w Q*(state, w) under the upper cut's exact Q-values
-    (:class:`fg_tea.planning.limit.Tables`), weighted by the chance of reaching the decision.
-    Their sum is the planner's excess cost over the cut policy's (the performance difference
-    identity), so the largest terms say which decisions make the gap."""
+    (:class:`fg_tea.planning.limit.Tables`) at the largest cap up to `cap` whose tables fit
+    `max_bytes` (:func:`gap_cap`; returned as ``"cap"``), weighted by the chance of reaching the
+    decision. Their sum is the planner's excess cost over the cut policy's (the performance
+    difference identity), so the largest terms say which decisions make the gap."""
     from fg_tea.planning.limit import _useful, solve_tables
 
+    cap = gap_cap(world, model_name, task, cap, max_bytes)
     problem, objects = start_problem(world, model_name, task)
     useful, sites, q0 = _useful(problem)
     tables = solve_tables(problem, useful, sites, q0, cap, upper=True)
@@ -539,6 +573,6 @@ def gap_analysis(world: str, model_name: str, planner: str, task: str, cap: int 
     beyond = [r for r in rows if not np.isfinite(r["regret"])]
     rows = [r for r in rows if np.isfinite(r["regret"])]
     rows.sort(key=lambda r: -r["weighted"])
-    return {"policy": cost, "cut_policy": tables.root, "rows": rows,
+    return {"policy": cost, "cut_policy": tables.root, "cap": cap, "rows": rows,
             "excess": sum(r["weighted"] for r in rows),
             "beyond_cut": sum(r["weight"] for r in beyond)}
