@@ -566,7 +566,8 @@ def gap_analysis(world: str, model_name: str, planner: str, task: str, cap: int 
         found = sum(1 << u for u, o in enumerate(objects) if o not in pending)
         q = tables.q_values(None if here is None else index[here], counts, found)
         best = int(np.argmin(q))
-        regret = float(q[index[chosen]] - q[best]) if chosen in index else float("inf")
+        # beyond the cut (its look, or every look, forbidden there): not weighed
+        regret = float(q[index[chosen]] - q[best]) if chosen in index and np.isfinite(q[best]) else float("inf")
         rows.append({"weight": weight, "here": here, "looks": dict(inspected), "pending": pending,
                      "chosen": chosen, "best": problem.names[useful[best]], "regret": regret,
                      "weighted": weight * regret})
