@@ -17,6 +17,7 @@ def _script():
     return load_experiment("derived_beside_hand")
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_each_cell_is_the_paired_difference_of_the_two_tables(tmp_path, monkeypatch):
     monkeypatch.chdir(ROOT)
     assert _script().main(["--out", str(tmp_path)]) == 0
@@ -38,6 +39,7 @@ def test_each_cell_is_the_paired_difference_of_the_two_tables(tmp_path, monkeypa
     assert "## Replication: joint_derived − joint" in (tmp_path / "summary.md").read_text()
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_tables_of_other_seed_sets_are_refused(tmp_path, monkeypatch):
     from fg_tea.common.errors import InputError
 

@@ -140,6 +140,7 @@ def test_scan_covers_the_documentation_and_the_package(files):
     assert site_pages <= names
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_no_citation_of_a_document_or_issue_the_user_does_not_have(files):
     found = forbidden_citations(ROOT, files)
     assert not found, ("cite docs/design.md §N or eq. (N) instead of:\n" + "\n".join(found))

@@ -143,6 +143,7 @@ def test_different_seeds_give_different_episodes():
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_same_seed_gives_byte_identical_logs(tmp_path, scenario):
     a, b = tmp_path / "a.jsonl", tmp_path / "b.jsonl"
     run_episode(scenario, "joint", seed=3, log_path=a)

@@ -18,6 +18,7 @@ SCRIPT = ROOT / "experiments" / "inspect_marginals.py"
 
 
 @pytest.mark.parametrize("model", ["joint", "factorised"])
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_inspect_marginals_prints_every_object_and_writes_the_png(tmp_path, model):
     out = tmp_path / "plots" / "marginals.png"
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),

@@ -127,6 +127,7 @@ def test_faults_are_one_line_and_exit_2(logs, tmp_path):
     assert not list(tmp_path.glob("*.html")), "nothing is written for bad input"
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_a_truncated_log_and_a_deleted_scenario_give_a_page_that_says_what_is_missing(logs, tmp_path):
     text = (logs / "factorised.jsonl").read_text()
     cut = tmp_path / "cut.jsonl"

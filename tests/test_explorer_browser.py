@@ -103,6 +103,7 @@ def _not_blank(png: bytes) -> None:
     assert colours > 40, f"the screenshot looks blank ({colours} colours)"
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_one_episode_every_step_shows_the_logs_probabilities(browser, pages):
     events = read_log(pages / "factorised" / "episode.jsonl")
     page, problems = open_explorer(browser, pages / "one.html")
@@ -139,6 +140,7 @@ def test_one_episode_every_step_shows_the_logs_probabilities(browser, pages):
     page.close()
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_two_episodes_side_by_side_mark_where_choices_part(browser, pages):
     logs = [read_log(pages / m / "episode.jsonl") for m in ("factorised", "joint")]
     decisions = [[(e["object"], e["viewpoint"]) for e in ev if e["event"] == "decision"] for ev in logs]
@@ -156,6 +158,7 @@ def test_two_episodes_side_by_side_mark_where_choices_part(browser, pages):
     page.close()
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_a_27_site_five_object_page(browser, pages):
     events = read_log(pages / "milk" / "episode.jsonl")
     assert len(events[0]["sites"]) >= 20 and len(events[0]["objects"]) == 5

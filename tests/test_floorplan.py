@@ -53,6 +53,7 @@ def _area_overlap(a, b) -> int:
 
 @pytest.mark.parametrize("scenario", [load_scenario("default_apartment"), grid_house()],
                          ids=["default_apartment", "grid_48"])
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_floor_plan_labels_every_site_and_vantage(scenario, tmp_path):
     out = tmp_path / "plan.png"
     plan = write_floor_plan(scenario, out)

@@ -83,6 +83,7 @@ def test_house_validate_run_commands(tmp_path, capsys):
     assert any(e["event"] == "observation" and e["viewpoint_kind"] == "room" for e in events)
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_more_seeds_validate():
     for rooms in range(3, 11):
         for seed in (100, 101):

@@ -334,6 +334,7 @@ def test_furniture_that_touches_is_accepted(tmp_path):
     assert status == 0, err
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_every_bundled_task_validates_against_every_bundled_scenario_holding_its_objects():
     from fg_tea.common.resources import bundled
     from fg_tea.world.scenario import load_scenario
@@ -370,6 +371,7 @@ def test_world_and_task_files_are_recognised_by_content(tmp_path, name):
     assert out.strip().endswith("ok (world)" if name == "bare.json" else "ok (task)")
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_every_bundled_file_validates():
     files = sorted(ROOT.glob("scenarios/*.json")) + sorted(ROOT.glob("scenarios/tasks/*.json")) + \
         sorted(ROOT.glob("scenarios/worlds/*.json")) + sorted(ROOT.glob("models/**/*.toml"))
@@ -498,6 +500,7 @@ def test_rerun_replaces_every_output_of_the_run(tmp_path):
     assert json.loads((out / "timings.json").read_text())["episode_s"] >= 0
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_compare_rerun_leaves_no_report_of_the_earlier_sweep(tmp_path):
     out = tmp_path / "c"
     base = ["compare", "--env", "fake", "--backend", "serial", "--worlds", "2", "--models",
@@ -579,6 +582,7 @@ def test_stale_render_folders_are_removed(tmp_path):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux only")
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_pool_workers_die_with_a_killed_parent(tmp_path):
     script = textwrap.dedent("""
         import os, sys, time
@@ -605,6 +609,7 @@ def test_pool_workers_die_with_a_killed_parent(tmp_path):
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux only")
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_killed_compare_leaves_no_pool_workers(tmp_path):
     """kill -9 of `fg-tea compare` once its pool runs: its workers and resource tracker go too."""
     parent = subprocess.Popen([sys.executable, "-m", "fg_tea.cli", "compare", "--env", "fake",

@@ -236,6 +236,7 @@ def test_sensor_counts_need_readings_settled_by_others():
     assert model.sensor().specificity == 0.95
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_learned_detection_converges_to_the_camera(tmp_path):
     """The agent assumes a worse camera than it has (p = 0.62 at a close look, the camera's is
     0.84); the learned close-look reliability of every category converges to the camera's
@@ -312,6 +313,7 @@ def _cli(*args, cwd=ROOT):
                           env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_cli_learn_writes_a_model_that_validates_and_runs(logs, tmp_path):
     out = tmp_path / "learned.toml"
     done = _cli("learn", *logs, "--out", out)
@@ -354,6 +356,7 @@ def test_logs_of_another_house_are_refused(logs, tmp_path):
         learn_files([logs[0], other], "factorised", tmp_path / "x.toml")
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_lifelong_script_smoke(tmp_path):
     import csv
     import importlib.util
@@ -377,6 +380,7 @@ def test_lifelong_script_smoke(tmp_path):
     assert {r["focus_site"] for r in rows} == {"study_shelf"}
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_cli_compare_lifelong(tmp_path):
     """``fg-tea compare --lifelong K`` (fake house, one household, K = 2): every arm runs K
     episodes on the same placements; episode 2 of the learned arms uses episode 1's counts, and

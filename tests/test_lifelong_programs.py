@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import pytest
 import csv
 import sys
 from pathlib import Path
@@ -19,6 +20,7 @@ def model(scenario):
 '''
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_a_program_learns_its_tables_between_a_households_episodes(tmp_path, capsys):
     program = tmp_path / "prog.py"
     program.write_text(PROGRAM)

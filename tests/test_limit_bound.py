@@ -11,6 +11,7 @@ from fg_tea.planning.limit_bound import busy_bound, lower_bound
 from limit_problems import make_problem, random_problem
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_bound_below_the_exact_limit_on_random_problems():
     rng = np.random.default_rng(7)
     checked, ratios = 0, []

@@ -143,6 +143,7 @@ def test_where_the_tables_do_not_fit_or_hold_it_is_the_lookahead_and_says_so():
     assert c1.viewpoint == d1.viewpoint and c1.info["near_exact"] == "lookahead: the belief is correlated"
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_its_policy_is_within_two_percent_of_the_limit_in_a_six_site_house():
     """Evaluated exactly (every outcome enumerated), three objects: within 2 % of the limit's
     lower end, where the lookahead is not within 1 %."""

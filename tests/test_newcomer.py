@@ -184,6 +184,7 @@ def test_a_look_update_has_a_site_labelled_form():
         float(update.before["kettle"][s.site_names.index("kitchen_counter")]))
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_the_api_reference_documents_the_objects_it_hands_back(tmp_path):
     import importlib.util
 

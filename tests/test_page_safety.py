@@ -188,6 +188,7 @@ def test_a_page_with_markup_forced_in_runs_none_of_it(browser, episode, tmp_path
     page.close()
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_commands_write_safe_pages_from_a_hostile_model_and_label(browser, tmp_path):
     name = "m" + "".join(p for p in PAYLOADS if "lone" not in p)  # TOML has no lone surrogates
     model = tmp_path / "m.toml"

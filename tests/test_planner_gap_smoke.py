@@ -12,6 +12,7 @@ from experiment_scripts import load_experiment
 from fg_tea.common.errors import InputError
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_a_quick_run_writes_every_table(tmp_path):
     gap = load_experiment("planner_gap")
     out = tmp_path / "gap"

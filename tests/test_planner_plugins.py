@@ -73,6 +73,7 @@ def _rows(path: Path) -> list[dict]:
         return list(csv.DictReader(fh))
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_compare_runs_a_planner_from_a_file_outside_the_package(tmp_path, monkeypatch):
     work = tmp_path / "work"
     work.mkdir()

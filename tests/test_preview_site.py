@@ -3,6 +3,7 @@ and prints the visible pixels of each object, as an inspection counts them (docs
 
 from __future__ import annotations
 
+import pytest
 import re
 import subprocess
 import sys
@@ -15,6 +16,7 @@ def _preview(tmp_path, *args):
                           text=True, timeout=600, cwd=tmp_path, stdin=subprocess.DEVNULL)
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_a_close_look_and_a_room_glance_are_rendered_with_their_pixels(tmp_path):
     close = _preview(tmp_path, "--site", "kitchen_counter")
     assert close.returncode == 0, close.stderr

@@ -69,6 +69,7 @@ def test_a_learned_location_table_approaches_the_true_distribution():
     assert errors[0] > errors[1] > errors[2] and errors[2] < 0.05, errors
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_learn_then_run_then_learn_on(tmp_path):
     (tmp_path / "prog.py").write_text(PROGRAM.format(extra=""))
     for seed in (0, 1):
@@ -118,6 +119,7 @@ def test_what_cannot_be_learned_is_refused_in_one_line(tmp_path):
         apply_counts(program, {"nothing": [1.0]})
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_the_how_to_learning_commands_run_as_they_stand(tmp_path):
     """docs/how-to/model-as-program.md, "Learn its tables": the page's model file, then its commands."""
     import re

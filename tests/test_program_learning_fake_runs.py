@@ -3,6 +3,7 @@ site distribution the worlds were drawn from (docs/design.md §12.6, fg_tea/stud
 
 from __future__ import annotations
 
+import pytest
 import numpy as np
 
 import fg_tea as fg
@@ -12,6 +13,7 @@ from fg_tea.study.program_learning import count_tables, observed_values
 from fg_tea.world.distributions import load_world
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_a_location_table_learned_from_fake_runs_converges_to_the_worlds_site_distribution():
     world = load_world("independent")
     sites = list(world.sample(0).site_names)
@@ -54,6 +56,7 @@ def model(scenario):
 '''
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_a_learned_file_naming_an_unknown_or_fixed_table_is_one_line(tmp_path):
     import subprocess
     import sys

@@ -342,6 +342,7 @@ def test_the_agent_and_the_gymnasium_env_take_a_program(program_file):
         env.close()
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_compare_at_scale_compares_a_program_model(program_file, tmp_path):
     import subprocess
     import sys

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 import csv
 import json
 import subprocess
@@ -19,6 +20,7 @@ def _run(*argv: str) -> subprocess.CompletedProcess:
                           text=True, timeout=600, stdin=subprocess.DEVNULL, cwd=ROOT)
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_tiny_fake_run_pairs_the_program_with_the_factorised_belief(tmp_path):
     args = ("--worlds", "2", "--confirmation-worlds", "1", "--confirmation-first-seed", "500",
             "--sizes", "small", "--planners", "factorised_efe", "--env", "fake", "--executor", "serial",

@@ -80,6 +80,7 @@ def two_checkouts(tmp_path_factory):
 
 @pytest.mark.parametrize("args", [(), ("mine/house.json", "--model", "mine/model.toml", "--seed", "2")],
                          ids=["bundled", "user-files"])
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_two_checkouts_at_one_commit_write_byte_identical_logs(two_checkouts, args):
     a, b, env, commit = two_checkouts
     first, second = _run(a, env, *args), _run(b, env, *args)

@@ -29,6 +29,7 @@ def _script(name: str):
       "--bench-previous", str(RESULTS / "lookahead_scale" / "bench_previous.json"),
       "--bench-now", str(RESULTS / "lookahead_scale" / "bench_now.json")]),
 ])
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_committed_summary_is_regenerated_from_the_committed_tables(tmp_path, name, folder, table, extra):
     committed = RESULTS / folder / table
     assert _script(name).main(["--out", str(tmp_path), *extra]) == 0

@@ -30,6 +30,7 @@ def test_wilson_matches_the_closed_form():
     assert math.isnan(wilson_interval(0, 0).mean)
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_holm_is_statsmodels_holm():
     from statsmodels.stats.multitest import multipletests
 

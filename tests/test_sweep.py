@@ -98,6 +98,7 @@ def test_row_holds_configuration_truth_and_flattened_metrics():
 
 
 # ------------------------------------------------------------------------------ backends
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_serial_and_process_pool_write_identical_csvs(process_csv, tmp_path):
     path = tmp_path / "episodes.csv"
     run_sweep(list(reversed(tiny_jobs())), path, "serial", progress=False)
@@ -299,6 +300,7 @@ def test_unknown_backend_is_an_input_error(tmp_path):
 
 
 # ------------------------------------------------------------------------------ resume
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_interrupted_sweep_resumes_without_repeating_finished_episodes(process_csv, tmp_path, monkeypatch):
     path = tmp_path / "episodes.csv"
     real = sweep.run_job
@@ -475,6 +477,7 @@ def test_compare_beliefs_smoke(tmp_path):
         assert (tmp_path / png).stat().st_size > 0
 
 
+@pytest.mark.slow  # over 1.5 s: the full suite runs it, the quick loop does not
 def test_ablations_smoke(tmp_path):
     proc = _script("ablations.py", "--worlds", "2", "--ablations", "no_epistemic", "euclidean",
                    "--workers", "2", "--out", str(tmp_path))
