@@ -380,19 +380,9 @@ def confirmation(args, out: Path, command: str) -> str:
 
 def spl_episode(world: str, seed: int, planner: str) -> dict:
     """One make-tea episode in the fake house: SPL, search travel and how each decision was made."""
-    from fg_tea.episode.runner import EpisodeRunner, RunConfig
-    from fg_tea.study.frontier import DecisionClock, episode_setup
+    from fg_tea.study.frontier import played_episode
 
-    model, scenario, env, _ = episode_setup(world, seed, MODEL, "fake", None)
-    try:
-        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
-        clock = DecisionClock(runner.agent.planner)
-        steps = 0
-        while not runner.done and steps < 2000:
-            runner.step()
-            steps += 1
-    finally:
-        env.close()
+    runner, clock, _ = played_episode(world, seed, MODEL, planner, "fake", None)
     m = runner.metrics()
     routes = [str((e.get("info") or {}).get("near_exact", "")) for e in runner.events if e["event"] == "decision"]
     return {"world": world, "seed": seed, "planner": planner, "spl": m.get("spl"),

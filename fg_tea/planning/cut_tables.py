@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from fg_tea.planning.limit import TAIL, Tables, _Grid, _tour
+from fg_tea.planning.limit import TAIL, Tables, _Grid, _tour, cut_inputs
 from fg_tea.planning.problem import SearchProblem
 
 
@@ -102,12 +102,8 @@ def solve_cut(problem: SearchProblem, views: np.ndarray, sites: np.ndarray, q0: 
               cap: int) -> Tables:
     """The tables of the upper cut at `cap` (see the module docstring), as
     :func:`fg_tea.planning.limit.solve_tables` ``(..., cap, upper=True)`` returns them."""
-    prob = problem.prob[np.ix_(views, np.arange(len(problem.objects)), sites)]  # (A, m, K)
-    q = q0[:, sites]
+    prob, q, between, start, look = cut_inputs(problem, views, sites, q0)  # prob: (A, m, K)
     a, m = len(views), len(problem.objects)
-    between = problem.between[np.ix_(views, views)]
-    start = problem.start[views]
-    look = problem.look[views]
     levels = cap + 1
     lay = _layout(a, levels)
     size = lay.order.size

@@ -278,16 +278,20 @@ class Tables:
         return out
 
 
+def cut_inputs(problem: SearchProblem, views: np.ndarray, sites: np.ndarray, q0: np.ndarray):
+    """The problem restricted to the useful viewpoints and sites: detection probabilities
+    (A, U, K), priors (U, K), travel between viewpoints, from the start and the cost of a look."""
+    prob = problem.prob[np.ix_(views, np.arange(len(problem.objects)), sites)]
+    between = problem.between[np.ix_(views, views)]
+    return prob, q0[:, sites], between, problem.start[views], problem.look[views]
+
+
 def solve_tables(problem: SearchProblem, views: np.ndarray, sites: np.ndarray, q0: np.ndarray,
                  cap: int | Sequence[int] | np.ndarray, upper: bool) -> Tables:
     """Solve the cut problem and keep its tables (see :class:`Tables`); `cap` is one cap for
     every viewpoint or one per useful viewpoint (in the order of `views`)."""
-    prob = problem.prob[np.ix_(views, np.arange(len(problem.objects)), sites)]  # (A, U, K)
-    q = q0[:, sites]
+    prob, q, between, start, look = cut_inputs(problem, views, sites, q0)
     a, m = len(views), len(problem.objects)
-    between = problem.between[np.ix_(views, views)]
-    start = problem.start[views]
-    look = problem.look[views]
     caps = np.broadcast_to(np.asarray(cap, dtype=np.int64), (a,)).copy()  # one cap, or one per viewpoint
     levels = caps + 1 if upper else caps + 2
     grid = _Grid(a, levels)

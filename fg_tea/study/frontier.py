@@ -64,17 +64,27 @@ class DecisionClock:
         planner.choose = timed
 
 
+def played_episode(world: str, seed: int, model_name: str, planner: str, env_kind: str,
+                   miss_rate: float | None) -> tuple[EpisodeRunner, DecisionClock, float]:
+    """One episode of world `seed` played to its end (at most 2,000 steps): the runner (its
+    events and metrics), the clock of its decisions and the detector's miss rate."""
+    model, scenario, env, rate = episode_setup(world, seed, model_name, env_kind, miss_rate)
+    try:
+        runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
+        clock = DecisionClock(runner.agent.planner)
+        steps = 0
+        while not runner.done and steps < 2000:
+            runner.step()
+            steps += 1
+    finally:
+        env.close()
+    return runner, clock, rate
+
+
 def run_episode(world: str, seed: int, model_name: str, planner: str, env_kind: str,
                 miss_rate: float | None) -> dict:
     """One episode; returns its metrics and the wall and CPU time of every decision (seconds)."""
-    model, scenario, env, rate = episode_setup(world, seed, model_name, env_kind, miss_rate)
-    runner = EpisodeRunner(scenario, model, env, RunConfig(seed=seed, planner=planner))
-    clock = DecisionClock(runner.agent.planner)
-    steps = 0
-    while not runner.done and steps < 2000:
-        runner.step()
-        steps += 1
-    env.close()
+    runner, clock, rate = played_episode(world, seed, model_name, planner, env_kind, miss_rate)
     m = runner.metrics()
     return {"world": world, "seed": seed, "model": model_name, "planner": planner,
             "env": env_kind, "miss_rate": rate, "search_distance": m["search_distance"],
