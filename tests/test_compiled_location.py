@@ -75,6 +75,30 @@ def test_the_compiled_block_is_rebuilt_only_when_its_factors_change():
         e.observe_site(scenario.sites[0].name, {"mug": False, "kettle": False, "teabag": False})
     np.testing.assert_allclose(engine.location_matrix(), reference.location_matrix(), rtol=0, atol=1e-14)
     np.testing.assert_allclose(engine.pairwise(), reference.pairwise(), rtol=0, atol=1e-14)
+    engine._cache.pop("compiled")  # the dense joint the planners' gains read is the block's table
+    np.testing.assert_allclose(engine.location_joint(), reference.location_joint(), rtol=0, atol=1e-15)
+    assert "compiled" in engine._cache
     assert engine._compiled_base[1] is base and not np.allclose(first, engine.location_matrix())
     with pytest.raises(ValueError, match="'numpy', 'gtsam' or 'compiled'"):
         BeliefEngine(scenario, fg.load_model("joint"), backend="pgmpy")
+
+
+def test_a_large_site_local_block_is_answered_by_the_subset_program_the_gains_read():
+    """Three objects in a 45-site house under the joint model (85,184 joint states, relations
+    site/room-local): the compiled backend answers by the subset program, the one the planners'
+    joint gains read, so a decision builds one model, not a dense table beside it."""
+    from fg_tea.study.sweep import world_path
+    from fg_tea.world.distributions import load_world
+
+    scenario = load_world(world_path("generated_large")).sample(0)
+    engine = BeliefEngine(scenario, fg.load_model("joint"), backend="compiled")
+    reference = BeliefEngine(scenario, fg.load_model("joint"))
+    assert engine.location_method == reference.location_method == "structured"
+    for e in (engine, reference):
+        e.observe_site(scenario.sites[0].name, {o: False for o in e.objects})
+    np.testing.assert_allclose(engine.location_matrix(), reference.location_matrix(), rtol=0, atol=1e-14)
+    assert engine.structured_model() is engine._cache["structured"]
+    assert "compiled" not in engine._cache
+    smaller = BeliefEngine(load_world(world_path("generated_medium")).sample(0), fg.load_model("joint"),
+                           backend="compiled")
+    assert smaller.location_method == "compiled"  # 19,683 states: the compiled dense table

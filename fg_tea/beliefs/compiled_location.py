@@ -10,6 +10,12 @@ evidence is then added in log space (:meth:`CompiledModel.observe_logs`), which 
 compiled plan and the caches of the components it does not touch. Every number agrees with the
 numpy path to rounding; the golden episodes run through it give the golden logs
 (tests/test_compiled_location.py).
+
+Where the block's relations are site- or room-local and its joint is above the engine's dense
+preference, the engine answers it by the subset program instead (``BeliefEngine._method``),
+which the planners' joint gains read too; where the block is one dense table, the planners'
+dense joint is that table (:func:`compiled_joint`). No decision builds a second model
+(docs/design.md §4.8).
 """
 
 from __future__ import annotations
@@ -23,8 +29,8 @@ from fg_tea.beliefs.factors import Evidence, location_var
 
 #: Joint states up to which a location component is answered from its dense table (a compiled
 #: program's default is 2^16): three objects in a 44-site house (85,184 states, a 0.7 MB table)
-#: are, so each pairwise joint is a sum over that table, not an elimination of its own
-#: (measured side by side in experiments/results/bench_paths.md).
+#: whose relations are not site- or room-local are, so each pairwise joint is a sum over that
+#: table, not an elimination of its own (measured in experiments/results/bench_paths.md).
 DENSE_STATES = 1 << 18
 
 
@@ -87,6 +93,14 @@ def compiled_marginals(engine: Any) -> np.ndarray:
     return np.stack([block.marginal(n) for n in names])
 
 
+def compiled_joint(engine: Any) -> np.ndarray:
+    """The joint P(L_1, ..., L_N), axes in the engine's object order: where the block is one
+    dense component, its cached table (transposed, no new sum), which the planners' dense joint
+    gains then read instead of a second table of the engine's."""
+    names = [location_var(o) for o in engine.objects]
+    return compiled_block(engine).joint(names)
+
+
 def compiled_pairwise(engine: Any) -> np.ndarray:
     """(N, N, K, K) pairwise joints; diagonal blocks diag(q_o). Kept with the block."""
     held = engine._cache.get("compiled_pairwise")
@@ -107,4 +121,4 @@ def compiled_pairwise(engine: Any) -> np.ndarray:
     return out
 
 
-__all__ = ["compiled_block", "compiled_marginals", "compiled_pairwise"]
+__all__ = ["compiled_block", "compiled_joint", "compiled_marginals", "compiled_pairwise"]

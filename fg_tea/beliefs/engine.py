@@ -42,7 +42,7 @@ from fg_tea.beliefs.structured import (
     PairWeights,
     StructuredLocationModel,
 )
-from fg_tea.beliefs.compiled_location import compiled_marginals, compiled_pairwise
+from fg_tea.beliefs.compiled_location import compiled_joint, compiled_marginals, compiled_pairwise
 from fg_tea.beliefs.coupling import CoupledBlocks, holding_coupling
 from fg_tea.beliefs.location_evidence import LocationEvidence
 from fg_tea.beliefs.state_block import StateBlock, UnknownVariableError  # noqa: F401 - re-exported
@@ -181,9 +181,18 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
     # ------------------------------------------------------------------ location solvers
     def _method(self) -> str:
         """Which exact method answers location queries: independent, dense, structured,
-        elimination (:mod:`fg_tea.beliefs.eliminated`) or gtsam."""
-        if self.backend in ("gtsam", "compiled"):
+        elimination (:mod:`fg_tea.beliefs.eliminated`), gtsam or compiled."""
+        if self.backend == "gtsam":
             return self.backend
+        if self.backend == "compiled":
+            # The compiled block's subset program where the numpy path's would be (design §4.8):
+            # the planners' joint gains read that program, so one is built, not two.
+            subset = self._structurable and self._numpy_method() == "structured"
+            return "structured" if subset else "compiled"
+        return self._numpy_method()
+
+    def _numpy_method(self) -> str:
+        """The numpy backend's method (``location_solver``, else the cheapest by size)."""
         if not self._correlated:
             return "independent"
         if self._elim_plan is not None:
@@ -202,7 +211,7 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
     @property
     def location_method(self) -> str:
         """The exact method answering location queries (``independent``, ``dense``,
-        ``structured``, ``elimination`` or ``gtsam``)."""
+        ``structured``, ``elimination``, ``gtsam`` or ``compiled``)."""
         return self._method()
 
     def _relational_joint(self) -> np.ndarray:
@@ -397,6 +406,9 @@ class BeliefEngine(LocationEvidence, StateBlock, CoupledBlocks):
                 raise ValueError(f"the joint over {n} objects x {k} sites has {k ** n:,} states, "
                                  f"more than the dense limit {DENSE_LIMIT:,}; single and pairwise "
                                  "marginals (location_matrix(), pairwise()) are still exact")
+            if self._method() == "compiled":  # the compiled block's own table (design §4.8)
+                cached = self._cache["joint"] = compiled_joint(self)
+                return cached
             operands: list = []
             for i in range(n):
                 operands += [self._unary[i], [i]]
