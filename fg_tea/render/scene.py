@@ -11,8 +11,14 @@ renders the same pictures from two render-only copies of the house:
 * neither copy has a floor body; the floor's top face is a plane of one colour (flat shading
   under a directional light), so every pixel where the renderer drew nothing and that sees the
   floor's rectangle is filled with that colour, measured once from a floor-only rendering;
-* walls are drawn in pieces at most :data:`WALL_PIECE_M` long; the chase copy's are as tall as
-  the cut-away (nothing lies below the floor), the first-person copy's full height.
+* the walls are one mesh body (:func:`wall_mesh`), their faces in pieces at most
+  :data:`WALL_PIECE_M` long, without the faces a row of box pieces had inside a wall (each body
+  and each face drawn costs time even where nothing of it shows); the chase copy's walls are as
+  tall as the cut-away (nothing lies below the floor), the first-person copy's full height.
+
+The renderer's time goes with the pixels the scene covers (about 0.1 microseconds each), not with
+bodies out of view: moving every body the chase camera cannot see out of the scene saves nothing
+measurable, and finer wall pieces cost more (experiments/results/video/tinyrenderer.md).
 
 The agent's own camera (detections, pixel counts) never uses these copies: episodes and their
 logs are unchanged. The images equal the plain renderer's on every frame measured
@@ -26,11 +32,10 @@ from typing import Sequence
 
 import numpy as np
 
-from fg_tea.env import assets
 from fg_tea.env.pybullet_quiet import pybullet
 from fg_tea.env.base import EnvConfig
 from fg_tea.env.house import WALL_COLOR, PyBulletHouse
-from fg_tea.world.navigation import wall_boxes
+from fg_tea.world.navigation import Box2D, wall_boxes
 from fg_tea.world.scenario import Scenario
 
 
@@ -86,21 +91,19 @@ class SceneViews:
 
     @staticmethod
     def _cut_walls(house: PyBulletHouse, top: float | None, piece_m: float = WALL_PIECE_M) -> None:
-        """Replace `house`'s walls by pieces at most `piece_m` long, from the floor up to `top`
-        metres (None: full height)."""
+        """Replace `house`'s walls by one mesh body: their pieces, at most `piece_m` long, from the
+        floor up to `top` metres (None: full height)."""
         client = house._client  # noqa: SLF001
         full = house.scenario.house.wall_height
         height = full if top is None else min(max(top, 0.05), full)
         for body, _, _ in house._walls:  # noqa: SLF001
             pybullet.removeBody(body, physicsClientId=client)
-        for wall in wall_boxes(house.scenario.house):
-            yaw = math.atan2(wall.axis[1], wall.axis[0])
-            n = max(1, math.ceil(2 * wall.half[0] / piece_m))
-            half = wall.half[0] / n
-            for k in range(n):
-                along = -wall.half[0] + (2 * k + 1) * half
-                centre = (wall.center[0] + along * wall.axis[0], wall.center[1] + along * wall.axis[1], height / 2)
-                assets.box(client, centre, (half, wall.half[1], height / 2), WALL_COLOR, yaw=yaw)
+        vertices, normals, indices = wall_mesh(wall_boxes(house.scenario.house), height, piece_m)
+        visual = pybullet.createVisualShape(pybullet.GEOM_MESH, vertices=vertices, indices=indices, normals=normals,
+                                            uvs=[[0.0, 0.0]] * len(vertices), rgbaColor=list(WALL_COLOR),
+                                            meshScale=[1.0, 1.0, 1.0], physicsClientId=client)
+        pybullet.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=visual,
+                                 physicsClientId=client)
         house._walls = []  # noqa: SLF001 (render_chase must not move the removed walls)
 
     def set_scene_state(self, pose, placements, held: str | None) -> None:
@@ -187,6 +190,50 @@ def _contiguous_rgb(rgb: np.ndarray) -> np.ndarray:
             and rgba.flags.c_contiguous and rgb.ctypes.data == rgba.ctypes.data):
         return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
     return np.array(rgb)
+
+
+def wall_mesh(boxes: Sequence[Box2D], height: float, piece_m: float = WALL_PIECE_M
+              ) -> tuple[list[list[float]], list[list[float]], list[int]]:
+    """The faces of wall boxes standing on the floor, `height` m tall, as one triangle mesh.
+
+    Each box's sides and top are cut into pieces at most `piece_m` long; its two ends are whole
+    (no faces inside a wall, no bottom: it lies on the floor, facing away from every camera), each
+    a quad of two triangles wound counter-clockwise seen from outside (the renderer culls back
+    faces), with the face's outward normal at its four corners (flat shading, as a box's).
+
+    Returns:
+        vertices (x, y, z m), normals (one per vertex), triangle indices.
+    """
+    vertices: list[list[float]] = []
+    normals: list[list[float]] = []
+    indices: list[int] = []
+
+    def quad(corners: list[tuple[float, float, float]], normal: tuple[float, float, float]) -> None:
+        a, b, c = (np.array(corners[i]) for i in range(3))
+        order = (0, 1, 2, 0, 2, 3) if np.dot(np.cross(b - a, c - a), normal) > 0 else (0, 2, 1, 0, 3, 2)
+        indices.extend(len(vertices) + i for i in order)
+        vertices.extend([float(v) for v in p] for p in corners)
+        normals.extend([list(normal)] * 4)
+
+    for box in boxes:
+        (cx, cy), (hl, ht), (ux, uy) = box.center, box.half, box.axis
+        nx, ny = -uy, ux
+
+        def at(a: float, b: float, z: float) -> tuple[float, float, float]:
+            return (cx + a * ux + b * nx, cy + a * uy + b * ny, z)
+
+        n = max(1, math.ceil(2 * hl / piece_m))
+        cuts = [-hl + 2 * hl * k / n for k in range(n + 1)]
+        for a0, a1 in zip(cuts, cuts[1:]):
+            for side in (1.0, -1.0):
+                b = side * ht
+                quad([at(a0, b, 0.0), at(a1, b, 0.0), at(a1, b, height), at(a0, b, height)],
+                     (side * nx, side * ny, 0.0))
+            quad([at(a0, -ht, height), at(a1, -ht, height), at(a1, ht, height), at(a0, ht, height)], (0.0, 0.0, 1.0))
+        for side in (1.0, -1.0):
+            a = side * hl
+            quad([at(a, -ht, 0.0), at(a, ht, 0.0), at(a, ht, height), at(a, -ht, height)], (side * ux, side * uy, 0.0))
+    return vertices, normals, indices
 
 
 def floor_mask(camera: tuple[Sequence[float], Sequence[float]], width: int, height: int,
