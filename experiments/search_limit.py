@@ -44,6 +44,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="planner names, with options as in lookahead:nodes=60")
     p.add_argument("--tolerance", type=float, default=1e-3,
                    help="width of the limit's bracket to stop at, metres (if memory allows)")
+    p.add_argument("--max-gb", type=float, default=2.0,
+                   help="memory each solve of the limit may use, GiB: the full tables where they fit, else two "
+                        "layers of them at a time (docs/design.md §6.9) (default: %(default)s)")
     p.add_argument("--gaps", nargs="*", default=["lookahead"],
                    help="planners whose decisions are compared with the exact policy's (gaps.md)")
     p.add_argument("--gaps-max-gb", type=float, default=2.0,
@@ -61,12 +64,14 @@ def main(argv: list[str] | None = None) -> int:
     check_inputs(args.world, args.worlds, [args.model], args.planners)
     if not (args.tolerance > 0):
         raise InputError("<command line>", "--tolerance", f"{args.tolerance}: must be above 0")
+    if not (args.max_gb > 0):
+        raise InputError("<command line>", "--max-gb", f"{args.max_gb}: must be above 0")
     if not (args.gaps_max_gb > 0):
         raise InputError("<command line>", "--gaps-max-gb", f"{args.gaps_max_gb}: must be above 0")
     command = "python experiments/search_limit.py " + shlex.join(argv if argv is not None else sys.argv[1:])
     text = yardstick.study(args.world, range(args.first_seed, args.first_seed + args.worlds), args.model,
                            args.tasks, args.planners, Path(args.out), command, args.tolerance, args.gaps,
-                           int(args.gaps_max_gb * 1024 ** 3))
+                           int(args.gaps_max_gb * 1024 ** 3), max_bytes=int(args.max_gb * 1024 ** 3))
     print(text)
     return 0
 

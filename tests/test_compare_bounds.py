@@ -7,7 +7,7 @@ import csv
 
 import pytest
 
-from fg_tea.planning.limit import search_limit
+from fg_tea.planning.bracket import search_limit
 from fg_tea.planning.limit_bound import lower_bound
 from fg_tea.study.bounds import row_bound, start_bound
 from fg_tea.study.report import comparison_report

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fg_tea.planning.limit import search_limit
+from fg_tea.planning.bracket import search_limit
 from fg_tea.planning.limit_bound import busy_bound, lower_bound
 
 from limit_problems import make_problem, random_problem

@@ -9,7 +9,7 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-from fg_tea.planning import limit
+from fg_tea.planning import bracket, limit
 from fg_tea.planning.problem import SearchProblem
 from fg_tea.planning.optimal import expected_travel_table
 from limit_problems import make_problem as _problem, random_problem as _random_problem
@@ -69,11 +69,11 @@ def test_one_site_has_closed_forms():
     problem = _problem([[[p]]], [[1.0]], [d], [[0.0]], [c])
     views, sites, q0 = limit._useful(problem)
     for cap in (1, 2, 3):
-        lo = limit._solve(problem, views, sites, q0, cap, upper=False)
-        hi = limit._solve(problem, views, sites, q0, cap, upper=True)
+        lo = bracket._solve(problem, views, sites, q0, cap, upper=False)
+        hi = bracket._solve(problem, views, sites, q0, cap, upper=True)
         assert lo == pytest.approx(d + c * (1 - (1 - p) ** (cap + 1)) / p, abs=1e-12)
         assert hi == pytest.approx(d + c / p, abs=1e-9)
-    found = limit.search_limit(problem, tolerance=1e-6)
+    found = bracket.search_limit(problem, tolerance=1e-6)
     assert found.lower <= d + c / p <= found.upper and found.width <= 1e-6
 
 
@@ -85,7 +85,7 @@ def test_perfect_detection_equals_the_perfect_detection_dp(seed):
     loc = np.array(list(itertools.product(range(k), repeat=m)))
     p = np.prod(problem.factors[np.arange(m)[None, :], loc], axis=1)
     dp = float(expected_travel_table(problem.start, problem.between, loc, p).min())
-    found = limit.search_limit(problem)
+    found = bracket.search_limit(problem)
     assert found.lower == pytest.approx(dp, abs=1e-9) and found.upper == pytest.approx(dp, abs=1e-9)
 
 
@@ -95,7 +95,7 @@ def test_both_cuts_equal_a_brute_force_expectimax(seed, m, cap):
     problem = _random_problem(rng, 3, m, 2 if cap == 2 and m == 2 else 3)
     views, sites, q0 = limit._useful(problem)
     for upper in (False, True) if cap else (False,):  # cap 0: the lower cut's perfect first look
-        solved = limit._solve(problem, views, sites, q0, cap, upper=upper)
+        solved = bracket._solve(problem, views, sites, q0, cap, upper=upper)
         assert solved == pytest.approx(_brute(problem, cap, upper), rel=1e-12, abs=1e-12), upper
 
 
@@ -111,10 +111,10 @@ def test_caps_per_viewpoint_equal_a_brute_force_expectimax(seed, m, caps):
     for upper in (False, True):
         if upper and 0 in caps:
             continue  # an upper cut allows at least one look from each viewpoint
-        solved = limit._solve(problem, views, sites, q0, caps, upper=upper)
+        solved = bracket._solve(problem, views, sites, q0, caps, upper=upper)
         assert solved == pytest.approx(_brute(problem, caps, upper), rel=1e-12, abs=1e-12), upper
-    lows = limit._solve(problem, views, sites, q0, caps, upper=False)
-    uniform = limit._solve(problem, views, sites, q0, max(caps), upper=False)
+    lows = bracket._solve(problem, views, sites, q0, caps, upper=False)
+    uniform = bracket._solve(problem, views, sites, q0, max(caps), upper=False)
     assert lows <= uniform + 1e-12  # fewer looks before the perfect one: a looser lower bound
 
 
@@ -125,10 +125,10 @@ def test_the_limit_pairs_each_upper_cut_with_the_lower_cut_one_cap_below():
     problem = _random_problem(rng, 4, 2, 4)
     views, sites, q0 = limit._useful(problem)
     budget = limit.table_bytes(views.size, 2, sites.size, 3)
-    found = limit.search_limit(problem, tolerance=0.0, max_bytes=budget)
+    found = bracket.search_limit(problem, tolerance=0.0, max_bytes=budget)
     assert (found.cap, found.lower_cap) == (2, 1) and found.entries >= 3 ** views.size * views.size * 4
-    lows = [limit._solve(problem, views, sites, q0, c, upper=False) for c in (0, 1)]
-    highs = [limit._solve(problem, views, sites, q0, c, upper=True) for c in (1, 2)]
+    lows = [bracket._solve(problem, views, sites, q0, c, upper=False) for c in (0, 1)]
+    highs = [bracket._solve(problem, views, sites, q0, c, upper=True) for c in (1, 2)]
     assert found.lower >= max(lows) and found.upper <= min(highs)
     assert found.caps == () or (found.lower, found.upper) != (max(lows), min(highs))
     assert limit.table_bytes(views.size, 2, sites.size, 4) > budget  # the lower cut at cap 2 did not fit
@@ -136,15 +136,16 @@ def test_the_limit_pairs_each_upper_cut_with_the_lower_cut_one_cap_below():
 
 def test_caps_per_viewpoint_go_where_looks_miss_and_narrow_the_bracket():
     """The glance (detecting 10-50 %) gets more looks before the cut than the close looks
-    (60-97 %), within the same memory, and the bracket is at least as narrow as the uniform one."""
+    (60-97 %), within the same memory (full tables or two layers of them, whichever fits), and the
+    bracket is at least as narrow as the uniform one."""
     rng = np.random.default_rng(3)
     problem = _random_problem(rng, 3, 1, 3)
     views, sites, q0 = limit._useful(problem)
     budget = limit.table_bytes(views.size, 1, sites.size, 4)
-    caps = limit.view_caps(problem, views, sites, q0, max_bytes=budget)
-    assert caps[3] > caps[:3].max() and limit.table_bytes(views.size, 1, sites.size, caps + 1) <= budget
-    found = limit.search_limit(problem, tolerance=0.0, max_bytes=budget)
-    uniform = [limit._solve(problem, views, sites, q0, c, upper=u) for c, u in ((2, False), (3, True))]
+    caps = bracket.view_caps(problem, views, sites, q0, max_bytes=budget)
+    assert caps[3] > caps[:3].max() and bracket.pair_fits(views.size, 1, sites.size, caps + 1, budget)
+    found = bracket.search_limit(problem, tolerance=0.0, max_bytes=budget)
+    uniform = [bracket._solve(problem, views, sites, q0, c, upper=u) for c, u in ((2, False), (3, True))]
     assert found.lower >= uniform[0] and found.upper <= uniform[1]
     assert found.caps == tuple(caps) and found.width < uniform[1] - uniform[0]
 
@@ -153,11 +154,11 @@ def test_the_bounds_bracket_and_tighten_with_the_cap():
     rng = np.random.default_rng(7)
     problem = _random_problem(rng, 4, 2, 4)
     views, sites, q0 = limit._useful(problem)
-    lows = [limit._solve(problem, views, sites, q0, c, upper=False) for c in (1, 2, 3)]
-    highs = [limit._solve(problem, views, sites, q0, c, upper=True) for c in (1, 2, 3)]
+    lows = [bracket._solve(problem, views, sites, q0, c, upper=False) for c in (1, 2, 3)]
+    highs = [bracket._solve(problem, views, sites, q0, c, upper=True) for c in (1, 2, 3)]
     assert all(lo <= hi + 1e-12 for lo in lows for hi in highs)
     assert lows == sorted(lows) and highs == sorted(highs, reverse=True)
-    found = limit.search_limit(problem, tolerance=0.05, max_bytes=2_000_000)
+    found = bracket.search_limit(problem, tolerance=0.05, max_bytes=2_000_000)
     assert found.lower >= lows[0] and found.upper <= highs[0] and found.width <= highs[0] - lows[0]
 
 
@@ -167,6 +168,6 @@ def test_a_correlated_or_too_large_problem_is_refused_with_one_line():
     joint = SearchProblem(problem.objects, problem.names, problem.kinds, problem.probability,
                           problem.start, problem.between, problem.look, problem.p_max,
                           problem.n_sites, problem.allowed, problem.factors[0], None)
-    assert "correlated" in limit.limit_fault(joint)
+    assert "correlated" in bracket.limit_fault(joint)
     with pytest.raises(ValueError, match="more than 100 B"):
-        limit.search_limit(problem, max_bytes=100)
+        bracket.search_limit(problem, max_bytes=100)

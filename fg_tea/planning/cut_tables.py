@@ -182,10 +182,11 @@ def _nearest_plus(between: np.ndarray, q_best: np.ndarray) -> np.ndarray:
     return best
 
 
-def _capped_values(q: np.ndarray, prob: np.ndarray, factor: np.ndarray, cap: int, live: list[int],
-                   unfound: np.ndarray, between: np.ndarray, look: np.ndarray) -> np.ndarray:
+def _capped_values(q: np.ndarray, prob: np.ndarray, factor: np.ndarray, cap: int | np.ndarray,
+                   live: list[int], unfound: np.ndarray, between: np.ndarray, look: np.ndarray) -> np.ndarray:
     """The sweep's value at the fully capped state for the found sets `live`, shape (|live|, A):
-    from each position, enter the nearest-neighbour tour at its nearest viewpoint."""
+    from each position, enter the nearest-neighbour tour at its nearest viewpoint. `cap` is one
+    cap or one per viewpoint."""
     a = between.shape[0]
     if not live:
         return np.zeros((0, a))

@@ -34,13 +34,15 @@ ways:
   is at least V*.
 
 Both tighten as ``cap`` grows. The upper cut at cap c and the lower cut at cap c - 1 count the
-same 0 to c looks per viewpoint, so they cost the same memory: :func:`search_limit` pairs them
-(the lower cut at cap 0 makes the first look from each viewpoint perfect) and raises c until the
-interval is narrower than ``tolerance`` or the next pair would need more than ``max_bytes`` of
-memory, as :func:`table_bytes` estimates it (checked against the measured peak allocation,
-tested). With a perfect detector (p = 1 at every site in view) both equal the perfect-detection
-dynamic program of :mod:`fg_tea.planning.optimal` (tested), and on small problems they equal a
-brute-force expectimax over the truth table with the same cuts (tested).
+same 0 to c looks per viewpoint, so they cost the same memory: the bracket
+(:func:`fg_tea.planning.bracket.search_limit`) pairs them (the lower cut at cap 0 makes the
+first look from each viewpoint perfect) and raises c until the interval is narrower than
+``tolerance`` or the next pair would not fit its memory budget, as :func:`table_bytes`
+estimates the full tables (checked against the measured peak allocation, tested) and
+:func:`fg_tea.planning.lean_limit.lean_bytes` two layers of them. With a perfect detector (p = 1
+at every site in view) both equal the perfect-detection dynamic program of
+:mod:`fg_tea.planning.optimal` (tested), and on small problems they equal a brute-force
+expectimax over the truth table with the same cuts (tested).
 """
 
 from __future__ import annotations
@@ -71,7 +73,7 @@ class Limit:
         objects: objects searched.
         lower_cap: looks per viewpoint after which the lower cut's looks are perfect (one less
             than ``cap``: both cuts then count 0 to ``cap`` looks per viewpoint, the same tables).
-        caps: where caps per viewpoint (:func:`view_caps`) narrowed the bracket, the upper
+        caps: where caps per viewpoint (:func:`~fg_tea.planning.bracket.view_caps`) narrowed the bracket, the upper
             cut's cap of each useful viewpoint (the lower cut's are one less); each end of the
             bracket is the tighter of the two cuts'; else empty.
     """
@@ -131,22 +133,6 @@ def human_bytes(n: float) -> str:
         if n >= size:
             return f"{n / size:.3g} {unit}"
     return f"{int(n)} B"
-
-
-def limit_fault(problem: SearchProblem, max_bytes: int = MAX_BYTES) -> str | None:
-    """Why :func:`search_limit` cannot answer `problem`, or None: a correlated belief (the state
-    above is exact only for independent objects) or a solve too large even at one look per
-    viewpoint."""
-    if not problem.independent:
-        return ("search limit: the belief is correlated; the limit is exact for independent "
-                "objects only (a factorised model)")
-    views, sites, _ = _useful(problem)
-    a, m = views.size, len(problem.objects)
-    need = table_bytes(a, m, sites.size, 2)
-    if need > max_bytes:
-        return (f"search limit: {a} viewpoints and {m} objects need about {human_bytes(need)} "
-                f"at one look per viewpoint, more than {human_bytes(max_bytes)}")
-    return None
 
 
 def _useful(problem: SearchProblem) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -215,12 +201,6 @@ def _cycle_cost(q: np.ndarray, p: np.ndarray, tour: np.ndarray, enter: float,
     with np.errstate(divide="ignore", invalid="ignore"):
         tail = np.where(unseen > 0, unseen / (1.0 - cycle_miss), 0.0)
     return total + cost_max * len(tour) * float(tail.sum())
-
-
-def _solve(problem: SearchProblem, views: np.ndarray, sites: np.ndarray, q0: np.ndarray,
-           cap: int | Sequence[int] | np.ndarray, upper: bool) -> float:
-    """The root value of the cut problem (see the module docstring); ``upper`` picks the cut."""
-    return solve_tables(problem, views, sites, q0, cap, upper).root
 
 
 @dataclass
@@ -362,75 +342,3 @@ def _tour(between: np.ndarray) -> np.ndarray:
         tour.append(nxt)
         left.remove(nxt)
     return np.array(tour)
-
-
-def search_limit(problem: SearchProblem, tolerance: float = 1e-3, max_bytes: int = MAX_BYTES,
-                 max_cap: int = 12) -> Limit:
-    """Bracket the optimal expected search cost of `problem` (see the module docstring).
-
-    Args:
-        problem: a search problem with a factorised belief (``problem.factors``).
-        tolerance: stop raising the cap once ``upper - lower`` is at most this (metres).
-        max_bytes: the most memory one solve may use (as :func:`table_bytes` estimates it).
-        max_cap: the largest cap tried.
-
-    Raises:
-        ValueError: :func:`limit_fault` says why the problem cannot be answered.
-    """
-    fault = limit_fault(problem, max_bytes)
-    if fault:
-        raise ValueError(fault)
-    views, sites, q0 = _useful(problem)
-    a, m = views.size, len(problem.objects)
-    best: Limit | None = None
-    # The upper cut at cap c and the lower cut at cap c - 1 both count 0 to c looks per
-    # viewpoint: the same tables, so the same memory; each step raises both by one.
-    for cap in range(1, max_cap + 1):
-        if table_bytes(a, m, sites.size, cap + 1) > max_bytes and best is not None:
-            break
-        lo = _solve(problem, views, sites, q0, cap - 1, upper=False)
-        hi = _solve(problem, views, sites, q0, cap, upper=True)
-        lo_best = lo if best is None else max(lo, best.lower)
-        hi_best = hi if best is None else min(hi, best.upper)
-        best = Limit(lo_best, hi_best, cap, _entries(a, m, cap + 1), a, m, cap - 1)
-        if best.width <= tolerance:
-            break
-    assert best is not None
-    caps = view_caps(problem, views, sites, q0, max_bytes, max_cap)
-    if best.width > tolerance and caps.min() != caps.max():
-        lo = _solve(problem, views, sites, q0, caps - 1, upper=False)
-        hi = _solve(problem, views, sites, q0, caps, upper=True)
-        if lo > best.lower or hi < best.upper:
-            best = Limit(max(lo, best.lower), min(hi, best.upper), best.cap,
-                         max(best.entries, _entries(a, m, caps + 1)), a, m, best.lower_cap,
-                         tuple(int(c) for c in caps))
-    return best
-
-
-def view_caps(problem: SearchProblem, views: np.ndarray, sites: np.ndarray, q0: np.ndarray,
-              max_bytes: int = MAX_BYTES, max_cap: int = 12) -> np.ndarray:
-    """Upper-cut caps per useful viewpoint that fill the memory budget where looks miss most.
-
-    From a cap of 1 everywhere, the viewpoint whose next look past its cap would find the most
-    (sum over objects and sites of q0 (1 - p)^cap p: the prior mass that look alone shows) gets
-    one more, while the pair of cuts (:func:`search_limit`) still fits `max_bytes`: a room glance
-    that detects one time in three gets several looks before the cut, a close look that detects
-    19 times in 20 one or two. Any caps give valid bounds; these spend the memory where a cut
-    would otherwise bind.
-    """
-    prob = problem.prob[np.ix_(views, np.arange(len(problem.objects)), sites)]   # (A, U, K)
-    q = q0[None, :, sites]
-    a, m = views.size, len(problem.objects)
-    caps = np.ones(a, dtype=np.int64)
-    while True:
-        gain = (q * (1.0 - prob) ** caps[:, None, None] * prob).sum(axis=(1, 2))  # (A,)
-        for v in sorted(range(a), key=lambda v: (-gain[v], v)):
-            if gain[v] <= 0 or caps[v] >= max_cap:
-                continue
-            trial = caps.copy()
-            trial[v] += 1
-            if table_bytes(a, m, sites.size, trial + 1) <= max_bytes:
-                caps = trial
-                break
-        else:
-            return caps

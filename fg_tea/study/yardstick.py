@@ -29,7 +29,8 @@ from fg_tea.study.episode_files import file_part, kept_or_run
 from fg_tea.episode.runner import EpisodeRunner, RunConfig
 from fg_tea.common.stats import bootstrap_interval
 from fg_tea.common.tables import table_lines
-from fg_tea.planning.limit import MAX_BYTES, Limit, human_bytes, search_limit, table_bytes
+from fg_tea.planning.bracket import search_limit
+from fg_tea.planning.limit import MAX_BYTES, Limit, human_bytes, table_bytes
 from fg_tea.planning.problem import LOOK_COST
 from fg_tea.study.frontier import DecisionClock, episode_setup
 
@@ -83,10 +84,12 @@ def check_fits(world: str, model_name: str, planner: str, task: str) -> None:
         env.close()
 
 
-def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3) -> tuple[Limit, list[str]]:
-    """The limit of the search the task starts with, from the start pose (world seed 0's house)."""
+def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3,
+                max_bytes: int = MAX_BYTES) -> tuple[Limit, list[str]]:
+    """The limit of the search the task starts with, from the start pose (world seed 0's house),
+    each solve within `max_bytes`."""
     problem, objects = start_problem(world, model_name, task)
-    return search_limit(problem, tolerance=tolerance), objects
+    return search_limit(problem, tolerance=tolerance, max_bytes=max_bytes), objects
 
 
 def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
@@ -299,7 +302,7 @@ def draw_frontier(rows: list[dict], limits: dict[str, tuple[Limit, list[str]]],
 def study(world: str, seeds: range, model: str, tasks: list[str], planners: list[str], out: Path,
           command: str, tolerance: float = 1e-3, gaps: tuple[str, ...] | list[str] = (),
           gaps_max_bytes: int = MAX_BYTES,
-          model_flag: str = "--model") -> str:
+          model_flag: str = "--model", max_bytes: int = MAX_BYTES) -> str:
     """Every planner against the limit on every task: the limits, the episodes (resumed from
     ``out/episodes``), each deterministic planner's exact policy cost, and, for the planners in
     `gaps`, where they lose against the exact policy. Writes ``summary.md`` (returned),
@@ -319,7 +322,7 @@ def study(world: str, seeds: range, model: str, tasks: list[str], planners: list
     limits = {}
     for task in tasks:
         try:
-            limits[task] = start_limit(world, model, task, tolerance)
+            limits[task] = start_limit(world, model, task, tolerance, max_bytes)
         except ValueError as exc:  # the limit does not fit, or the belief is correlated
             raise InputError("<command line>", model_flag, str(exc)) from None
         lim = limits[task][0]
