@@ -26,6 +26,14 @@ def test_layers_number_every_vector_of_a_total_in_c_order():
         got = layers.unrank(total, np.arange(len(want)))
         assert np.array_equal(got, want)
         assert np.array_equal(layers.rank(total, want), np.arange(len(want)))
+        successors = layers.successors(total, want)
+        for w in range(levels.size):
+            rows = np.flatnonzero(want[:, w] < levels[w] - 1)
+            moved = want[rows].copy()
+            moved[:, w] += 1
+            above = every[every.sum(axis=1) == total + 1]
+            expected = [int(np.flatnonzero((above == row).all(axis=1))[0]) for row in moved]
+            assert np.array_equal(successors[rows, w], expected)
     assert layers.size(layers.top + 1) == 0 and layers.size(-1) == 0
 
 

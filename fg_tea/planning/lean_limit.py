@@ -46,6 +46,7 @@ class Layers:
         for lv in self.levels[::-1]:
             suffix.append(np.convolve(suffix[-1], np.ones(int(lv), dtype=np.int64)))
         self.suffix = suffix[::-1]
+        self._tables: dict[int, list[np.ndarray]] = {}
 
     def size(self, total: int) -> int:
         """How many vectors have this total."""
@@ -72,15 +73,43 @@ class Layers:
             prefix += digits[:, v]
         return digits
 
+    def _before(self, total: int) -> list[np.ndarray]:
+        """before[v][p, d]: how many vectors of `total` whose digits before v sum to p and equal
+        a given prefix have digit v below d (the rank's share of viewpoint v)."""
+        held = self._tables.get(total)
+        if held is None:
+            held = []
+            p = np.arange(self.top + 2)[:, None]
+            for v in range(self.n_views):
+                d = np.arange(int(self.levels[v]) + 1)[None, :]
+                counts = self._count(v + 1, total - p - d)        # the vectors with digit v = d
+                held.append(np.concatenate([np.zeros((p.size, 1), dtype=np.int64),
+                                            np.cumsum(counts, axis=1)[:, :-1]], axis=1))
+            if len(self._tables) > 4:
+                self._tables.clear()
+            self._tables[total] = held
+        return held
+
     def rank(self, total: int, digits: np.ndarray) -> np.ndarray:
         """The ranks of vectors (rows of `digits`, all of this total) among those of `total`."""
-        r = np.zeros(digits.shape[0], dtype=np.int64)
-        prefix = np.zeros(digits.shape[0], dtype=np.int64)
-        for v in range(self.n_views):
-            for d in range(int(self.levels[v]) - 1):
-                r += np.where(digits[:, v] > d, self._count(v + 1, total - prefix - d), 0)
-            prefix += digits[:, v]
-        return r
+        before = self._before(total)
+        prefix = np.cumsum(digits, axis=1) - digits
+        return sum((before[v][prefix[:, v], digits[:, v]] for v in range(self.n_views)),
+                   np.zeros(digits.shape[0], dtype=np.int64))
+
+    def successors(self, total: int, digits: np.ndarray) -> np.ndarray:
+        """The rank among the vectors of ``total + 1`` of n + e_w for every row n of `digits` and
+        every viewpoint w, shape (rows, n_views); meaningless where digit w is at its top. The
+        shares of the viewpoints before w are n's own, those after w see a prefix one larger."""
+        before = self._before(total + 1)
+        prefix = np.cumsum(digits, axis=1) - digits
+        a = self.n_views
+        same = np.stack([before[v][prefix[:, v], digits[:, v]] for v in range(a)], axis=1)
+        shifted = np.stack([before[v][prefix[:, v] + 1, digits[:, v]] for v in range(a)], axis=1)
+        raised = np.stack([before[w][prefix[:, w], digits[:, w] + 1] for w in range(a)], axis=1)
+        head = np.cumsum(same, axis=1) - same                        # shares of v < w
+        tail = np.cumsum(shifted[:, ::-1], axis=1)[:, ::-1] - shifted  # shares of v > w
+        return head + raised + tail
 
 
 def widest_layer(levels: np.ndarray) -> int:
@@ -169,13 +198,7 @@ def _q_values(layers: Layers, total: int, digits: np.ndarray, here: np.ndarray, 
     under F."""
     n, a = digits.shape
     ok = digits < (layers.levels - 1)[None, :]
-    nxt = np.zeros((n, a), dtype=np.int64)
-    for w in range(a):
-        rows = np.flatnonzero(ok[:, w])
-        if rows.size:
-            moved = digits[rows].copy()
-            moved[:, w] += 1
-            nxt[rows, w] = layers.rank(total + 1, moved)
+    nxt = np.where(ok, layers.successors(total, digits), 0)
     full = prev_values.shape[0]
     later = np.zeros((full + 1, n, a))                             # V(F', w, n + e_w); F' = all: 0
     if prev_values.shape[2]:
