@@ -31,3 +31,15 @@ def random_problem(rng, a, m, k, perfect=False, glance=True):
     factors = rng.dirichlet(np.ones(k), size=m)
     look = np.full(len(views), 0.0 if perfect else 0.144)
     return make_problem(prob, factors, start, between, look)
+
+
+def blind_problem() -> SearchProblem:
+    """An object that cannot stand at a site (a state whose mass runs out), a look that never
+    shows one of the objects and a perfect look, over three viewpoints and two objects."""
+    prob = np.zeros((3, 2, 3))
+    prob[0, :, 0] = [0.9, 0.0]   # v0 never shows o1
+    prob[1, :, 1] = [0.7, 0.8]
+    prob[2, :, 2] = [1.0, 1.0]   # a perfect look: its site's mass is gone after one
+    factors = [[0.5, 0.3, 0.2], [0.0, 0.6, 0.4]]
+    between = np.array([[0, 2.0, 3.0], [2.0, 0, 1.5], [3.0, 1.5, 0]])
+    return make_problem(prob, factors, [1.0, 2.0, 2.5], between, [0.144] * 3)

@@ -9,7 +9,7 @@ import tracemalloc
 
 import numpy as np
 import pytest
-from limit_problems import make_problem, random_problem
+from limit_problems import blind_problem, random_problem
 
 from fg_tea.planning import lean_limit
 from fg_tea.planning.lean_limit import Layers, lean_bytes, solve_root
@@ -63,13 +63,7 @@ def test_the_root_equals_the_full_tables_for_both_cuts(seed, monkeypatch):
 
 
 def test_states_of_no_probability_and_a_blind_look_give_the_same_root():
-    prob = np.zeros((3, 2, 3))
-    prob[0, :, 0] = [0.9, 0.0]   # v0 never shows o1
-    prob[1, :, 1] = [0.7, 0.8]
-    prob[2, :, 2] = [1.0, 1.0]   # a perfect look: its site's mass is gone after one
-    factors = [[0.5, 0.3, 0.2], [0.0, 0.6, 0.4]]
-    between = np.array([[0, 2.0, 3.0], [2.0, 0, 1.5], [3.0, 1.5, 0]])
-    problem = make_problem(prob, factors, [1.0, 2.0, 2.5], between, [0.144] * 3)
+    problem = blind_problem()
     for cap in (1, 2, 3):
         _same_root(problem, cap, upper=True)
         _same_root(problem, cap - 1, upper=False)

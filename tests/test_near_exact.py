@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from limit_problems import make_problem, random_problem
+from limit_problems import blind_problem, random_problem
 
 import fg_tea as fg
 from fg_tea.planning import NearExactPlanner, NearExactSettings, check_planner, make_planner
@@ -47,13 +47,7 @@ def test_the_tables_equal_the_limit_s_upper_cut(seed):
 def test_states_of_no_probability_and_a_blind_look_are_solved_alike():
     """An object that cannot stand at a site (a state whose mass runs out) and a look that never
     shows one of the objects: the same tables as the limit's."""
-    prob = np.zeros((3, 2, 3))
-    prob[0, :, 0] = [0.9, 0.0]   # v0 never shows o1
-    prob[1, :, 1] = [0.7, 0.8]
-    prob[2, :, 2] = [1.0, 1.0]   # a perfect look: its site's mass is gone after one
-    factors = [[0.5, 0.3, 0.2], [0.0, 0.6, 0.4]]
-    between = np.array([[0, 2.0, 3.0], [2.0, 0, 1.5], [3.0, 1.5, 0]])
-    problem = make_problem(prob, factors, [1.0, 2.0, 2.5], between, [0.144] * 3)
+    problem = blind_problem()
     for cap in (1, 2, 3):
         _same_tables(problem, cap)
 
