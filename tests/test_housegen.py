@@ -195,7 +195,8 @@ def test_the_generator_does_not_import_the_simulator():
     assert out.stdout.strip() == "False"
 
 
-@pytest.mark.parametrize("stem,rooms,seed", [("small_6", 3, 1), ("small_8", 4, 2), ("small_12", 6, 2), ("small_16", 8, 2)])
+@pytest.mark.parametrize("stem,rooms,seed", [("small_6", 3, 1), ("small_8", 4, 2), ("small_12", 6, 2), ("small_12b", 6, 3),
+                                            ("small_16", 8, 2)])
 def test_small_houses_keep_the_first_sites_of_each_room(stem, rooms, seed, tmp_path):
     from fg_tea.world.scenario import keep_sites
 
