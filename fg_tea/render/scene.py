@@ -1,28 +1,32 @@
-"""The video's 3D views at a fraction of their cost: a render-only copy of the house.
+"""The video's 3D views at a fraction of their cost: render-only copies of the house.
 
-PyBullet's TinyRenderer stays the renderer (EGL through Mesa's llvmpipe, the only OpenGL here,
-spends as much CPU on an image of an empty scene: experiments/results/video/renderers.md). Its
-time goes on scanning each triangle's screen bounding box and shading what it covers. The floor
-is two triangles that cover the whole chase image, about half of every chase frame's cost; long
-walls are thin triangles with screen-sized bounding boxes; and the cut-away walls were
-full-height boxes sunk into the floor, drawn and then hidden by it. A :class:`SceneViews`
-renders the same pictures from two render-only copies of the house:
+PyBullet's TinyRenderer (EGL through Mesa's llvmpipe, the only OpenGL here, spends as much CPU on
+an image of an empty scene: experiments/results/video/renderers.md) spends about 0.1
+microseconds on every pixel a body covers, and the walls and furniture cover most of every
+image. A :class:`SceneViews` gives the same pictures from two render-only copies of the house
+(one with the chase view's cut-away walls, one with full walls for the first-person view):
 
+* the walls and furniture, boxes along x and y, are painted without the renderer, as it draws
+  them (:class:`~fg_tea.render.boxes.BoxPainter`: its face culling, near-plane clipping, pixel
+  coverage and colours);
+* the objects and the drone are drawn by TinyRenderer in the windows their bounds cover
+  (:func:`body_window`, windows that overlap joined), with the walls and furniture in the copy,
+  so what hides an object hides it as in a whole image;
 * neither copy has a floor body; the floor's top face is a plane of one colour (flat shading
-  under a directional light), so every pixel where the renderer drew nothing and that sees the
-  floor's rectangle is filled with that colour, measured once from a floor-only rendering;
-* the walls are one mesh body (:func:`wall_mesh`), their faces in pieces at most
-  :data:`WALL_PIECE_M` long, without the faces a row of box pieces had inside a wall (each body
-  and each face drawn costs time even where nothing of it shows); the chase copy's walls are as
-  tall as the cut-away (nothing lies below the floor), the first-person copy's full height.
+  under a directional light), so every pixel where nothing was drawn and that sees the floor's
+  rectangle is filled with that colour, measured once from a floor-only rendering;
+* a house with a wall along neither x nor y is drawn by TinyRenderer alone, as before
+  (``SceneViews.painters`` is then None for its copies).
 
-The renderer's time goes with the pixels the scene covers (about 0.1 microseconds each), not with
-bodies out of view: moving every body the chase camera cannot see out of the scene saves nothing
-measurable, and finer wall pieces cost more (experiments/results/video/tinyrenderer.md).
+Each copy's walls are one mesh body (:func:`wall_mesh`) without the faces a row of box pieces
+had inside a wall, for the windows and for TinyRenderer alone. Moving every body the camera
+cannot see out of the scene saves nothing measurable, and finer wall pieces cost more
+(experiments/results/video/tinyrenderer.md).
 
 The agent's own camera (detections, pixel counts) never uses these copies: episodes and their
-logs are unchanged. The images equal the plain renderer's on every frame measured
-(experiments/video_renderers.py; tests/test_video_speed.py asks PSNR >= 40 dB of whole frames).
+logs are unchanged. The images equal the plain renderer's but for a few pixels on edges
+(tests/test_video_boxes.py, tests/test_video_walls.py; tests/test_video_speed.py asks PSNR >=
+40 dB of whole frames against the reference frames).
 """
 
 from __future__ import annotations
@@ -32,10 +36,13 @@ from typing import Sequence
 
 import numpy as np
 
+from fg_tea.env import assets
 from fg_tea.env.pybullet_quiet import pybullet
 from fg_tea.env.base import EnvConfig
-from fg_tea.env.house import WALL_COLOR, PyBulletHouse
+from fg_tea.env.house import WALL_COLOR, PyBulletHouse, _corners, _sub_projection
+from fg_tea.render.boxes import Box, BoxPainter
 from fg_tea.world.navigation import Box2D, wall_boxes
+from fg_tea.world.interface import Pose
 from fg_tea.world.scenario import Scenario
 
 
@@ -70,6 +77,12 @@ class SceneViews:
         self._cut_walls(self.ego_house, None)
         self.calls = 0
         self._floor_images: dict[tuple[int, int], np.ndarray] = {}
+        boxes = {house: house_boxes(scenario, top) for house, top in ((self.chase_house, wall_cutaway),
+                                                                      (self.ego_house, None))}
+        #: The walls and furniture drawn without the renderer (None: a wall not along x or y, and
+        #: the renderer draws everything).
+        self.painters = {house: None if b is None else BoxPainter(b, self._shade) for house, b in boxes.items()}
+        self._small = {house: self._small_bodies(house) for house in (self.chase_house, self.ego_house)}
 
     def _floor_colour(self) -> np.ndarray:
         """The floor's colour as the renderer shades it: one floor-only image, looking down."""
@@ -88,6 +101,37 @@ class SceneViews:
         for b, (pos, orn) in saved.items():
             pybullet.resetBasePositionAndOrientation(b, pos, orn, physicsClientId=client)
         return rgb[8, 8].copy()
+
+    def _shade(self, rgba: tuple, normal: tuple) -> np.ndarray:
+        """The renderer's colour of a face of colour `rgba` facing `normal` (one small image of a
+        box far from the house, looking at that face)."""
+        h = self.chase_house
+        centre = np.array([1000.0, 1000.0, 1000.0])
+        body = assets.box(h._client, tuple(centre), (0.5, 0.5, 0.5), rgba)  # noqa: SLF001
+        eye = centre + 3.0 * np.asarray(normal)
+        up = [0.0, 0.0, 1.0] if abs(normal[2]) < 0.5 else [1.0, 0.0, 0.0]
+        view = pybullet.computeViewMatrix(list(eye), list(centre), up)
+        proj = pybullet.computeProjectionMatrixFOV(20.0, 1.0, 0.03, 30.0)
+        rgb = h._render((view, proj), 16, 16, segmentation=False)[0]  # noqa: SLF001
+        pybullet.removeBody(body, physicsClientId=h._client)  # noqa: SLF001
+        return rgb[8, 8].copy()
+
+    def _small_bodies(self, house: PyBulletHouse) -> list[tuple[int, np.ndarray]]:
+        """The bodies the renderer still draws (objects, the drone), with their local bounds; the
+        drone not in the first-person copy when every corner of its bounds lies behind that
+        camera (the camera rides with it, so it is then never drawn there)."""
+        bodies = [(house._bodies[name], house._bounds[name]) for name in house._bodies]  # noqa: SLF001
+        drone = _corners(assets.drone_parts())
+        if house is self.ego_house:
+            saved = house._pose  # noqa: SLF001
+            house._pose = Pose(0.0, 0.0, 0.0)  # noqa: SLF001
+            view, proj = house._ego_camera(64, 48)  # noqa: SLF001
+            house._pose = saved  # noqa: SLF001
+            world = drone + np.array([[0.0], [0.0], [self.config.sensor_height], [0.0]])
+            clip = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T @ world
+            if (clip[3] < 0).all():
+                return bodies
+        return bodies + [(house._drone, drone)]  # noqa: SLF001
 
     @staticmethod
     def _cut_walls(house: PyBulletHouse, top: float | None, piece_m: float = WALL_PIECE_M) -> None:
@@ -119,11 +163,39 @@ class SceneViews:
     def chase(self, width: int, height: int, distance: float, height_m: float, pitch_deg: float,
               hfov_deg: float) -> np.ndarray:
         camera = self.chase_camera(width, height, distance, height_m, pitch_deg, hfov_deg)
-        return self._render(self.chase_house, camera, width, height)
+        return self._draw(self.chase_house, camera, width, height)
 
     def ego(self, width: int, height: int) -> np.ndarray:
         camera = self.ego_house._ego_camera(width, height)  # noqa: SLF001
-        return self._render(self.ego_house, camera, width, height)
+        return self._draw(self.ego_house, camera, width, height)
+
+    def _draw(self, house: PyBulletHouse, camera: tuple[list, list], width: int, height: int) -> np.ndarray:
+        """The image: walls and furniture painted (:class:`~fg_tea.render.boxes.BoxPainter`), the
+        objects and the drone rendered in the window their bounds cover (with the walls and
+        furniture, which hide them as in a whole image), the floor filled in."""
+        import cv2
+
+        painter = self.painters[house]
+        if painter is None:
+            return self._render(house, camera, width, height)
+        self.calls += 1
+        view, proj = camera
+        ids, colours = painter.paint(view, proj, width, height)
+        rgb = np.take(colours, ids, axis=0)
+        empty = ids == 0
+        clip_from_world = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T
+        windows = [body_window(clip_from_world @ _placed(house, body, bounds), width, height)
+                   for body, bounds in self._small[house]]
+        for window in merged([w for w in windows if w is not None]):
+            c0, r0, c1, r1 = window
+            part, depth, _ = house._render((view, _sub_projection(proj, width, height, window)),  # noqa: SLF001
+                                           c1 - c0, r1 - r0, segmentation=False)
+            rgb[r0:r1, c0:c1] = part
+            empty[r0:r1, c0:c1] = depth >= 1.0
+        if empty.any():
+            empty &= floor_mask(camera, width, height, self.floor_rect).view(bool)
+            cv2.copyTo(self._floor_image(height, width), empty.view(np.uint8), rgb)
+        return rgb
 
     def _render(self, house: PyBulletHouse, camera: tuple[list, list], width: int, height: int) -> np.ndarray:
         import cv2
@@ -190,6 +262,83 @@ def _contiguous_rgb(rgb: np.ndarray) -> np.ndarray:
             and rgba.flags.c_contiguous and rgb.ctypes.data == rgba.ctypes.data):
         return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
     return np.array(rgb)
+
+
+def _placed(house: PyBulletHouse, body: int, bounds: np.ndarray) -> np.ndarray:
+    """A body's local bounds (4, 8) where the body stands now."""
+    pos, orn = pybullet.getBasePositionAndOrientation(body, physicsClientId=house._client)  # noqa: SLF001
+    world = np.eye(4)
+    world[:3, :3], world[:3, 3] = np.reshape(pybullet.getMatrixFromQuaternion(orn), (3, 3)), pos
+    return world @ bounds
+
+
+#: The edges of a box's corners as :func:`fg_tea.env.house._corners` orders them (x, then y, then z).
+_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+
+
+def body_window(clip: np.ndarray, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """The pixel window (col0, row0, col1, row1) that can show what lies in a box, given its 8
+    corners in clip space (4, 8): the box clipped against the near plane (z > -w, where the
+    renderer clips triangles), projected, and 2 pixels more on every side; None if nothing of
+    it is in front of the near plane or in the image."""
+    front = clip[2] + clip[3]  # > 0 in front of the near plane
+    inside = (front > 0) & (clip[3] > 0)
+    if not inside.any():
+        return None
+    points = [clip[:, inside]]
+    for a, b in _EDGES:
+        if inside[a] != inside[b]:
+            t = front[a] / (front[a] - front[b])
+            points.append((clip[:, a] + t * (clip[:, b] - clip[:, a]))[:, None])
+    pts = np.concatenate(points, axis=1)
+    w = np.maximum(pts[3], 1e-12)
+    xs, ys = (pts[0] / w + 1) * (width / 2), (pts[1] / w + 1) * (height / 2)
+    c0, c1 = max(0, math.floor(xs.min()) - 2), min(width, math.ceil(xs.max()) + 3)
+    r0, r1 = max(0, height - 1 - math.ceil(ys.max()) - 2), min(height, height - math.floor(ys.min()) + 2)
+    if c1 <= c0 or r1 <= r0:
+        return None
+    return (c0, r0, c1, r1)
+
+
+def merged(windows: Sequence[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
+    """Pixel windows (col0, row0, col1, row1) with every two that overlap joined into the window
+    around both, until none overlap."""
+    out = list(windows)
+    joined = True
+    while joined:
+        joined = False
+        for i in range(len(out)):
+            for j in range(i + 1, len(out)):
+                a, b = out[i], out[j]
+                if a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]:
+                    out[i] = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+                    del out[j]
+                    joined = True
+                    break
+            if joined:
+                break
+    return out
+
+
+def house_boxes(scenario: Scenario, top: float | None) -> list[Box] | None:
+    """The walls (up to `top` m; None: full height) and furniture of a house as axis-aligned
+    boxes, as :class:`~fg_tea.env.house.PyBulletHouse` builds them; None if a wall runs along
+    neither x nor y."""
+    house = scenario.house
+    height = house.wall_height if top is None else min(max(top, 0.05), house.wall_height)
+    boxes = []
+    for wall in wall_boxes(house):
+        ux, uy = abs(wall.axis[0]), abs(wall.axis[1])
+        if (ux, uy) not in ((1.0, 0.0), (0.0, 1.0)):
+            return None
+        hx, hy = ux * wall.half[0] + uy * wall.half[1], uy * wall.half[0] + ux * wall.half[1]
+        (cx, cy) = wall.center
+        boxes.append(Box((cx - hx, cy - hy, 0.0), (cx + hx, cy + hy, height), WALL_COLOR))
+    for f in house.furniture:
+        (cx, cy), (sx, sy, sz) = f.center, f.size
+        r, g, b, alpha = f.color
+        boxes.append(Box((cx - sx / 2, cy - sy / 2, 0.0), (cx + sx / 2, cy + sy / 2, sz), (r, g, b, alpha)))
+    return boxes
 
 
 def wall_mesh(boxes: Sequence[Box2D], height: float, piece_m: float = WALL_PIECE_M
