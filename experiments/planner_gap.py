@@ -22,6 +22,12 @@ that misses as often as the model says (docs/design.md §6.9):
 - ``spl``: the chosen design beside the lookahead in larger generated houses (27 and 45 sites,
   :data:`SPL_WORLDS`, the make-tea task, paired worlds :data:`SPL_SEEDS`): SPL and the share of
   decisions its tables made (``spl.md``).
+- ``wide-discovery`` and ``wide-confirmation``: the same two steps in 12-viewpoint houses
+  (:data:`WIDE_HOUSES`: small_12 and a second house generated the same way), where no cap-2 table
+  over every viewpoint fits and near_exact decides as the lookahead unless its tables are
+  restricted (``restrict=1``): the candidates :data:`WIDE_CANDIDATES` on the discovery worlds,
+  then the chosen one beside the lookahead on the confirmation worlds, and its exact policy cost
+  in the houses above beside near_exact's (``wide/``).
 
 Both seed sets are fixed here, before any run. Episodes are kept under ``--out``/WORLD/episodes
 and ``--out``/spl/WORLD/episodes (a re-run resumes).
@@ -29,6 +35,8 @@ and ``--out``/spl/WORLD/episodes (a re-run resumes).
     python experiments/planner_gap.py --phase discovery --out experiments/results/planner_gap
     python experiments/planner_gap.py --phase confirmation --out experiments/results/planner_gap
     python experiments/planner_gap.py --phase spl --out experiments/results/planner_gap
+    python experiments/planner_gap.py --phase wide-discovery --out experiments/results/planner_gap
+    python experiments/planner_gap.py --phase wide-confirmation --out experiments/results/planner_gap
     python experiments/planner_gap.py --phase all --worlds 2 --houses independent_small_6 \\
         --tasks find_mug                                   # a quick look, under runs/
 """
@@ -73,14 +81,24 @@ CPU_RULE_MS = 4.0
 SPL_WORLDS = ("generated_medium", "generated_large")
 SPL_SEEDS = range(0, 30)
 RECORDED = "lookahead_recorded"
+#: The 12-viewpoint houses (``wide-*`` phases), where no cap-2 table over every viewpoint fits the
+#: default budget: the bundled small_12 and a second one generated the same way (seed 3).
+WIDE_HOUSES = ("independent_small_12", "independent_small_12b")
+WIDE_TASKS = ("find_mug", "find_three")
+#: The designs tried there on the discovery worlds: tables restricted to the viewpoints that
+#: cover most mass (``restrict=1``) at three budgets, 2^17, 2^19 (the default) and 2^21 entries.
+WIDE_CANDIDATES = ("near_exact:restrict=1,budget=131072", "near_exact:restrict=1",
+                   "near_exact:restrict=1,budget=2097152")
 
 
 def build_parser() -> argparse.ArgumentParser:
     from fg_tea.common.options import experiment_parser
 
     p = experiment_parser(__doc__, __file__, "§6.9")
-    p.add_argument("--phase", choices=("discovery", "confirmation", "spl", "all"), default="all",
-                   help="which phase to run (confirmation and spl read the discovery's choice.json from --out)")
+    p.add_argument("--phase", choices=("discovery", "confirmation", "spl", "all", "wide-discovery",
+                                        "wide-confirmation"), default="all",
+                   help="which phase to run (confirmation and spl read the discovery's choice.json from --out; "
+                        "the wide-* phases are the 12-viewpoint houses', under --out/wide, not part of all)")
     p.add_argument("--worlds", type=int, default=None,
                    help="use only the first N worlds of each declared seed set (a quick look)")
     p.add_argument("--houses", nargs="+", default=list(HOUSES), choices=HOUSES, help="worlds (houses)")
@@ -209,9 +227,30 @@ def _num(x: float) -> str:
 
 
 # ---------------------------------------------------------------------------- measuring designs
-def measure(world: str, task: str, planners: list[str], seeds: range, out: Path) -> dict:
-    """Every planner's exact policy cost, its episodes on `seeds` (CPU per decision) and the limit."""
+def kept_limit(world: str, task: str, path: Path | None) -> tuple:
+    """The limit of the task's search (:func:`fg_tea.study.yardstick.start_limit`), kept in the JSON
+    file `path` (if given) and read from it on a re-run: at 12 viewpoints it takes minutes."""
+    from dataclasses import asdict
+
+    from fg_tea.planning.limit import Limit
+
+    kept = json.loads(path.read_text()) if path is not None and path.is_file() else {}
+    key = f"{world}/{MODEL}/{task}"
+    if key in kept:
+        entry = kept[key]
+        return Limit(**{**entry["limit"], "caps": tuple(entry["limit"]["caps"])}), entry["objects"]
     limit, objects = yardstick.start_limit(world, MODEL, task)
+    if path is not None:
+        kept[key] = {"limit": asdict(limit), "objects": list(objects)}
+        atomic_write_text(path, json.dumps(kept, indent=1, sort_keys=True) + "\n")
+    return limit, objects
+
+
+def measure(world: str, task: str, planners: list[str], seeds: range, out: Path,
+            limits: Path | None = None) -> dict:
+    """Every planner's exact policy cost, its episodes on `seeds` (CPU per decision) and the limit
+    (kept in the file `limits`, if given: :func:`kept_limit`)."""
+    limit, objects = kept_limit(world, task, limits)
     rows = yardstick.run(world, seeds, MODEL, planners, task, out / world)
     policies = {p: yardstick.evaluate_policy(world, MODEL, p, task) for p in planners}
     return {"world": world, "task": task, "objects": objects, "limit": limit, "rows": rows,
@@ -244,13 +283,13 @@ def planner_rows(m: dict, baseline: str | None = "lookahead") -> list[dict]:
     return out
 
 
-def choose_design(rows: list[dict]) -> tuple[str | None, list[str]]:
+def choose_design(rows: list[dict], candidates: tuple[str, ...] = CANDIDATES) -> tuple[str | None, list[str]]:
     """The rule, fixed before the run: among the candidates whose mean CPU per decision is at most
     :data:`CPU_RULE_MS` in every house and task, the one whose largest policy ratio (upper end)
     is smallest; a tie (to 1e-4) goes to the smaller largest mean CPU. Returns the choice (None
     if no candidate qualifies) and one line per candidate saying how it fared."""
     notes, scored = [], []
-    for cand in dict.fromkeys(r["planner"] for r in rows if r["planner"] in CANDIDATES):
+    for cand in dict.fromkeys(r["planner"] for r in rows if r["planner"] in candidates):
         mine = [r for r in rows if r["planner"] == cand]
         worst_ratio = max(r["ratio_high"] for r in mine)
         worst_cpu = max(r["cpu_mean_ms"] for r in mine)
@@ -378,6 +417,86 @@ def confirmation(args, out: Path, command: str) -> str:
     return "\n".join(text)
 
 
+def wide_discovery(args, out: Path, command: str) -> str:
+    """The restricted designs (:data:`WIDE_CANDIDATES`) beside the lookahead on the discovery worlds
+    of the 12-viewpoint houses; the rule of :func:`choose_design` picks one (``wide/``)."""
+    seeds = seeds_of(DISCOVERY, args.worlds)
+    rows = []
+    for house in WIDE_HOUSES:
+        for task in WIDE_TASKS:
+            rows += planner_rows(measure(house, task, ["lookahead", *WIDE_CANDIDATES], seeds,
+                                        out / "wide" / "discovery", out / "wide" / "limits.json"))
+    choice, notes = choose_design(rows, WIDE_CANDIDATES)
+    write_csv(out / "wide" / "discovery.csv", rows)
+    text = ["# near_exact in 12-viewpoint houses: choosing the design on the discovery worlds", "",
+            f"Regenerate: `{command}`", "",
+            f"Discovery worlds: seeds {seeds.start}–{seeds.stop - 1} ({len(seeds)} per house and task). "
+            "No cap-2 table over all 12 viewpoints fits near_exact's budget, so the default decides as the "
+            "lookahead; each candidate solves the tables of the viewpoints that cover most mass at the "
+            "current belief (`restrict=1`, fg_tea/planning/restricted_tables.py), as many as fit its budget. "
+            f"Rule (fixed before the run): among the candidates whose mean CPU per decision is at most "
+            f"{CPU_RULE_MS:g} ms in every house and task, the smallest largest policy ratio (upper end); "
+            "ties to 1e-4 go to the smaller largest mean CPU.", ""] + table_text(rows) + [""]
+    text += [f"- {n}" for n in notes] + ["", f"Chosen: `{choice}`" if choice else "Chosen: none qualifies", ""]
+    atomic_write_text(out / "wide" / "discovery.md", "\n".join(text))
+    atomic_write_text(out / "wide" / "choice.json", json.dumps({"planner": choice, "rule_ms": CPU_RULE_MS,
+                                                                "seeds": [seeds.start, seeds.stop]}) + "\n")
+    return "\n".join(text)
+
+
+def same_policy_rows(planner: str, out: Path) -> list[list]:
+    """`planner`'s exact policy cost in the houses and tasks of the first confirmation, beside the
+    committed near_exact's (``summary.csv``): where its tables fit, ``restrict`` changes nothing."""
+    path = out / "summary.csv"
+    if not path.is_file():
+        raise InputError(str(path), "near_exact", "no confirmation of near_exact: run --phase confirmation first")
+    with path.open() as f:
+        before = {(r["house"], r["task"]): float(r["policy_cost"]) for r in csv.DictReader(f)
+                  if r["planner"] == "near_exact"}
+    body = []
+    for (house, task), cost in before.items():
+        now = yardstick.evaluate_policy(house, MODEL, planner, task).cost
+        body.append([house, task, f"{cost:.6g}", f"{now:.6g}", "yes" if abs(now - cost) <= 1e-5 * cost else "no"])
+    return body
+
+
+def wide_confirmation(args, out: Path, command: str) -> str:
+    """The chosen restricted design beside the lookahead on the confirmation worlds of the
+    12-viewpoint houses, and its policy in the first confirmation's houses (``wide/``)."""
+    planner = chosen(args, out / "wide")
+    seeds = seeds_of(CONFIRMATION, args.worlds)
+    rows = []
+    for house in WIDE_HOUSES:
+        for task in WIDE_TASKS:
+            rows += planner_rows(measure(house, task, ["lookahead", planner], seeds, out / "wide",
+                                         out / "wide" / "limits.json"))
+    write_csv(out / "wide" / "summary.csv", rows)
+    mine = [r for r in rows if r["planner"] == planner]
+    worst_ratio = max(r["ratio_high"] for r in mine)
+    worst_cpu = max(r["cpu_mean_ms"] for r in mine)
+    text = ["# near_exact in 12-viewpoint houses: confirmation", "", f"Regenerate: `{command}`", "",
+            f"Confirmation worlds: seeds {seeds.start}–{seeds.stop - 1} ({len(seeds)} per house and task, "
+            f"the same worlds for both planners); `{planner}` as the discovery chose it "
+            "(`wide/discovery.md`). Columns as in `summary.md`: the policy's exact expected cost "
+            "against the limit's bracket, CPU ms per decision over every decision (every solve "
+            "included, serial, `nice`d on a shared machine), the paired episode cost difference "
+            "from the lookahead with a 95 % bootstrap interval.", "",
+            "## Planners", ""] + table_text(rows) + ["", "## Verdict", "",
+            "Targets: policy ratio (upper end) at most 1.02 and mean CPU at most 5 ms per decision, in "
+            "both houses and tasks.", ""]
+    text += table_lines(["planner", "house-and-task pairs", "largest policy ratio (upper end)", "largest mean CPU ms",
+                         "met"], [[planner, len(mine), f"{worst_ratio:.4f}", f"{worst_cpu:.2f}",
+                                   "yes" if worst_ratio <= 1.02 and worst_cpu <= 5.0 else "no"]], align="left")
+    text += ["", "## Where the tables fit", "",
+             f"`{planner}`'s exact policy cost in the houses and tasks of `summary.md`, beside near_exact's "
+             "there: the restricted tables are solved only where the tables of every viewpoint do not fit, "
+             "so the policy is the same (*same*: equal to 1e-5 relative).", ""]
+    text += table_lines(["house", "task", "near_exact policy (m)", f"{planner} policy (m)", "same"],
+                        same_policy_rows(planner, out), align="left")
+    atomic_write_text(out / "wide" / "summary.md", "\n".join(text) + "\n")
+    return "\n".join(text)
+
+
 def spl_episode(world: str, seed: int, planner: str) -> dict:
     """One make-tea episode in the fake house: SPL, search travel and how each decision was made."""
     from fg_tea.study.frontier import played_episode
@@ -454,6 +573,10 @@ def main(argv: list[str] | None = None) -> int:
         print(confirmation(args, out, command))
     if args.phase in ("spl", "all"):
         print(spl_phase(args, out, command))
+    if args.phase == "wide-discovery":
+        print(wide_discovery(args, out, command))
+    if args.phase == "wide-confirmation":
+        print(wide_confirmation(args, out, command))
     return 0
 
 

@@ -13,7 +13,7 @@ PLAIN = ("efe", "factorised_efe", "mi_efe", "nearest", "greedy", "random", "opti
          "near_exact")
 #: The planner families whose names take settings after a colon, and how the settings are written.
 FAMILY_FORMS = {"lookahead": "lookahead:depth=2,width=3,...", "exact": "exact:cap=N",
-                "near_exact": "near_exact:cap=N,budget=E",
+                "near_exact": "near_exact:cap=N,budget=E,restrict=R",
                 "pouct": "pouct:N", "pomcp": "pomcp:N"}
 
 

@@ -16,7 +16,7 @@ ones), ``factorised_efe`` (eqs. 10-11 always), ``mi_efe`` (exact mutual informat
 and, when pomdp-py (the optional ``[peers]`` extra) is installed, the peers ``pouct:100``,
 ``pouct:1000``, ``pomcp:1000``. Families take settings after a colon: ``lookahead:depth=2,width=4``
 (:class:`~fg_tea.planning.lookahead.LookaheadSettings`), ``exact:cap=N``,
-``near_exact:cap=N,budget=E`` (:class:`~fg_tea.planning.near_exact.NearExactSettings`),
+``near_exact:cap=N,budget=E,restrict=R`` (:class:`~fg_tea.planning.near_exact.NearExactSettings`),
 ``pouct:N`` and ``pomcp:N`` (N
 simulations per decision); :func:`check_planner_name` accepts any well-formed one.
 Planners of your own plug in by name without editing the package: an entry point in the group

@@ -23,11 +23,17 @@ cyclic sweep), solved once and reused while they describe the belief. Two things
   default lookahead's (:class:`fg_tea.planning.lookahead.LookaheadPlanner`), and
   ``info["near_exact"]`` says so and why; so does a correlated belief, for which the tables do
   not hold.
+- **Restricted tables** (``restrict=1``; default 0, the above): where the tables of every useful
+  viewpoint do not fit at cap 2, the tables of the viewpoints that cover most mass at the current
+  belief and position, as many as fit, solved again when that set changes
+  (:mod:`fg_tea.planning.restricted_tables`); ``info["near_exact"]`` says ``tables cap=2 over k of
+  n viewpoints``. Measured in two 12-viewpoint houses by ``experiments/planner_gap.py``'s
+  ``wide-*`` phases (``experiments/results/planner_gap/wide/``).
 
 What drives the gap between the lookahead and the limit, decision by decision, and what this
 planner costs and gains in the bundled apartment and the small generated houses, is measured by
 ``experiments/planner_gap.py`` (results in ``experiments/results/planner_gap/``).
-Planner specs: ``near_exact`` or ``near_exact:cap=2,budget=524288`` (the defaults).
+Planner specs: ``near_exact`` or ``near_exact:cap=2,budget=524288,restrict=0`` (the defaults).
 """
 
 from __future__ import annotations
@@ -45,6 +51,7 @@ from fg_tea.planning.exact import ExactPlanner, ExactSettings, _Solved
 from fg_tea.planning.limit import _useful
 from fg_tea.planning.lookahead import LookaheadPlanner
 from fg_tea.planning.problem import LOOK_COST, build_problem
+from fg_tea.planning.restricted_tables import STANDING, RestrictedSolved, solve_restricted
 
 #: The smallest cap whose tables are used; below it the decision is the lookahead's.
 MIN_CAP = 2
@@ -66,19 +73,29 @@ def fitted_cap(n_views: int, n_objects: int, cap: int, budget: int) -> int:
     return next((c for c in range(cap, 0, -1) if table_entries(n_views, n_objects, c) <= budget), 0)
 
 
+def restricted_size(n_objects: int, budget: int, most: int = 64) -> int:
+    """The most viewpoints whose tables at cap :data:`MIN_CAP` fit `budget` (``restrict=1``), or 0."""
+    return next((k for k in range(most, 0, -1) if table_entries(k, n_objects, MIN_CAP) <= budget), 0)
+
+
 @dataclass(frozen=True)
 class NearExactSettings:
-    """``near_exact:cap=N,budget=E``: the largest cap tried (2 to 8, default :data:`CAP`) and the
-    most table entries of one solve (at least 1000, default :data:`BUDGET`)."""
+    """``near_exact:cap=N,budget=E,restrict=R``: the largest cap tried (2 to 8, default :data:`CAP`),
+    the most table entries of one solve (at least 1000, default :data:`BUDGET`) and whether tables
+    restricted to the viewpoints of most mass decide where those of all do not fit (1), or the
+    lookahead (0, the default)."""
 
     cap: int = CAP
     budget: int = BUDGET
+    restrict: int = 0
 
     def __post_init__(self) -> None:
         if not MIN_CAP <= self.cap <= 8:
             raise ValueError(f"near_exact: cap must be from {MIN_CAP} to 8, got {self.cap}")
         if self.budget < 1000:
             raise ValueError(f"near_exact: budget must be at least 1000 table entries, got {self.budget}")
+        if self.restrict not in (0, 1):
+            raise ValueError(f"near_exact: restrict must be 0 or 1, got {self.restrict}")
 
     @classmethod
     def parse(cls, spec: str) -> "NearExactSettings":
@@ -87,10 +104,10 @@ class NearExactSettings:
         Raises:
             ValueError: an unknown key or a malformed or out-of-range value.
         """
-        return cls(**parse_settings("near_exact", spec, {"cap": int, "budget": int}))
+        return cls(**parse_settings("near_exact", spec, {"cap": int, "budget": int, "restrict": int}))
 
     def spec(self) -> str:
-        return f"cap={self.cap},budget={self.budget}"
+        return f"cap={self.cap},budget={self.budget}" + (",restrict=1" if self.restrict else "")
 
 
 class _TooLarge(Exception):
@@ -103,14 +120,40 @@ class _FittedTables(ExactPlanner):
     def __init__(self, settings: NearExactSettings, look: float) -> None:
         super().__init__(ExactSettings(cap=settings.cap), look)
         self.budget = settings.budget
+        self.restrict = bool(settings.restrict)
+        self._distances: DistanceModel | None = None
 
     def check(self, belief, objects: Sequence[str]) -> None:
         return None  # NearExactPlanner routes a correlated belief and a large house elsewhere
+
+    def choose(self, belief, objects: Sequence[str], relevance: Mapping[str, float],
+               distances: DistanceModel, inspected: Mapping[str, int],
+               excluded_sites: frozenset[str] = frozenset(), views=None) -> Decision:
+        self._distances = distances  # where the agent stands decides the viewpoints restricted tables keep
+        return super().choose(belief, objects, relevance, distances, inspected, excluded_sites, views)
+
+    def _state(self, solved: _Solved, belief, objects, inspected, excluded):
+        """As the exact planner's, and for restricted tables (``restrict=1``) only while the
+        viewpoints kept at the current belief and position, and how many, are those they were
+        solved for."""
+        if isinstance(solved, RestrictedSolved):
+            assert self._distances is not None, "restricted tables are solved in choose"
+            here = next((v for v in solved.every if self._distances.from_agent(v) < STANDING), None)
+            if (restricted_size(len(objects), self.budget) != solved.k
+                    or solved.cover_now(belief, objects, here) != solved.kept):
+                return None
+        return super()._state(solved, belief, objects, inspected, excluded)
 
     def _solve(self, belief, objects, distances, inspected, excluded, views) -> _Solved:
         problem = build_problem(belief, objects, distances, excluded, views, self.look)
         useful, sites, q0 = _useful(problem)
         cap = fitted_cap(len(useful), len(objects), self.settings.cap, self.budget)
+        k = restricted_size(len(objects), self.budget)
+        if cap < MIN_CAP and self.restrict and k >= 1:
+            solved = solve_restricted(problem, objects, inspected, excluded, k,
+                                      fitted_cap(k, len(objects), self.settings.cap, self.budget))
+            self.solves += 1
+            return solved
         if cap < MIN_CAP:
             need = table_entries(len(useful), len(objects), MIN_CAP)
             raise _TooLarge(f"{len(useful)} viewpoints and {len(objects)} object"
@@ -181,8 +224,11 @@ class NearExactPlanner(PlannerBase):
                 why = str(exc)
                 self._too_large = (key, views, why)
             else:
-                assert self.tables._solved is not None
-                route = f"tables cap={self.tables._solved.tables.cap}"
+                solved = self.tables._solved
+                assert solved is not None
+                route = f"tables cap={solved.tables.cap}"
+                if isinstance(solved, RestrictedSolved):
+                    route += f" over {len(solved.kept)} of {len(solved.every)} viewpoints"
                 return Decision(d.object, d.viewpoint, d.total, d.candidates, self.name,
                                 {**d.info, "near_exact": route, "budget": float(self.settings.budget)})
         self.tables._solved = None
