@@ -10,7 +10,7 @@ where only those do, which reaches one more look per viewpoint at 12 to 16 viewp
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -64,7 +64,7 @@ def pair_fits(n_views: int, n_objects: int, n_sites: int, levels: int | np.ndarr
 
 
 def search_limit(problem: SearchProblem, tolerance: float = 1e-3, max_bytes: int = MAX_BYTES,
-                 max_cap: int = 12) -> Limit:
+                 max_cap: int = 12, progress: Callable[[str], None] | None = None) -> Limit:
     """Bracket the optimal expected search cost of `problem` (see the module docstring).
 
     Args:
@@ -72,6 +72,7 @@ def search_limit(problem: SearchProblem, tolerance: float = 1e-3, max_bytes: int
         tolerance: stop raising the cap once ``upper - lower`` is at most this (metres).
         max_bytes: the most memory one solve may use (as :func:`table_bytes` estimates it).
         max_cap: the largest cap tried.
+        progress: called with a line after each pair of cuts (a long solve says where it is).
 
     Raises:
         ValueError: :func:`limit_fault` says why the problem cannot be answered.
@@ -92,6 +93,8 @@ def search_limit(problem: SearchProblem, tolerance: float = 1e-3, max_bytes: int
         lo_best = lo if best is None else max(lo, best.lower)
         hi_best = hi if best is None else min(hi, best.upper)
         best = Limit(lo_best, hi_best, cap, _entries(a, m, cap + 1), a, m, cap - 1)
+        if progress is not None:
+            progress(f"caps {cap - 1} and {cap}: [{lo:.6f}, {hi:.6f}] m")
         if best.width <= tolerance:
             break
     assert best is not None
@@ -99,6 +102,8 @@ def search_limit(problem: SearchProblem, tolerance: float = 1e-3, max_bytes: int
     if best.width > tolerance and caps.min() != caps.max():
         lo = _solve(problem, views, sites, q0, caps - 1, upper=False, max_bytes=max_bytes)
         hi = _solve(problem, views, sites, q0, caps, upper=True, max_bytes=max_bytes)
+        if progress is not None:
+            progress(f"caps {', '.join(map(str, caps))} per viewpoint: [{lo:.6f}, {hi:.6f}] m")
         if lo > best.lower or hi < best.upper:
             best = Limit(max(lo, best.lower), min(hi, best.upper), best.cap,
                          max(best.entries, _entries(a, m, caps + 1)), a, m, best.lower_cap,

@@ -89,7 +89,10 @@ def start_limit(world: str, model_name: str, task: str, tolerance: float = 1e-3,
     """The limit of the search the task starts with, from the start pose (world seed 0's house),
     each solve within `max_bytes`."""
     problem, objects = start_problem(world, model_name, task)
-    return search_limit(problem, tolerance=tolerance, max_bytes=max_bytes), objects
+    def say(line: str) -> None:
+        print(f"{task}: limit, {line}", flush=True)
+
+    return search_limit(problem, tolerance=tolerance, max_bytes=max_bytes, progress=say), objects
 
 
 def run_episode(world: str, seed: int, model_name: str, planner: str, task: str,
