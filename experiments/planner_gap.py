@@ -86,9 +86,11 @@ RECORDED = "lookahead_recorded"
 WIDE_HOUSES = ("independent_small_12", "independent_small_12b")
 WIDE_TASKS = ("find_mug", "find_three")
 #: The designs tried there on the discovery worlds: tables restricted to the viewpoints that
-#: cover most mass (``restrict=1``) at three budgets, 2^17, 2^19 (the default) and 2^21 entries.
-WIDE_CANDIDATES = ("near_exact:restrict=1,budget=131072", "near_exact:restrict=1",
-                   "near_exact:restrict=1,budget=2097152")
+#: cover most mass (``restrict=1``), solved again once those cover less than the best ones by more
+#: than a slack of 0.01, 0.03 or 0.1 of the mass, at the default budget (2^19 entries), and at 0.03
+#: with 2^21 entries (one viewpoint more).
+WIDE_CANDIDATES = ("near_exact:restrict=1,slack=0.01", "near_exact:restrict=1,slack=0.03",
+                   "near_exact:restrict=1,slack=0.1", "near_exact:restrict=1,budget=2097152,slack=0.03")
 
 
 def build_parser() -> argparse.ArgumentParser:

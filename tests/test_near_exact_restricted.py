@@ -69,6 +69,30 @@ def test_restricted_tables_choose_as_the_exact_policy_where_the_left_out_mass_is
         counts_mine[here] += 1
 
 
+class _Marginals:
+    """A belief as the shortfall reads it: each object's marginal over the sites."""
+
+    def __init__(self, rows: dict) -> None:
+        self.rows = rows
+
+    def marginal(self, o: str) -> np.ndarray:
+        return np.asarray(self.rows[o], dtype=float)
+
+
+def test_the_shortfall_is_the_mass_the_kept_viewpoints_miss_against_the_best_set_now():
+    prob = np.zeros((4, 1, 4))
+    for j in range(4):
+        prob[j, 0, j] = 0.9
+    between = np.abs(np.subtract.outer(np.arange(4.0), np.arange(4.0)))
+    problem = make_problem(prob, [[0.4, 0.3, 0.2, 0.1]], [1.0, 2.0, 3.0, 4.0], between, [0.144] * 4)
+    solved = solve_restricted(problem, ["o0"], {}, frozenset(), 2, 2)
+    assert solved.kept == ("v0", "v1")
+    assert solved.shortfall(_Marginals({"o0": [0.4, 0.3, 0.2, 0.1]}), ["o0"], None) == 0.0
+    # misses at v0 moved mass to v2: the best pair is now v1 and v2, 0.2 more than v0 and v1
+    assert solved.shortfall(_Marginals({"o0": [0.2, 0.3, 0.4, 0.1]}), ["o0"], None) == pytest.approx(0.2)
+    assert solved.shortfall(_Marginals({"o0": [0.4, 0.3, 0.2, 0.1]}), ["o0"], "v3") == float("inf")
+
+
 def _decisions(spec: str, task: str, model: str = "factorised_close"):
     scenario = fg.load_scenario("default_apartment")
     agent = fg.Agent(scenario, fg.load_model(model), spec, task=task)
@@ -110,9 +134,12 @@ def test_a_find_that_changes_the_room_in_the_budget_solves_again():
 def test_the_setting_is_checked_and_a_correlated_belief_is_still_the_lookahead_s():
     assert NearExactSettings.parse("restrict=1") == NearExactSettings(restrict=1)
     assert NearExactSettings(restrict=1).spec() == "cap=2,budget=524288,restrict=1"
-    check_planner("near_exact:restrict=1,budget=2097152")
-    for bad in ("near_exact:restrict=2", "near_exact:restrict=yes"):
-        with pytest.raises(ValueError, match="restrict"):
+    assert NearExactSettings.parse("restrict=1,slack=0.03").spec() == "cap=2,budget=524288,restrict=1,slack=0.03"
+    check_planner("near_exact:restrict=1,budget=2097152,slack=0.1")
+    for bad, key in (("near_exact:restrict=2", "restrict"), ("near_exact:restrict=yes", "restrict"),
+                     ("near_exact:slack=1", "slack"), ("near_exact:slack=-0.1", "slack"),
+                     ("near_exact:slack=nan", "slack")):
+        with pytest.raises(ValueError, match=key):
             check_planner(bad)
     with pytest.warns(UserWarning, match="near_exact: deciding as the lookahead does"):
         _, c1, _ = _decisions("near_exact:restrict=1", "find_three", model="joint_close")

@@ -25,8 +25,8 @@ cyclic sweep), solved once and reused while they describe the belief. Two things
   not hold.
 - **Restricted tables** (``restrict=1``; default 0, the above): where the tables of every useful
   viewpoint do not fit at cap 2, the tables of the viewpoints that cover most mass at the current
-  belief and position, as many as fit, solved again when that set changes
-  (:mod:`fg_tea.planning.restricted_tables`); ``info["near_exact"]`` says ``tables cap=2 over k of
+  belief and position, as many as fit, solved again when they cover more than ``slack`` (default 0)
+  less mass than the best such set (:mod:`fg_tea.planning.restricted_tables`); ``info["near_exact"]`` says ``tables cap=2 over k of
   n viewpoints``. Measured in two 12-viewpoint houses by ``experiments/planner_gap.py``'s
   ``wide-*`` phases (``experiments/results/planner_gap/wide/``).
 
@@ -83,11 +83,13 @@ class NearExactSettings:
     """``near_exact:cap=N,budget=E,restrict=R``: the largest cap tried (2 to 8, default :data:`CAP`),
     the most table entries of one solve (at least 1000, default :data:`BUDGET`) and whether tables
     restricted to the viewpoints of most mass decide where those of all do not fit (1), or the
-    lookahead (0, the default)."""
+    lookahead (0, the default); with ``restrict=1``, ``slack=S`` (0 to below 1, default 0) is how
+    much less mass the kept viewpoints may cover than the best set before they are solved again."""
 
     cap: int = CAP
     budget: int = BUDGET
     restrict: int = 0
+    slack: float = 0.0
 
     def __post_init__(self) -> None:
         if not MIN_CAP <= self.cap <= 8:
@@ -96,6 +98,8 @@ class NearExactSettings:
             raise ValueError(f"near_exact: budget must be at least 1000 table entries, got {self.budget}")
         if self.restrict not in (0, 1):
             raise ValueError(f"near_exact: restrict must be 0 or 1, got {self.restrict}")
+        if not 0.0 <= self.slack < 1.0:
+            raise ValueError(f"near_exact: slack must be from 0 to below 1, got {self.slack}")
 
     @classmethod
     def parse(cls, spec: str) -> "NearExactSettings":
@@ -104,10 +108,12 @@ class NearExactSettings:
         Raises:
             ValueError: an unknown key or a malformed or out-of-range value.
         """
-        return cls(**parse_settings("near_exact", spec, {"cap": int, "budget": int, "restrict": int}))
+        return cls(**parse_settings("near_exact", spec, {"cap": int, "budget": int, "restrict": int,
+                                                         "slack": float}))
 
     def spec(self) -> str:
-        return f"cap={self.cap},budget={self.budget}" + (",restrict=1" if self.restrict else "")
+        return (f"cap={self.cap},budget={self.budget}" + (",restrict=1" if self.restrict else "")
+                + (f",slack={self.slack:g}" if self.slack else ""))
 
 
 class _TooLarge(Exception):
@@ -121,6 +127,7 @@ class _FittedTables(ExactPlanner):
         super().__init__(ExactSettings(cap=settings.cap), look)
         self.budget = settings.budget
         self.restrict = bool(settings.restrict)
+        self.slack = settings.slack + 1e-12
         self._distances: DistanceModel | None = None
 
     def check(self, belief, objects: Sequence[str]) -> None:
@@ -134,13 +141,13 @@ class _FittedTables(ExactPlanner):
 
     def _state(self, solved: _Solved, belief, objects, inspected, excluded):
         """As the exact planner's, and for restricted tables (``restrict=1``) only while the
-        viewpoints kept at the current belief and position, and how many, are those they were
-        solved for."""
+        budget leaves room for as many viewpoints and those kept cover at most ``slack`` less mass
+        than the best set at the current belief and position."""
         if isinstance(solved, RestrictedSolved):
             assert self._distances is not None, "restricted tables are solved in choose"
             here = next((v for v in solved.every if self._distances.from_agent(v) < STANDING), None)
             if (restricted_size(len(objects), self.budget) != solved.k
-                    or solved.cover_now(belief, objects, here) != solved.kept):
+                    or solved.shortfall(belief, objects, here) > self.slack):
                 return None
         return super()._state(solved, belief, objects, inspected, excluded)
 

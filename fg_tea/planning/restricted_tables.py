@@ -5,13 +5,15 @@ Where the upper cut's tables at cap 2 over every useful viewpoint do not fit nea
 tables, of a smaller search: the ``k`` viewpoints that cover most of the searched objects' mass
 at the current belief (greedily: each next viewpoint the one whose sites add the most mass not yet
 covered, summed over the objects still searched), ``k`` the most whose tables at the cap fit the
-budget. The restricted search is the current belief conditioned on the objects standing at sites
+budget; the viewpoint the agent stands at is kept first, so that looking again from it stays a
+choice. The restricted search is the current belief conditioned on the objects standing at sites
 those viewpoints show; its tables are solved by :func:`fg_tea.planning.cut_tables.solve_cut` and
-reused while the chosen viewpoints stay the same and the tables describe the belief (the checks of
-:class:`fg_tea.planning.exact.ExactPlanner`); when a look that missed moves enough mass for another
-viewpoint to enter the chosen set, the tables are solved again from the current belief. The mass
-left out is not charged: the restricted tables plan as if it were not there, and it comes back
-into the search as the covered mass falls.
+reused while they describe the belief (the checks of :class:`fg_tea.planning.exact.ExactPlanner`),
+the number of objects leaves the same number of viewpoints in the budget, and the kept
+viewpoints cover at most ``slack`` less of the mass (averaged over the objects still searched)
+than the ones the cover would keep now (:meth:`RestrictedSolved.shortfall`); else they are solved
+again from the current belief. The mass left out is not charged: the restricted tables plan as if
+it were not there, and it comes back into the search as the covered mass falls.
 
 The decision is thus a function of the belief and of where the last solve started, as
 near_exact's own is; it never reads anything but the belief, the distances and the views.
@@ -90,16 +92,22 @@ class RestrictedSolved(_Solved):
     k: int = 0
     kept: tuple[str, ...] = ()
 
-    def cover_now(self, belief, objects, here: str | None) -> tuple[str, ...]:
-        """The viewpoints :func:`greedy_cover` keeps at `belief` for `objects` (those still
-        searched) with the agent at viewpoint `here` (None: elsewhere): the mass of each object
-        over the whole search's open sites, normalised, summed."""
+    def shortfall(self, belief, objects, here: str | None) -> float:
+        """How much less mass the kept viewpoints cover at `belief` than the ones
+        :func:`greedy_cover` would keep now (with the agent at viewpoint `here`, None: elsewhere):
+        the mass of each object still searched over the whole search's open sites, normalised,
+        averaged over the objects; inf if the agent stands at a useful viewpoint the tables left out."""
+        if here in self.every and here not in self.kept:
+            return float("inf")
         mass = np.zeros(self.every_allowed.size)
         for o in objects:
             m = np.asarray(belief.marginal(o), dtype=float)[self.every_allowed]
             mass += m / max(float(m.sum()), 1e-300)
         first = self.every.index(here) if here in self.every else None
-        return tuple(self.every[i] for i in greedy_cover(self.shows, mass, self.k, first))
+        now = greedy_cover(self.shows, mass, self.k, first)
+        kept = [self.every.index(v) for v in self.kept]
+        gap = float(mass @ self.shows[now].any(axis=0) - mass @ self.shows[kept].any(axis=0))
+        return gap / max(len(objects), 1)
 
 
 def solve_restricted(problem: SearchProblem, objects, inspected, excluded, k: int, cap: int) -> RestrictedSolved:
