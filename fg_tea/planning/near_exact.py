@@ -26,9 +26,10 @@ cyclic sweep), solved once and reused while they describe the belief. Two things
 - **Restricted tables** (``restrict=1``; default 0, the above): where the tables of every useful
   viewpoint do not fit at cap 2, the tables of the viewpoints that cover most mass at the current
   belief and position, as many as fit, solved again when they cover more than ``slack`` (default 0)
-  less mass than the best such set (:mod:`fg_tea.planning.restricted_tables`); ``info["near_exact"]`` says ``tables cap=2 over k of
-  n viewpoints``. Measured in two 12-viewpoint houses by ``experiments/planner_gap.py``'s
-  ``wide-*`` phases (``experiments/results/planner_gap/wide/``).
+  less mass than the best such set (:mod:`fg_tea.planning.restricted_tables`);
+  ``info["near_exact"]`` says ``tables cap=2 over k of n viewpoints``. Measured in two
+  12-viewpoint houses by ``experiments/planner_gap.py``'s ``wide-*`` phases
+  (``experiments/results/planner_gap/wide/``).
 
 What drives the gap between the lookahead and the limit, decision by decision, and what this
 planner costs and gains in the bundled apartment and the small generated houses, is measured by
