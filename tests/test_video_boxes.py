@@ -169,7 +169,10 @@ def test_a_body_window_holds_every_pixel_of_the_body(client):
         assert (part != whole[r0:r1, c0:c1]).any(axis=2).sum() <= 2
 
 
-def test_windows_that_overlap_are_joined():
+def test_windows_that_overlap_or_lie_close_are_joined():
     assert merged([(0, 0, 10, 10), (20, 20, 30, 30)]) == [(0, 0, 10, 10), (20, 20, 30, 30)]
     assert merged([(0, 0, 10, 10), (5, 5, 15, 15), (14, 0, 20, 3)]) == [(0, 0, 20, 15)]
-    assert merged([(0, 0, 10, 10), (10, 0, 20, 10)]) == [(0, 0, 10, 10), (10, 0, 20, 10)]  # touching only
+    assert merged([(0, 0, 10, 10), (10, 0, 20, 10)]) == [(0, 0, 20, 10)]  # side by side: nothing more to render
+    # 900 - 200 = 700 pixels more than the two: joined when that is allowed
+    assert merged([(0, 0, 10, 10), (20, 20, 30, 30)], 700) == [(0, 0, 30, 30)]
+    assert merged([(0, 0, 10, 10), (20, 20, 30, 30)], 699) == [(0, 0, 10, 10), (20, 20, 30, 30)]

@@ -1,6 +1,7 @@
-"""The render-only house's walls as one mesh (fg_tea.render.scene.wall_mesh) give the pixels of
-the plain renderer's wall boxes: chase and first-person images of the default episode, compared
-with a house drawn as the episode drew it. (The cost is measured by experiments/bench_video.py.)
+"""The render-only house's walls as one mesh (fg_tea.render.scene.wall_mesh), and the views of
+fg_tea.render.scene.SceneViews (walls and furniture painted, objects in windows), give the pixels
+of the plain renderer: chase and first-person images of the default episode, compared with a
+house drawn as the episode drew it. (The cost is measured by experiments/bench_video.py.)
 """
 
 from __future__ import annotations
@@ -52,7 +53,8 @@ def test_views_with_a_wall_mesh_give_the_plain_renderers_pixels(default_events):
     config = dataclasses.replace(EnvConfig(), **env)
     house = PyBulletHouse(scenario, config)
     house.reset(plan.seed)
-    plain, cheap = HouseViews(house, options.wall_cutaway), SceneViews(scenario, config, plan.seed, options.wall_cutaway)
+    plain = HouseViews(house, options.wall_cutaway)
+    cheap = SceneViews(scenario, config, plan.seed, options.wall_cutaway)
     chase = (options.chase_distance, options.chase_height, options.chase_pitch_deg, options.chase_hfov_deg)
     try:
         for index in np.linspace(0, len(plan.frames) - 1, 6).astype(int):

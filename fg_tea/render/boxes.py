@@ -137,12 +137,10 @@ class BoxPainter:
                            for axis, sign in DIRECTIONS], axis=1)
         box, face = np.nonzero(facing)
         box = order[box]
-        projected = _project(m, self._faces[box, face], width, height)
-        kept = [k for k, poly in enumerate(projected) if poly is not None]
-        polygons = [poly for poly in projected if poly is not None]
+        polygons, kept = _project(m, self._faces[box, face], width, height)
         colours = np.concatenate([np.full((1, 3), 255, np.uint8), self.colours[box[kept], face[kept]]])
         ids = np.zeros(height * width, np.int32)
-        if polygons:
+        if len(polygons):
             rows, x0, x1, polygon = _spans(polygons, width, height)
             length = x1 - x0 + 1
             keep = length > 0
@@ -224,45 +222,51 @@ def _face(lo: np.ndarray, hi: np.ndarray, axis: int, sign: float) -> list[tuple[
     return corners
 
 
-def _project(m: np.ndarray, faces: np.ndarray, width: int, height: int) -> list[np.ndarray | None]:
+def _project(m: np.ndarray, faces: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """Faces' corners (n, 4, 3) in TinyRenderer's pixel coordinates (before its vertical flip),
-    clipped against the near plane (z > -w) as it clips triangles; None where nothing is left."""
+    clipped against the near plane (z > -w) as it clips triangles.
+
+    Returns:
+        polygons: (k, 5, 2), each convex polygon's corners, its last one repeated to fill five.
+        kept: the indices of the `k` faces something is left of.
+    """
     clip = np.concatenate([faces, np.ones(faces.shape[:2] + (1,))], axis=2) @ m.T  # (n, 4, 4)
     inside = (clip[..., 3] > 0) & (clip[..., 2] > -clip[..., 3])
     scale = np.array([width / 2, height / 2])
-    screen = (clip[..., :2] / clip[..., 3:4] + 1) * scale
-    out: list[np.ndarray | None] = list(screen)
-    for k in np.flatnonzero(~inside.all(axis=1)):
-        out[k] = None
-        if not inside[k].any():
-            continue
-        kept = []
-        for a, b, a_in, b_in in zip(clip[k], np.roll(clip[k], -1, 0), inside[k], np.roll(inside[k], -1)):
-            if a_in:
-                kept.append(a)
-            if a_in != b_in:
+    whole = inside.all(axis=1)
+    polygons = np.empty((len(faces), 5, 2))
+    polygons[:, :4] = (clip[..., :2] / clip[..., 3:4] + 1) * scale
+    polygons[:, 4] = polygons[:, 3]
+    kept = whole.copy()
+    for k in np.flatnonzero(~whole & inside.any(axis=1)):
+        corners, flags, cut = list(clip[k]), list(inside[k]), []
+        for i in range(4):
+            a, b = corners[i], corners[(i + 1) % 4]
+            if flags[i]:
+                cut.append(a)
+            if flags[i] != flags[(i + 1) % 4]:
                 da, db = a[2] + a[3], b[2] + b[3]
-                kept.append((a * db - b * da) / (db - da))
-        if len(kept) >= 3:
-            c = np.array(kept)
-            out[k] = (c[:, :2] / c[:, 3:4] + 1) * scale
-    return out
+                cut.append((a * db - b * da) / (db - da))
+        if len(cut) >= 3:
+            c = np.array(cut + [cut[-1]] * (5 - len(cut)))
+            polygons[k] = (c[:, :2] / c[:, 3:4] + 1) * scale
+            kept[k] = True
+    index = np.flatnonzero(kept)
+    return polygons[index], index
 
 
-def _spans(polygons: list[np.ndarray], width: int, height: int
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Rows and [x0, x1] column spans of the integer points inside (or on) convex polygons, in
-    the polygons' order: (row, x0, x1, polygon index), for all polygons at once."""
-    size = max(len(p) for p in polygons)
-    pts = np.array([np.concatenate([p, np.repeat(p[-1:], size - len(p), axis=0)]) for p in polygons])
-    nxt = np.roll(pts, -1, axis=1)
+def _spans(pts: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rows and [x0, x1] column spans of the integer points inside (or on) convex polygons
+    (n, corners, 2; a repeated corner adds an edge of no length), in the polygons' order:
+    (row, x0, x1, polygon index), for all polygons at once."""
+    nxt = np.concatenate([pts[:, 1:], pts[:, :1]], axis=1)
     area = np.sum(pts[:, :, 0] * nxt[:, :, 1] - nxt[:, :, 0] * pts[:, :, 1], axis=1)
     good = np.abs(area) > 0.02  # twice the area in pixels: TinyRenderer drops degenerate triangles
     sign = np.where(area >= 0, 1.0, -1.0)
     y0 = np.maximum(np.ceil(pts[:, :, 1].min(axis=1) - TIE_PX), 0)
     y1 = np.minimum(np.floor(pts[:, :, 1].max(axis=1) + TIE_PX), height - 1)
     count = np.where(good, np.maximum(y1 - y0 + 1, 0), 0).astype(np.int64)
-    poly = np.repeat(np.arange(len(polygons)), count)
+    poly = np.repeat(np.arange(len(pts)), count)
     rows = np.repeat(y0, count) + (np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count))
     # Edge k: inside where s * ((x1 - x0) * (y - y0) - (y1 - y0) * (x - x0)) >= 0, i.e. a x + c >= 0.
     p0, p1, s = pts[poly], nxt[poly], sign[poly][:, None]

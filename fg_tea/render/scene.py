@@ -73,12 +73,14 @@ class SceneViews:
         self.floor_rect = (x0 - 0.3, y0 - 0.3, x1 + 0.3, y1 + 0.3)  # the floor box of PyBulletHouse
         for h in (self.ego_house, self.chase_house):
             pybullet.removeBody(h._static[0], physicsClientId=h._client)  # noqa: SLF001 (render-only copy)
-        self._cut_walls(self.chase_house, wall_cutaway)
-        self._cut_walls(self.ego_house, None)
-        self.calls = 0
-        self._floor_images: dict[tuple[int, int], np.ndarray] = {}
         boxes = {house: house_boxes(scenario, top) for house, top in ((self.chase_house, wall_cutaway),
                                                                       (self.ego_house, None))}
+        for house, top in ((self.chase_house, wall_cutaway), (self.ego_house, None)):
+            # Painted walls are drawn by the renderer only in small windows, where a long face's
+            # triangles cost little and fewer triangles cost less (every image transforms them all).
+            self._cut_walls(house, top, WALL_PIECE_M if boxes[house] is None else math.inf)
+        self.calls = 0
+        self._floor_images: dict[tuple[int, int], np.ndarray] = {}
         #: The walls and furniture drawn without the renderer (None: a wall not along x or y, and
         #: the renderer draws everything).
         self.painters = {house: None if b is None else BoxPainter(b, self._shade) for house, b in boxes.items()}
@@ -186,7 +188,7 @@ class SceneViews:
         clip_from_world = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T
         windows = [body_window(clip_from_world @ _placed(house, body, bounds), width, height)
                    for body, bounds in self._small[house]]
-        for window in merged([w for w in windows if w is not None]):
+        for window in merged([w for w in windows if w is not None], JOIN_PX):
             c0, r0, c1, r1 = window
             part, depth, _ = house._render((view, _sub_projection(proj, width, height, window)),  # noqa: SLF001
                                            c1 - c0, r1 - r0, segmentation=False)
@@ -300,9 +302,19 @@ def body_window(clip: np.ndarray, width: int, height: int) -> tuple[int, int, in
     return (c0, r0, c1, r1)
 
 
-def merged(windows: Sequence[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
-    """Pixel windows (col0, row0, col1, row1) with every two that overlap joined into the window
-    around both, until none overlap."""
+#: Two windows are rendered as one when the window around both has at most this many pixels more
+#: than the two: each rendering costs about as much as this many pixels (it transforms every
+#: triangle of the copy), measured in experiments/results/video/tinyrenderer.md.
+JOIN_PX = 3000
+
+
+def merged(windows: Sequence[tuple[int, int, int, int]], join_px: int = 0) -> list[tuple[int, int, int, int]]:
+    """Pixel windows (col0, row0, col1, row1) with every two that overlap, or whose joint window
+    has at most `join_px` pixels more than the two, joined into the window around both, until
+    no two are."""
+    def area(w: tuple[int, int, int, int]) -> int:
+        return (w[2] - w[0]) * (w[3] - w[1])
+
     out = list(windows)
     joined = True
     while joined:
@@ -310,8 +322,10 @@ def merged(windows: Sequence[tuple[int, int, int, int]]) -> list[tuple[int, int,
         for i in range(len(out)):
             for j in range(i + 1, len(out)):
                 a, b = out[i], out[j]
-                if a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]:
-                    out[i] = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+                both = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+                overlap = a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+                if overlap or area(both) - area(a) - area(b) <= join_px:
+                    out[i] = both
                     del out[j]
                     joined = True
                     break
@@ -371,7 +385,7 @@ def wall_mesh(boxes: Sequence[Box2D], height: float, piece_m: float = WALL_PIECE
         def at(a: float, b: float, z: float) -> tuple[float, float, float]:
             return (cx + a * ux + b * nx, cy + a * uy + b * ny, z)
 
-        n = max(1, math.ceil(2 * hl / piece_m))
+        n = max(1, math.ceil(2 * hl / piece_m)) if math.isfinite(piece_m) else 1
         cuts = [-hl + 2 * hl * k / n for k in range(n + 1)]
         for a0, a1 in zip(cuts, cuts[1:]):
             for side in (1.0, -1.0):
