@@ -1,7 +1,7 @@
 """The house's boxes (walls, furniture) drawn as PyBullet's TinyRenderer draws them, at a fraction
 of its cost.
 
-TinyRenderer spends about 0.1 microseconds on every pixel a triangle covers (it computes
+TinyRenderer spends about 0.2 microseconds on every pixel a triangle covers (it computes
 barycentric coordinates, reads the depth buffer and shades each one) and most of a video frame's
 CPU went there (experiments/results/video/tinyrenderer.md). The walls and furniture are axis-aligned
 boxes of one colour each, and a flat face under a directional light has one colour, so a box face

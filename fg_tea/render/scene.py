@@ -1,7 +1,7 @@
 """The video's 3D views at a fraction of their cost: render-only copies of the house.
 
 PyBullet's TinyRenderer (EGL through Mesa's llvmpipe, the only OpenGL here, spends as much CPU on
-an image of an empty scene: experiments/results/video/renderers.md) spends about 0.1
+an image of an empty scene: experiments/results/video/renderers.md) spends about 0.2
 microseconds on every pixel a body covers, and the walls and furniture cover most of every
 image. A :class:`SceneViews` gives the same pictures from two render-only copies of the house
 (one with the chase view's cut-away walls, one with full walls for the first-person view):
@@ -303,8 +303,9 @@ def body_window(clip: np.ndarray, width: int, height: int) -> tuple[int, int, in
 
 
 #: Two windows are rendered as one when the window around both has at most this many pixels more
-#: than the two: each rendering costs about as much as this many pixels (it transforms every
-#: triangle of the copy), measured in experiments/results/video/tinyrenderer.md.
+#: than the two: a call costs about 0.6 ms beyond its pixels (it transforms every triangle of the
+#: copy), as much as about 3000 covered pixels at 0.18 microseconds each
+#: (experiments/results/video/tinyrenderer.md).
 JOIN_PX = 3000
 
 
