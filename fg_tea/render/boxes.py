@@ -125,7 +125,8 @@ class BoxPainter:
             width, height: the image size.
 
         Returns:
-            ids: int32 (height, width), the row of `colours` each pixel shows.
+            ids: (height, width), the row of `colours` each pixel shows (uint8 when there are
+                at most 256 rows, else int32; the last painted, the nearest, where faces overlap).
             colours: uint8 (faces drawn + 1, 3); row 0 (no box) is white, TinyRenderer's empty pixel.
         """
         v = np.reshape(np.asarray(view, float), (4, 4)).T
@@ -139,18 +140,20 @@ class BoxPainter:
         box = order[box]
         polygons, kept = _project(m, self._faces[box, face], width, height)
         colours = np.concatenate([np.full((1, 3), 255, np.uint8), self.colours[box[kept], face[kept]]])
-        ids = np.zeros(height * width, np.int32)
+        ids = np.zeros(height * width, np.uint8 if len(colours) <= 256 else np.int32)
         if len(polygons):
             rows, x0, x1, polygon = _spans(polygons, width, height)
             length = x1 - x0 + 1
             keep = length > 0
             rows, x0, length, polygon = rows[keep], x0[keep], length[keep], polygon[keep]
             if len(rows):
-                starts = (height - 1 - rows) * width + x0  # TinyRenderer flips its image vertically
-                total = int(length.sum())
-                offsets = np.repeat(starts - np.concatenate([[0], np.cumsum(length)[:-1]]), length)
-                flat = offsets + np.arange(total)
-                ids[flat] = np.repeat(polygon + 1, length)  # in painting order: the last (nearest) stays
+                # The pixels of every span, in painting order: a running sum of steps of one that
+                # jumps to each span's first pixel (TinyRenderer flips its image vertically).
+                starts = (height - 1 - rows) * width + x0
+                first = np.cumsum(length) - length
+                steps = np.ones(int(length.sum()), np.int32)
+                steps[first] = starts - np.concatenate([[0], starts[:-1] + length[:-1] - 1])
+                ids[np.cumsum(steps, dtype=np.int32)] = np.repeat((polygon + 1).astype(ids.dtype), length)
         return ids.reshape(height, width), colours
 
     def _in_view(self, m: np.ndarray) -> np.ndarray:
