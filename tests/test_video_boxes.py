@@ -14,7 +14,7 @@ from fg_tea.env.house import LIGHT_COEFFS, LIGHT_DIRECTION, _corners, _sub_proje
 from fg_tea.env.pybullet_quiet import pybullet
 from fg_tea.env import assets
 from fg_tea.render.boxes import Box, BoxPainter, disjoint
-from fg_tea.render.scene import body_window, merged
+from fg_tea.render.windows import body_window
 
 
 def _tiny(client: int, view, proj, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
@@ -169,10 +169,37 @@ def test_a_body_window_holds_every_pixel_of_the_body(client):
         assert (part != whole[r0:r1, c0:c1]).any(axis=2).sum() <= 2
 
 
-def test_windows_that_overlap_or_lie_close_are_joined():
-    assert merged([(0, 0, 10, 10), (20, 20, 30, 30)]) == [(0, 0, 10, 10), (20, 20, 30, 30)]
-    assert merged([(0, 0, 10, 10), (5, 5, 15, 15), (14, 0, 20, 3)]) == [(0, 0, 20, 15)]
-    assert merged([(0, 0, 10, 10), (10, 0, 20, 10)]) == [(0, 0, 20, 10)]  # side by side: nothing more to render
-    # 900 - 200 = 700 pixels more than the two: joined when that is allowed
-    assert merged([(0, 0, 10, 10), (20, 20, 30, 30)], 700) == [(0, 0, 30, 30)]
-    assert merged([(0, 0, 10, 10), (20, 20, 30, 30)], 699) == [(0, 0, 10, 10), (20, 20, 30, 30)]
+def test_body_windows_lay_each_body_where_its_scene_is_nearest(client):
+    """Two objects whose windows overlap, one partly in front of the other, and a wall hiding
+    part of one: drawn each in a scene of its own (with the wall) and laid nearest first, the
+    image is one rendering of the whole scene, but for a few pixels on edges."""
+    from fg_tea.render.windows import BodyWindows
+
+    wall = Box((0.06, 0.6, 0.0), (1.0, 0.7, 0.35), (0.97, 0.94, 0.86, 1.0))  # hides the kettle's right side
+
+    def statics(c: int) -> None:
+        _add(c, [wall])
+
+    statics(client)
+    kinds = (assets.mug_parts(), assets.kettle_parts())  # the nearer first: its window is laid first
+    bodies, places = [], ([0.0, 0.3, 0.0], [0.0, 0.9, 0.0])
+    for parts, place in zip(kinds, places):
+        body = assets.create_compound(client, parts)
+        pybullet.resetBasePositionAndOrientation(body, place, [0, 0, 0, 1], physicsClientId=client)
+        bodies.append((body, _corners(parts), lambda c, parts=parts: assets.create_compound(c, parts)))
+    windows = BodyWindows(client, bodies, statics)
+    try:
+        width, height = 160, 120
+        view = pybullet.computeViewMatrix([0.0, -0.5, 0.08], [0.0, 0.9, 0.08], [0, 0, 1])  # the mug before the kettle
+        proj = pybullet.computeProjectionMatrixFOV(60.0, width / height, 0.03, 30.0)
+        whole, depth = _tiny(client, view, proj, width, height)
+        painted = BoxPainter([wall], _shader(client))
+        ids, colours = painted.paint(view, proj, width, height)
+        rgb = np.take(colours, ids, axis=0)
+        empty = ids == 0
+        windows.draw(rgb, empty, (view, proj))
+        assert windows.calls == 2
+        assert (rgb != whole).any(axis=2).sum() <= 3
+        np.testing.assert_array_equal(empty, depth >= 1.0)
+    finally:
+        windows.close()

@@ -9,9 +9,10 @@ image. A :class:`SceneViews` gives the same pictures from two render-only copies
 * the walls and furniture, boxes along x and y, are painted without the renderer, as it draws
   them (:class:`~fg_tea.render.boxes.BoxPainter`: its face culling, near-plane clipping, pixel
   coverage and colours);
-* the objects and the drone are drawn by TinyRenderer in the windows their bounds cover
-  (:func:`body_window`, windows that overlap joined), with the walls and furniture in the copy,
-  so what hides an object hides it as in a whole image;
+* the objects and the drone are drawn by TinyRenderer in the windows their bounds cover, each
+  in a scene of its own that holds the walls and furniture too, laid over the painted image
+  nearest first (:class:`~fg_tea.render.windows.BodyWindows`), so what hides an object hides it
+  as in a whole image;
 * neither copy has a floor body; the floor's top face is a plane of one colour (flat shading
   under a directional light), so every pixel where nothing was drawn and that sees the floor's
   rectangle is filled with that colour, measured once from a floor-only rendering;
@@ -19,9 +20,10 @@ image. A :class:`SceneViews` gives the same pictures from two render-only copies
   (``SceneViews.painters`` is then None for its copies).
 
 Each copy's walls are one mesh body (:func:`wall_mesh`) without the faces a row of box pieces
-had inside a wall, for the windows and for TinyRenderer alone. Moving every body the camera
-cannot see out of the scene saves nothing measurable, and finer wall pieces cost more
-(experiments/results/video/tinyrenderer.md).
+had inside a wall: in 1 m pieces where TinyRenderer draws whole images (a long face's triangles
+make it scan screen-sized boxes; finer pieces cost more), in whole faces where it draws only
+windows (fewer triangles to transform). Moving every body the camera cannot see out of the
+scene saves nothing measurable (experiments/results/video/tinyrenderer.md).
 
 The agent's own camera (detections, pixel counts) never uses these copies: episodes and their
 logs are unchanged. The images equal the plain renderer's but for a few pixels on edges
@@ -31,16 +33,18 @@ logs are unchanged. The images equal the plain renderer's but for a few pixels o
 
 from __future__ import annotations
 
+import functools
 import math
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from fg_tea.env import assets
 from fg_tea.env.pybullet_quiet import pybullet
 from fg_tea.env.base import EnvConfig
-from fg_tea.env.house import WALL_COLOR, PyBulletHouse, _corners, _sub_projection
+from fg_tea.env.house import WALL_COLOR, PyBulletHouse, _corners
 from fg_tea.render.boxes import Box, BoxPainter
+from fg_tea.render.windows import BodyWindows
 from fg_tea.world.navigation import Box2D, wall_boxes
 from fg_tea.world.interface import Pose
 from fg_tea.world.scenario import Scenario
@@ -65,7 +69,7 @@ class SceneViews:
         self.ego_house = PyBulletHouse(scenario, config)
         self.chase_house = PyBulletHouse(scenario, config)
         self.wall_cutaway = wall_cutaway
-        self.config = config
+        self.config, self.scenario = config, scenario
         for house in (self.ego_house, self.chase_house):
             house.reset(seed)
         self.floor_rgb = self._floor_colour()
@@ -84,7 +88,11 @@ class SceneViews:
         #: The walls and furniture drawn without the renderer (None: a wall not along x or y, and
         #: the renderer draws everything).
         self.painters = {house: None if b is None else BoxPainter(b, self._shade) for house, b in boxes.items()}
-        self._small = {house: self._small_bodies(house) for house in (self.chase_house, self.ego_house)}
+        #: The objects and the drone, drawn by the renderer in windows (painted houses only).
+        self.windows = {house: BodyWindows(house._client, self._small_bodies(house),  # noqa: SLF001
+                                           functools.partial(self._statics, top=top))
+                        for house, top in ((self.chase_house, wall_cutaway), (self.ego_house, None))
+                        if self.painters[house] is not None}
 
     def _floor_colour(self) -> np.ndarray:
         """The floor's colour as the renderer shades it: one floor-only image, looking down."""
@@ -118,11 +126,16 @@ class SceneViews:
         pybullet.removeBody(body, physicsClientId=h._client)  # noqa: SLF001
         return rgb[8, 8].copy()
 
-    def _small_bodies(self, house: PyBulletHouse) -> list[tuple[int, np.ndarray]]:
-        """The bodies the renderer still draws (objects, the drone), with their local bounds; the
-        drone not in the first-person copy when every corner of its bounds lies behind that
-        camera (the camera rides with it, so it is then never drawn there)."""
-        bodies = [(house._bodies[name], house._bounds[name]) for name in house._bodies]  # noqa: SLF001
+    def _small_bodies(self, house: PyBulletHouse) -> list[tuple[int, np.ndarray, Callable[[int], int]]]:
+        """The bodies the renderer still draws (objects, the drone): each with its local bounds
+        and what creates it in another client; the drone not for the first-person copy when
+        every corner of its bounds lies behind that camera (the camera rides with it, so it is
+        then never drawn there)."""
+        bodies: list[tuple[int, np.ndarray, Callable[[int], int]]] = []
+        for spec in self.scenario.objects:
+            parts = assets.object_parts(spec.asset, spec.category)
+            bodies.append((house._bodies[spec.name], house._bounds[spec.name],  # noqa: SLF001
+                           functools.partial(_create, parts)))
         drone = _corners(assets.drone_parts())
         if house is self.ego_house:
             saved = house._pose  # noqa: SLF001
@@ -133,23 +146,23 @@ class SceneViews:
             clip = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T @ world
             if (clip[3] < 0).all():
                 return bodies
-        return bodies + [(house._drone, drone)]  # noqa: SLF001
+        return bodies + [(house._drone, drone, functools.partial(_create, assets.drone_parts()))]  # noqa: SLF001
+
+    def _statics(self, client: int, top: float | None) -> None:
+        """The walls (one mesh, whole faces) and furniture of a render-only copy, in `client`:
+        as :meth:`_cut_walls` and :class:`~fg_tea.env.house.PyBulletHouse` build them."""
+        add_walls(client, self.scenario, top, math.inf)
+        for f in self.scenario.house.furniture:
+            assets.box(client, (f.center[0], f.center[1], f.size[2] / 2), (f.size[0] / 2, f.size[1] / 2, f.size[2] / 2),
+                       f.color)
 
     @staticmethod
     def _cut_walls(house: PyBulletHouse, top: float | None, piece_m: float = WALL_PIECE_M) -> None:
         """Replace `house`'s walls by one mesh body: their pieces, at most `piece_m` long, from the
         floor up to `top` metres (None: full height)."""
-        client = house._client  # noqa: SLF001
-        full = house.scenario.house.wall_height
-        height = full if top is None else min(max(top, 0.05), full)
         for body, _, _ in house._walls:  # noqa: SLF001
-            pybullet.removeBody(body, physicsClientId=client)
-        vertices, normals, indices = wall_mesh(wall_boxes(house.scenario.house), height, piece_m)
-        visual = pybullet.createVisualShape(pybullet.GEOM_MESH, vertices=vertices, indices=indices, normals=normals,
-                                            uvs=[[0.0, 0.0]] * len(vertices), rgbaColor=list(WALL_COLOR),
-                                            meshScale=[1.0, 1.0, 1.0], physicsClientId=client)
-        pybullet.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=visual,
-                                 physicsClientId=client)
+            pybullet.removeBody(body, physicsClientId=house._client)  # noqa: SLF001
+        add_walls(house._client, house.scenario, top, piece_m)  # noqa: SLF001
         house._walls = []  # noqa: SLF001 (render_chase must not move the removed walls)
 
     def set_scene_state(self, pose, placements, held: str | None) -> None:
@@ -173,27 +186,18 @@ class SceneViews:
 
     def _draw(self, house: PyBulletHouse, camera: tuple[list, list], width: int, height: int) -> np.ndarray:
         """The image: walls and furniture painted (:class:`~fg_tea.render.boxes.BoxPainter`), the
-        objects and the drone rendered in the window their bounds cover (with the walls and
-        furniture, which hide them as in a whole image), the floor filled in."""
+        objects and the drone drawn by the renderer in the windows their bounds cover
+        (:class:`~fg_tea.render.windows.BodyWindows`), the floor filled in."""
         import cv2
 
         painter = self.painters[house]
         if painter is None:
             return self._render(house, camera, width, height)
         self.calls += 1
-        view, proj = camera
-        ids, colours = painter.paint(view, proj, width, height)
+        ids, colours = painter.paint(camera[0], camera[1], width, height)
         rgb = np.take(colours, ids, axis=0)
         empty = ids == 0
-        clip_from_world = np.reshape(proj, (4, 4)).T @ np.reshape(view, (4, 4)).T
-        windows = [body_window(clip_from_world @ _placed(house, body, bounds), width, height)
-                   for body, bounds in self._small[house]]
-        for window in merged([w for w in windows if w is not None], JOIN_PX):
-            c0, r0, c1, r1 = window
-            part, depth, _ = house._render((view, _sub_projection(proj, width, height, window)),  # noqa: SLF001
-                                           c1 - c0, r1 - r0, segmentation=False)
-            rgb[r0:r1, c0:c1] = part
-            empty[r0:r1, c0:c1] = depth >= 1.0
+        self.windows[house].draw(rgb, empty, camera)
         if empty.any():
             empty &= floor_mask(camera, width, height, self.floor_rect).view(bool)
             cv2.copyTo(self._floor_image(height, width), empty.view(np.uint8), rgb)
@@ -221,6 +225,8 @@ class SceneViews:
         return image
 
     def close(self) -> None:
+        for windows in self.windows.values():
+            windows.close()
         self.ego_house.close()
         self.chase_house.close()
 
@@ -266,75 +272,6 @@ def _contiguous_rgb(rgb: np.ndarray) -> np.ndarray:
     return np.array(rgb)
 
 
-def _placed(house: PyBulletHouse, body: int, bounds: np.ndarray) -> np.ndarray:
-    """A body's local bounds (4, 8) where the body stands now."""
-    pos, orn = pybullet.getBasePositionAndOrientation(body, physicsClientId=house._client)  # noqa: SLF001
-    world = np.eye(4)
-    world[:3, :3], world[:3, 3] = np.reshape(pybullet.getMatrixFromQuaternion(orn), (3, 3)), pos
-    return world @ bounds
-
-
-#: The edges of a box's corners as :func:`fg_tea.env.house._corners` orders them (x, then y, then z).
-_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
-
-
-def body_window(clip: np.ndarray, width: int, height: int) -> tuple[int, int, int, int] | None:
-    """The pixel window (col0, row0, col1, row1) that can show what lies in a box, given its 8
-    corners in clip space (4, 8): the box clipped against the near plane (z > -w, where the
-    renderer clips triangles), projected, and 2 pixels more on every side; None if nothing of
-    it is in front of the near plane or in the image."""
-    front = clip[2] + clip[3]  # > 0 in front of the near plane
-    inside = (front > 0) & (clip[3] > 0)
-    if not inside.any():
-        return None
-    points = [clip[:, inside]]
-    for a, b in _EDGES:
-        if inside[a] != inside[b]:
-            t = front[a] / (front[a] - front[b])
-            points.append((clip[:, a] + t * (clip[:, b] - clip[:, a]))[:, None])
-    pts = np.concatenate(points, axis=1)
-    w = np.maximum(pts[3], 1e-12)
-    xs, ys = (pts[0] / w + 1) * (width / 2), (pts[1] / w + 1) * (height / 2)
-    c0, c1 = max(0, math.floor(xs.min()) - 2), min(width, math.ceil(xs.max()) + 3)
-    r0, r1 = max(0, height - 1 - math.ceil(ys.max()) - 2), min(height, height - math.floor(ys.min()) + 2)
-    if c1 <= c0 or r1 <= r0:
-        return None
-    return (c0, r0, c1, r1)
-
-
-#: Two windows are rendered as one when the window around both has at most this many pixels more
-#: than the two: a call costs about 0.6 ms beyond its pixels (it transforms every triangle of the
-#: copy), as much as about 3000 covered pixels at 0.18 microseconds each
-#: (experiments/results/video/tinyrenderer.md).
-JOIN_PX = 3000
-
-
-def merged(windows: Sequence[tuple[int, int, int, int]], join_px: int = 0) -> list[tuple[int, int, int, int]]:
-    """Pixel windows (col0, row0, col1, row1) with every two that overlap, or whose joint window
-    has at most `join_px` pixels more than the two, joined into the window around both, until
-    no two are."""
-    def area(w: tuple[int, int, int, int]) -> int:
-        return (w[2] - w[0]) * (w[3] - w[1])
-
-    out = list(windows)
-    joined = True
-    while joined:
-        joined = False
-        for i in range(len(out)):
-            for j in range(i + 1, len(out)):
-                a, b = out[i], out[j]
-                both = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
-                overlap = a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
-                if overlap or area(both) - area(a) - area(b) <= join_px:
-                    out[i] = both
-                    del out[j]
-                    joined = True
-                    break
-            if joined:
-                break
-    return out
-
-
 def house_boxes(scenario: Scenario, top: float | None) -> list[Box] | None:
     """The walls (up to `top` m; None: full height) and furniture of a house as axis-aligned
     boxes, as :class:`~fg_tea.env.house.PyBulletHouse` builds them; None if a wall runs along
@@ -354,6 +291,23 @@ def house_boxes(scenario: Scenario, top: float | None) -> list[Box] | None:
         r, g, b, alpha = f.color
         boxes.append(Box((cx - sx / 2, cy - sy / 2, 0.0), (cx + sx / 2, cy + sy / 2, sz), (r, g, b, alpha)))
     return boxes
+
+
+def _create(parts: Sequence[assets.Part], client: int) -> int:
+    return assets.create_compound(client, parts)
+
+
+def add_walls(client: int, scenario: Scenario, top: float | None, piece_m: float) -> int:
+    """The walls of `scenario`'s house as one mesh body in `client` (:func:`wall_mesh`), from the
+    floor up to `top` metres (None: full height); returns the body."""
+    full = scenario.house.wall_height
+    height = full if top is None else min(max(top, 0.05), full)
+    vertices, normals, indices = wall_mesh(wall_boxes(scenario.house), height, piece_m)
+    visual = pybullet.createVisualShape(pybullet.GEOM_MESH, vertices=vertices, indices=indices, normals=normals,
+                                        uvs=[[0.0, 0.0]] * len(vertices), rgbaColor=list(WALL_COLOR),
+                                        meshScale=[1.0, 1.0, 1.0], physicsClientId=client)
+    return pybullet.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=visual,
+                                    physicsClientId=client)
 
 
 def wall_mesh(boxes: Sequence[Box2D], height: float, piece_m: float = WALL_PIECE_M
