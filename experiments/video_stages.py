@@ -5,8 +5,10 @@ rendered frames [start, start + frames) of its video (default: all of them) with
 video options in this process, piece by piece as a worker does, and counts the CPU time
 (``time.process_time``) spent in each stage:
 
-* the chase view and the first-person inset: PyBullet's TinyRenderer (``getCameraImage``), and the
-  render-only views' own work around it (the RGB copy, the floor's fill);
+* the chase view and the first-person inset: PyBullet's TinyRenderer (``getCameraImage``: the
+  objects' and the drone's windows, :mod:`fg_tea.render.windows`), and the render-only views'
+  own work around it (the walls and furniture painted, :mod:`fg_tea.render.boxes`; the windows
+  laid over them; the floor's fill);
 * scaling the views up to the frame (``cv2.resize``), the overlays, and encoding (colour
   conversion and x264);
 * the rest (composition, camera matrices, reused images' copies): what is left of the total.
@@ -124,10 +126,12 @@ def main(argv: list[str] | None = None) -> int:
             renderer.close()
     frames = max(hi - args.start, 1)
     s = counters.seconds
-    rows = [("TinyRenderer, chase", s.get("TinyRenderer, chase", 0.0)),
-            ("chase: RGB copy and floor fill", s.get("chase total", 0.0) - s.get("TinyRenderer, chase", 0.0)),
-            ("TinyRenderer, inset", s.get("TinyRenderer, inset", 0.0)),
-            ("inset: RGB copy and floor fill", s.get("inset total", 0.0) - s.get("TinyRenderer, inset", 0.0))]
+    rows = [("TinyRenderer, chase (objects' windows)", s.get("TinyRenderer, chase", 0.0)),
+            ("chase: walls and furniture painted, windows laid, floor filled",
+             s.get("chase total", 0.0) - s.get("TinyRenderer, chase", 0.0)),
+            ("TinyRenderer, inset (objects' windows)", s.get("TinyRenderer, inset", 0.0)),
+            ("inset: walls and furniture painted, windows laid, floor filled",
+             s.get("inset total", 0.0) - s.get("TinyRenderer, inset", 0.0))]
     rows += [(k, s.get(k, 0.0)) for k in ("scaling up (cv2.resize)", "overlays", "encoding (colour conversion, x264)")]
     rows.append(("the rest (composition, cameras, reused images' copies)", total - sum(v for _, v in rows)))
     command = "python experiments/video_stages.py " + " ".join(argv if argv is not None else sys.argv[1:])

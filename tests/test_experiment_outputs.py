@@ -129,7 +129,7 @@ def test_inspect_marginals_without_out_writes_only_under_runs(tmp_path):
 FILE_OUTPUT = {"bench_inference.py", "bench_paths.py", "bench_program_scale.py", "bench_sweep_driver.py",
                "bench_throughput.py", "bench_video.py",
                "derive_relations.py", "inspect_marginals.py", "profile_video.py", "video_renderers.py",
-               "video_stages.py"}
+               "video_stages.py", "video_tinyrenderer.py"}
 
 
 @pytest.mark.parametrize("name", sorted(set(SCRIPTS) - PRINT_ONLY))
