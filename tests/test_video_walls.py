@@ -69,3 +69,29 @@ def test_views_with_a_wall_mesh_give_the_plain_renderers_pixels(default_events):
     finally:
         plain.close()
         cheap.close()
+
+
+def test_a_house_with_a_slanted_wall_is_drawn_by_the_renderer_alone():
+    """The painter draws boxes along x and y only: the default house gives its walls (cut to the
+    given height) and furniture as boxes; a wall at 45 degrees gives none, and the views are then
+    TinyRenderer's (walls one mesh in 1 m pieces), still without a floor body."""
+    from fg_tea.render.scene import house_boxes
+    from fg_tea.world.navigation import wall_boxes
+    from fg_tea.world.scenario import Wall, load_scenario
+
+    scenario = load_scenario("default_apartment")
+    boxes = house_boxes(scenario, 1.0)
+    assert boxes is not None
+    assert len(boxes) == len(wall_boxes(scenario.house)) + len(scenario.house.furniture)
+    assert {b.hi[2] for b in boxes[:len(wall_boxes(scenario.house))]} == {1.0}
+    slanted = dataclasses.replace(scenario, house=dataclasses.replace(
+        scenario.house, walls=scenario.house.walls + (Wall((1.0, 1.0), (2.0, 2.0)),)))
+    assert house_boxes(slanted, 1.0) is None
+    views = SceneViews(slanted, EnvConfig(), 0, 1.0)
+    try:
+        assert set(views.painters.values()) == {None} and not views.windows
+        views.set_scene_state((1.0, 3.0, 0.0), {}, None)
+        image = views.chase(160, 90, 3.2, 2.2, -22.0, 78.0)
+        assert image.shape == (90, 160, 3) and views.calls == 1
+    finally:
+        views.close()
