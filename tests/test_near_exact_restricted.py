@@ -25,6 +25,18 @@ def test_the_cover_keeps_the_viewpoints_of_most_mass_and_the_one_the_agent_stand
     assert greedy_cover(shows, mass, 9).tolist() == [0, 1, 2, 3, 4]
 
 
+def test_an_object_the_cover_would_leave_out_gets_its_best_viewpoint():
+    """Two objects piled on sites 0-2, a third spread thin over sites 3-5: the three sites of most
+    summed mass would leave it no mass at all, so the last pick gives way to its best site."""
+    shows = np.eye(6, dtype=bool)
+    masses = np.array([[0.4, 0.35, 0.25, 0, 0, 0], [0.4, 0.35, 0.25, 0, 0, 0], [0, 0, 0, 0.3, 0.4, 0.3]])
+    assert greedy_cover(shows, masses.sum(axis=0), 3).tolist() == [0, 1, 2]   # summed mass alone
+    assert greedy_cover(shows, masses, 3).tolist() == [0, 1, 4]
+    assert greedy_cover(shows, masses, 3, first=2).tolist() == [0, 2, 4]      # the agent's own stays
+    with pytest.raises(ValueError, match="2 viewpoints cannot cover some mass of every object"):
+        greedy_cover(shows, np.vstack([masses, [[0, 0, 0.5, 0, 0, 0.5]]]), 2, first=1)
+
+
 def test_the_restricted_search_is_the_belief_conditioned_on_the_kept_sites():
     prob = np.zeros((4, 2, 4))
     for j in range(4):
@@ -144,3 +156,26 @@ def test_the_setting_is_checked_and_a_correlated_belief_is_still_the_lookahead_s
     with pytest.warns(UserWarning, match="near_exact: deciding as the lookahead does"):
         _, c1, _ = _decisions("near_exact:restrict=1", "find_three", model="joint_close")
     assert c1.info["near_exact"] == "lookahead: the belief is correlated"
+
+
+def test_where_no_restricted_tables_cover_every_object_it_is_the_lookahead_and_says_why(monkeypatch):
+    """The verdict turns on the belief's masses, so it is not kept: once a cover exists again, the
+    tables decide."""
+    import fg_tea.planning.restricted_tables as rt
+
+    def no_cover(shows, masses, k, first=None):
+        raise ValueError(f"restricted search: {k} viewpoints cannot cover some mass of every object")
+
+    real = rt.greedy_cover
+    monkeypatch.setattr(rt, "greedy_cover", no_cover)
+    scenario = fg.load_scenario("default_apartment")
+    agent = fg.Agent(scenario, fg.load_model("factorised_close"), "near_exact:restrict=1,budget=20000",
+                     task="find_three")
+    with pytest.warns(UserWarning, match="near_exact: deciding as the lookahead does"):
+        first = agent.decide(agent.next_action(), scenario.start_position)
+    assert first.info["near_exact"] == ("lookahead: restricted search: 5 viewpoints cannot cover some mass "
+                                        "of every object")
+    monkeypatch.setattr(rt, "greedy_cover", real)
+    agent.observe_look(first.viewpoint, {o: None for o in agent.searching()})
+    second = agent.decide(agent.next_action(), scenario.site(first.viewpoint).vantage)
+    assert second.info["near_exact"] == "tables cap=2 over 5 of 8 viewpoints"

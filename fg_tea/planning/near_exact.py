@@ -121,6 +121,11 @@ class _TooLarge(Exception):
     """No cap from :data:`MIN_CAP` up fits the budget (the message says how many entries)."""
 
 
+class _NoCover(_TooLarge):
+    """The restricted tables' viewpoints cannot cover every object (the message says how many);
+    unlike the budget, this turns on the belief's masses, so the verdict is not kept."""
+
+
 class _FittedTables(ExactPlanner):
     """The exact planner's table look-ups, solved by :func:`solve_cut` at the fitted cap."""
 
@@ -158,8 +163,11 @@ class _FittedTables(ExactPlanner):
         cap = fitted_cap(len(useful), len(objects), self.settings.cap, self.budget)
         k = restricted_size(len(objects), self.budget)
         if cap < MIN_CAP and self.restrict and k >= 1:
-            solved = solve_restricted(problem, objects, inspected, excluded, k,
-                                      fitted_cap(k, len(objects), self.settings.cap, self.budget))
+            try:
+                solved = solve_restricted(problem, objects, inspected, excluded, k,
+                                          fitted_cap(k, len(objects), self.settings.cap, self.budget))
+            except ValueError as exc:
+                raise _NoCover(str(exc)) from None
             self.solves += 1
             return solved
         if cap < MIN_CAP:
@@ -230,7 +238,8 @@ class NearExactPlanner(PlannerBase):
                                        excluded_sites, views)
             except _TooLarge as exc:
                 why = str(exc)
-                self._too_large = (key, views, why)
+                if not isinstance(exc, _NoCover):
+                    self._too_large = (key, views, why)
             else:
                 solved = self.tables._solved
                 assert solved is not None

@@ -34,14 +34,23 @@ from fg_tea.planning.problem import SearchProblem
 STANDING = 1e-9
 
 
-def greedy_cover(shows: np.ndarray, mass: np.ndarray, k: int, first: int | None = None) -> np.ndarray:
-    """The `k` viewpoints (rows of `shows`, ascending) that cover the most `mass`, greedily: row
+def greedy_cover(shows: np.ndarray, masses: np.ndarray, k: int, first: int | None = None) -> np.ndarray:
+    """The `k` viewpoints (rows of `shows`, ascending) that cover the most mass, greedily: row
     `first` (the viewpoint the agent stands at, if any), then each next one the row that adds the
-    most mass at sites (columns) no row chosen so far shows; ties go to the earlier row. Every row
-    if `k` is at least their number."""
+    most of ``masses`` (objects x sites) summed over the objects at sites (columns) no row chosen so
+    far shows; ties go to the earlier row. Then, should an object with mass have none at the sites
+    covered (possible only in skewed beliefs), the latest pick other than `first` gives way to the
+    row that covers most of that object's mass, object by object. Every row if `k` is at least
+    their number.
+
+    Raises:
+        ValueError: `k` rows cannot cover some mass of every object.
+    """
     n = shows.shape[0]
     if k >= n:
         return np.arange(n)
+    masses = np.atleast_2d(masses)
+    mass = masses.sum(axis=0)
     covered = np.zeros(shows.shape[1], dtype=bool)
     free = np.ones(n, dtype=bool)
     chosen: list[int] = []
@@ -51,6 +60,18 @@ def greedy_cover(shows: np.ndarray, mass: np.ndarray, k: int, first: int | None 
         chosen.append(j)
         free[j] = False
         covered |= shows[j]
+    fixed = [j for j in chosen if j == first]              # rows an object's swap has put in, and `first`
+    for u in range(masses.shape[0]):
+        if masses[u].sum() <= 0 or masses[u] @ shows[chosen].any(axis=0) > 0:
+            continue
+        out = next((j for j in reversed(chosen) if j not in fixed), None)
+        if out is None:
+            raise ValueError(f"restricted search: {k} viewpoints cannot cover some mass of every object")
+        best = int(np.argmax(shows.astype(float) @ masses[u]))
+        chosen[chosen.index(out)] = best
+        fixed.append(best)
+    if any(masses[u].sum() > 0 and masses[u] @ shows[chosen].any(axis=0) <= 0 for u in range(masses.shape[0])):
+        raise ValueError(f"restricted search: {k} viewpoints cannot cover some mass of every object")
     return np.sort(np.array(chosen, dtype=np.int64))
 
 
@@ -99,12 +120,16 @@ class RestrictedSolved(_Solved):
         averaged over the objects; inf if the agent stands at a useful viewpoint the tables left out."""
         if here in self.every and here not in self.kept:
             return float("inf")
-        mass = np.zeros(self.every_allowed.size)
-        for o in objects:
+        masses = np.zeros((len(objects), self.every_allowed.size))
+        for u, o in enumerate(objects):
             m = np.asarray(belief.marginal(o), dtype=float)[self.every_allowed]
-            mass += m / max(float(m.sum()), 1e-300)
+            masses[u] = m / max(float(m.sum()), 1e-300)
+        mass = masses.sum(axis=0)
         first = self.every.index(here) if here in self.every else None
-        now = greedy_cover(self.shows, mass, self.k, first)
+        try:
+            now = greedy_cover(self.shows, masses, self.k, first)
+        except ValueError:
+            return float("inf")  # solved again: the solve says why no restricted tables hold
         kept = [self.every.index(v) for v in self.kept]
         gap = float(mass @ self.shows[now].any(axis=0) - mass @ self.shows[kept].any(axis=0))
         return gap / max(len(objects), 1)
@@ -112,11 +137,15 @@ class RestrictedSolved(_Solved):
 
 def solve_restricted(problem: SearchProblem, objects, inspected, excluded, k: int, cap: int) -> RestrictedSolved:
     """The tables of `problem` restricted to the `k` viewpoints :func:`greedy_cover` keeps at its
-    belief, at `cap` looks per viewpoint (:func:`fg_tea.planning.cut_tables.solve_cut`)."""
+    belief, at `cap` looks per viewpoint (:func:`fg_tea.planning.cut_tables.solve_cut`).
+
+    Raises:
+        ValueError: `k` viewpoints cannot cover some mass of every object.
+    """
     useful, _, q0 = _useful(problem)
     shows = view_shows(problem, useful)
     here = np.flatnonzero(problem.start[useful] < STANDING)
-    views = useful[greedy_cover(shows, q0.sum(axis=0), k, int(here[0]) if here.size else None)]
+    views = useful[greedy_cover(shows, q0, k, int(here[0]) if here.size else None)]
     sub = restricted_problem(problem, views)
     sub_useful, sub_sites, sub_q0 = _useful(sub)
     tables = solve_cut(sub, sub_useful, sub_sites, sub_q0, cap)
