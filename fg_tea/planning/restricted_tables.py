@@ -7,8 +7,8 @@ at the current belief (greedily: each next viewpoint the one whose sites add the
 covered, summed over the objects still searched), ``k`` the most whose tables at the cap fit the
 budget; the viewpoint the agent stands at is kept first, so that looking again from it stays a
 choice, and an object the cover would leave with no mass gets its best viewpoint (where ``k``
-cannot cover every object, near_exact decides as the lookahead and says why). The restricted search is the current belief conditioned on the objects standing at sites
-those viewpoints show; its tables are solved by :func:`fg_tea.planning.cut_tables.solve_cut` and
+cannot cover every object, near_exact decides as the lookahead and says why). The restricted
+search is the current belief conditioned on the objects standing at sites those viewpoints show; its tables are solved by :func:`fg_tea.planning.cut_tables.solve_cut` and
 reused while they describe the belief (the checks of :class:`fg_tea.planning.exact.ExactPlanner`),
 the number of objects leaves the same number of viewpoints in the budget, and the kept
 viewpoints cover at most ``slack`` less of the mass (averaged over the objects still searched)
