@@ -2,19 +2,20 @@
 
 Where the upper cut's tables at cap 2 over every useful viewpoint do not fit near_exact's budget
 (12 close looks or more, one to three objects), ``near_exact:restrict=1`` still decides by exact
-tables, of a smaller search: the ``k`` viewpoints that cover most of the searched objects' mass
-at the current belief (greedily: each next viewpoint the one whose sites add the most mass not yet
+tables, of a smaller search: the ``k`` viewpoints that cover most of the searched objects' mass at
+the current belief (greedily: each next viewpoint the one whose sites add the most mass not yet
 covered, summed over the objects still searched), ``k`` the most whose tables at the cap fit the
 budget; the viewpoint the agent stands at is kept first, so that looking again from it stays a
 choice, and an object the cover would leave with no mass gets its best viewpoint (where ``k``
 cannot cover every object, near_exact decides as the lookahead and says why). The restricted
-search is the current belief conditioned on the objects standing at sites those viewpoints show; its tables are solved by :func:`fg_tea.planning.cut_tables.solve_cut` and
-reused while they describe the belief (the checks of :class:`fg_tea.planning.exact.ExactPlanner`),
-the number of objects leaves the same number of viewpoints in the budget, and the kept
-viewpoints cover at most ``slack`` less of the mass (averaged over the objects still searched)
-than the ones the cover would keep now (:meth:`RestrictedSolved.shortfall`); else they are solved
-again from the current belief. The mass left out is not charged: the restricted tables plan as if
-it were not there, and it comes back into the search as the covered mass falls.
+search is the current belief conditioned on the objects standing at sites those viewpoints show;
+its tables are solved by :func:`fg_tea.planning.cut_tables.solve_cut` and reused while they
+describe the belief (the checks of :class:`fg_tea.planning.exact.ExactPlanner`), the number of
+objects leaves the same number of viewpoints in the budget, and the kept viewpoints cover at most
+``slack`` less of the mass (averaged over the objects still searched) than the ones the cover
+would keep now (:meth:`RestrictedSolved.shortfall`); else they are solved again from the current
+belief. The mass left out is not charged: the restricted tables plan as if it were not there, and
+it comes back into the search as the covered mass falls.
 
 The decision is thus a function of the belief and of where the last solve started, as
 near_exact's own is; it never reads anything but the belief, the distances and the views.
