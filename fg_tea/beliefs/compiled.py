@@ -26,6 +26,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from fg_tea.beliefs.budget import BUDGET, refusal
 from fg_tea.beliefs.compiled_hypothetical import Hypothetical, hypothetical_many
 from fg_tea.beliefs.elimination import (
     LogFactor,
@@ -42,8 +43,6 @@ from fg_tea.beliefs.kbest import kbest_dense, kbest_partition, merge_independent
 from fg_tea.common.errors import ContradictionError, InputError
 from fg_tea.model.program import Program
 
-#: Largest table (entries) exact inference may build; above it a program is refused.
-BUDGET = 50_000_000
 #: Components with at most this many joint states are answered from their dense joint table.
 DENSE_STATES = 1 << 16
 METHODS = ("auto", "dense", "elimination")
@@ -177,12 +176,7 @@ class CompiledModel:
         return [f.scope for f in self._factors if f.scope[0] in members]
 
     def _refusal(self, ids: Sequence[int], width: int, size: int, how: str) -> InputError:
-        names = [self._vars[i].name for i in ids]
-        shown = ", ".join(names[:12]) + (f" and {len(names) - 12} more" if len(names) > 12 else "")
-        return InputError(self.source, "inference",
-                          f"exact inference over {shown} by {how} needs a table of {size:,} entries "
-                          f"(elimination width {width}), above the budget of {self.budget:,}; "
-                          "refused (no approximation is made)")
+        return refusal(self.source, [self._vars[i].name for i in ids], width, size, how, self.budget)
 
     # -- names ---------------------------------------------------------------------------
 

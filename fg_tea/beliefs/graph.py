@@ -24,7 +24,8 @@ queries on, exactly — no factor is approximated:
 - any other factor over locations is an ``extra`` dense factor of its scope;
 - factors touching variables the task never reads — the user's own variables and states the
   scenario does not declare — are summed out exactly, one connected group at a time, into one
-  factor over the locations they touch;
+  factor over the locations they touch, along the compiler's min-fill order and within its budget
+  (:func:`fg_tea.beliefs.budget.sum_out_group`);
 - a factor over one task state (a state the scenario declares, which the task observes or
   changes) multiplies into its Bernoulli prior; a factor coupling task states with objects'
   locations or with each other is a coupling the engine holds exactly (fg_tea/beliefs/coupling.py,
@@ -39,6 +40,7 @@ source and the factor.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Mapping, Sequence
@@ -53,6 +55,7 @@ from fg_tea.beliefs.factors import (
     pair_factor,
     state_prior,
 )
+from fg_tea.beliefs.budget import sum_out_group
 from fg_tea.beliefs.coupling import check_couplings, coupling_factor
 from fg_tea.beliefs.structured import MAX_OBJECTS, PairWeights
 from fg_tea.common.errors import InputError
@@ -227,10 +230,6 @@ __all__ = ["BeliefGraph", "DENSE_LIMIT", "PairRelation", "assemble_graph", "buil
            "prior_weights", "location_var"]
 
 
-#: Most variables summed out in one connected group (einsum's axis letters).
-SUM_OUT_LIMIT = 48
-
-
 def graph_from_program(program: Program, scenario: Any, model: Any) -> BeliefGraph:
     """The engine's initial graph for `program` over the house of `scenario`.
 
@@ -246,7 +245,8 @@ def graph_from_program(program: Program, scenario: Any, model: Any) -> BeliefGra
     Raises:
         InputError: the program's sites are not the scenario's, a factor couples task states in
             a way the engine cannot hold exactly (:func:`~fg_tea.beliefs.coupling.coupling_factor`),
-            a group to sum out is too large, or a prior is all zero.
+            summing a group out would build a table above the budget of exact inference
+            (:mod:`fg_tea.beliefs.budget`, checked before any table is built), or a prior is all zero.
     """
     source = program.source
     sites = tuple(scenario.site_names)
@@ -376,29 +376,21 @@ def _summed_out(program: Program, hidden: Sequence[ProgramFactor], kinds: dict[s
     groups: dict[str, list[ProgramFactor]] = {}
     for f in hidden:
         groups.setdefault(root(next(s for s in f.scope if summed(s))), []).append(f)
+    sizes = {v.name: len(v.values) for v in program.variables}
     out = []
     for members in groups.values():
         names = list(dict.fromkeys(s for f in members for s in f.scope))
         keep = tuple(s for s in names if not summed(s))
         label = " * ".join(f.name for f in members) + " (summed out: " + \
             ", ".join(s for s in names if summed(s)) + ")"
-        if len(names) > SUM_OUT_LIMIT:
-            raise InputError(program.source, f"factor {members[0].name!r}",
-                             f"its group of {len(names)} variables is too large to sum out (limit {SUM_OUT_LIMIT})")
-        size = len(program.sites) ** sum(kinds[s] == "location" for s in keep) * 2 ** sum(s in tracked for s in keep)
+        size = math.prod(sizes[s] for s in keep)
         if size > DENSE_LIMIT:
             raise InputError(program.source, f"factor {members[0].name!r}",
                              f"summing out {label} leaves a table of {size:,} entries (limit {DENSE_LIMIT:,})")
-        axis = {s: i for i, s in enumerate(names)}
-        operands: list[Any] = []
-        for f in members:
-            operands += [f.table, [axis[s] for s in f.scope]]
-        table = np.einsum(*operands, [axis[s] for s in keep], optimize="greedy")
-        table = np.asarray(table, dtype=float)
-        if not np.any(table > 0):
-            raise InputError(program.source, f"factor {members[0].name!r}",
-                             f"summing out {label} gives zero everywhere (the program is impossible)")
-        out.append((label, keep, table / table.max()))
+        table = sum_out_group(program.source, f"factor {members[0].name!r}", label,
+                              [(f.scope, f.table) for f in members],
+                              [s for s in names if summed(s)], keep, sizes)
+        out.append((label, keep, table))
     return out
 
 

@@ -23,6 +23,8 @@ def cmd_beliefs(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     try:
         belief = BeliefEngine(scenario, model, backend=args.solver)
+    except InputError:  # names its own file and field: a model program's factor, its budget
+        raise
     except ValueError as exc:
         raise InputError(scenario.source or "<scenario>", "$.objects",
                          f"with model {model.name!r}: {exc}") from None

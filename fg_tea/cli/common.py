@@ -132,6 +132,8 @@ def check_scenario(scenario, model) -> None:
     Navigator(scenario, EnvConfig())
     try:
         BeliefEngine(scenario, model)
+    except InputError:  # names its own file and field: a model program's factor, its budget
+        raise
     except ValueError as exc:
         raise InputError(scenario.source or "<scenario>", "$.objects",
                          f"with model {model.name!r}: {exc}") from None

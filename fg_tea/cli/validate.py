@@ -134,16 +134,17 @@ def check_program(ref: str, scenario_ref: str, task_ref: str) -> str:
     from fg_tea.world.scenario import load_scenario
 
     model = load_model(ref)
-    check_model_runs(model, scenario_ref, task_ref)
     scenario = load_scenario(scenario_ref)
-    program = program_for(scenario, model)
+    # compiled first: a program over the budget is refused before any large table is built
+    plan = compile_program(program_for(scenario, model)).plan()
+    check_model_runs(model, scenario_ref, task_ref)
     engine = BeliefEngine(scenario, model)
     labels = engine.graph.relational_labels
     return (f"{ref}: ok (model program, base {model.program.base}, sha256 {model.program.sha256[:12]}; "
             f"scenario {scenario.name}, task {task_ref})\n"
             f"episode beliefs: location queries by the {engine.location_method} method; "
             f"relational factors: {', '.join(labels) or 'none'}\n"
-            + compile_program(program).plan())
+            + plan)
 
 
 def _scenario_for_task(data: object) -> str:

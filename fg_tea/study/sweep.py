@@ -48,6 +48,7 @@ from typing import Any, Iterable, Mapping, Sequence
 from fg_tea.common.errors import InputError, PlannerRefused
 from fg_tea.study.cost import ESTIMATE_ABOVE, CostEstimate
 from fg_tea.study.executors import _BACKENDS
+from fg_tea.study.program_jobs import check_program_graphs
 from fg_tea.study.rows import CsvSink, read_rows, sweep_progress
 from fg_tea.study.seeds import EPISODE_SEEDS, check_episode_seeds, episode_seed
 
@@ -252,6 +253,7 @@ def check_jobs(jobs: Sequence[Job]) -> None:
     """
     from fg_tea.env.base import EnvConfig
     from fg_tea.model.spec import Model
+    from fg_tea.common.resources import is_program_ref
     from fg_tea.planning import check_planner
 
     env_fields = {f.name for f in dataclasses.fields(EnvConfig)}
@@ -281,7 +283,7 @@ def check_jobs(jobs: Sequence[Job]) -> None:
                                      f"exceeds 1 ({rule.same_site} + {rule.same_room})")
         if (job.model, job.model_overrides) not in seen:
             seen.add((job.model, job.model_overrides))
-            if not model_path(job.model).exists():
+            if not (is_program_ref(job.model) or model_path(job.model).exists()):
                 raise InputError(_CLI, "model", f"unknown model {job.model!r}: not a file, a bundled model "
                                  f"({', '.join(model_names())}) or a bundled ablation "
                                  f"({', '.join(ablation_names())})")
@@ -291,6 +293,7 @@ def check_jobs(jobs: Sequence[Job]) -> None:
 
             seen.add(("camera", job.camera))
             load_camera(job.camera).env_config(**dict(job.env_overrides))
+    check_program_graphs(jobs, job_world, job_model)  # a program's faults and budget, before any episode
 
 
 def plan_sweep(worlds: Sequence[str], n_worlds: int, models: Sequence[str], planners: Sequence[str], *,
