@@ -94,7 +94,13 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    """The public API, the module's own dunder names and its loaded subpackages: no helper
+    (``importlib``, ``Any``, ``annotations``) of this file."""
+    import types
+
+    own = {n for n, v in globals().items() if (n.startswith("__") and n.endswith("__"))
+           or (isinstance(v, types.ModuleType) and not n.startswith("_") and v.__name__ == f"{__name__}.{n}")}
+    return sorted(own | set(__all__))
 
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time the names load on first use

@@ -296,9 +296,9 @@ def _program_counts(base: Any, tables: Mapping[str, Any]) -> Any:
 def _add_tables(tables: dict | None, base: Any, scenario: Any, events: Sequence[Mapping]) -> dict:
     """`tables` plus one episode's counts of the program's learnable tables (design §12.6)."""
     from fg_tea.model.program_file import program_for
-    from fg_tea.study.program_learning import count_tables, observed_values
+    from fg_tea.study.program_learning import count_tables, declared_states, observed_values
 
-    new = count_tables(program_for(scenario, base), [observed_values(events)])
+    new = count_tables(program_for(scenario, base), [observed_values(events)], declared_states(scenario))
     return {k: n + (tables or {}).get(k, 0.0) for k, n in new.items()}
 
 

@@ -24,7 +24,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Collection, Mapping, Sequence
 
 import numpy as np
 
@@ -69,11 +69,23 @@ def check_log(events: Sequence[Mapping], log: str, sha256: str, sites: Sequence[
                          "learned for (--scenario)")
 
 
-def count_tables(program: Any, episodes: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
+def declared_states(scenario: Any) -> list[str]:
+    """The task states `scenario` declares (``object.state``): the only states a log can read."""
+    return [f"{o.name}.{s}" for o in scenario.objects for s in o.state_priors]
+
+
+def count_tables(program: Any, episodes: Sequence[Mapping[str, Any]],
+                 declared: Collection[str] | None = None) -> dict[str, np.ndarray]:
     """Counts N of every learnable table of `program` over the observed values of `episodes`.
 
+    Args:
+        declared: the task states the scenario declares (:func:`declared_states`); a state
+            outside them is never read, so a learnable table over it is refused. None: every
+            state the program declares is taken as readable.
+
     Raises:
-        InputError: a learnable table's scope holds a variable no log can observe.
+        InputError: a learnable table's scope holds a variable no log can observe (a variable
+            of the program's own, or a state the scenario does not declare).
     """
     by_name = {v.name: v for v in program.variables}
     counts = {}
@@ -85,6 +97,11 @@ def count_tables(program: Any, episodes: Sequence[Mapping[str, Any]]) -> dict[st
             raise InputError(program.source, f"factor {f.name!r}", f"is learnable but {hidden[0]!r} is a "
                              "variable no episode observes; only tables over locations and task states "
                              "can be counted")
+        unread = [v for v in f.scope if by_name[v].kind == "state" and declared is not None and v not in declared]
+        if unread:
+            raise InputError(program.source, f"factor {f.name!r}", f"is learnable but {unread[0]!r} is a "
+                             "state the scenario does not declare, which no episode reads; only tables "
+                             "over locations and declared task states can be counted")
         n = np.zeros(tuple(by_name[v].card for v in f.scope))
         for seen in episodes:
             if all(v in seen for v in f.scope):
@@ -163,7 +180,7 @@ def learn_program(logs: Sequence[str | Path], base: str, out: str | Path, scenar
     for log, events in read:
         check_log(events, log, root, scenario.site_names)
         episodes.append(observed_values(events, log))
-    counts = count_tables(program, episodes)
+    counts = count_tables(program, episodes, declared_states(scenario))
     if source.learned_from:  # learning on from a learned program: its counts add up
         previous = _counts_of(base)
         counts = {k: v + np.asarray(previous.get(k, 0.0)) for k, v in counts.items()}
@@ -203,4 +220,4 @@ def _logs_of(path: str) -> list[str]:
     return list(_module_value(path, "LOGS"))
 
 
-__all__ = ["observed_values", "check_log", "count_tables", "learned_text", "learn_program"]
+__all__ = ["observed_values", "check_log", "count_tables", "declared_states", "learned_text", "learn_program"]
