@@ -180,3 +180,13 @@ def test_a_learnable_table_over_an_undeclared_state_is_refused(tmp_path):
     assert "mug.dirty" not in declared_states(scenario) and "mug.served" in declared_states(scenario)
     with pytest.raises(InputError, match="does not declare"):
         count_tables(program, [], declared_states(scenario))
+
+
+def test_compare_lifelong_refuses_it_before_any_episode(tmp_path):
+    path = tmp_path / "dirty.py"
+    path.write_text(UNDECLARED)
+    out = tmp_path / "life"
+    status, _, err = cli(["compare", "--lifelong", "2", "--worlds", "1", "--models", "factorised", path,
+                          "--planners", "nearest", "--env", "fake", "--executor", "serial", "--out", out])
+    assert_one_line_error(status, err, str(path), "factor 'dirty prior'", "state the scenario does not declare")
+    assert not out.exists()

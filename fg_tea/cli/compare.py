@@ -244,6 +244,12 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
                              "facing_tolerance or occlusion, which learned detection "
                              "probabilities (eq. 51) cannot be combined with yet")
     base = world.base if world.base is not None else world.house(args.first_seed)
+    for m in models:  # a program's learnable tables can be counted (docs/design.md §12.6), before any episode
+        if m.program is not None:
+            from fg_tea.model.program_file import program_for
+            from fg_tea.study.program_learning import count_tables, declared_states
+
+            count_tables(program_for(base, m), [], declared_states(base))
     if planners[0] == "optimal":  # the Bayes-optimal DP's size limit, before any episode
         from fg_tea.tasks.load import load_task
 
