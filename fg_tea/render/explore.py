@@ -325,10 +325,17 @@ def _episode_data(events: list[dict], label: str | None) -> dict[str, Any]:
         lacks.append("its last line, which is not a whole JSON line (a crash mid-write): left out")
     if not tasks:
         lacks.append("task statuses in episode_start: the task graph is not shown")
+    inference = start.get("inference") if isinstance(start.get("inference"), dict) else None
+    if inference is None:
+        lacks.append("inference in episode_start (logs before it was recorded): the exact method of "
+                     "each query and which factors moved a belief are not shown")
+    moved = [_moved(start, 0)]
     decisions: list[dict[str, Any]] = []
     steps: list[dict[str, Any]] = []
     for i, e in enumerate(events):
         kind = e.get("event", "")
+        if kind == "belief" and i > 0:
+            moved.append(_moved(e, i))
         try:
             look, pose = _apply(e, i, look, pose, locations, states, entropy, status, viewpoint_sites,
                                 decisions, path)
@@ -342,6 +349,7 @@ def _episode_data(events: list[dict], label: str | None) -> dict[str, Any]:
             "look": dict(look), "decision": len(decisions) - 1 if kind == "decision" else None,
             "detections": ({"seen": e.get("detections", {}), "found_at": e.get("found_at", {}),
                             "pixels": e.get("pixel_counts", {})} if kind == "observation" else None),
+            "moved": len(moved) - 1,
         })
     end = next((e for e in reversed(events) if e.get("event") == "episode_end"), None)
     if end is None:
@@ -355,7 +363,22 @@ def _episode_data(events: list[dict], label: str | None) -> dict[str, Any]:
             "objects": list(locations), "sites": sites, "tasks": tasks,
             "task_codes": list(codes), "placements": (start.get("world") or {}).get("placements", {}),
             "outcome": (end or {}).get("reason"), "steps": steps, "decisions": decisions,
-            "path": path, "lacks": lacks}
+            "path": path, "lacks": lacks, "inference": inference, "moved": moved}
+
+
+def _moved(e: Mapping[str, Any], i: int) -> dict[str, Any]:
+    """The factors that moved each object's belief at a belief step (the prior's at the start),
+    as the log records them (``moved_by``, ``moved_by_note``; docs/log-format.md)."""
+    record = e.get("belief") if e.get("event") == "episode_start" else e
+    record = record if isinstance(record, dict) else {}
+    by = record.get("moved_by") or {}
+    if not isinstance(by, dict) or not all(isinstance(v, dict) for v in by.values()):
+        raise _BadEvent(i + 1, str(e.get("event")), "moved_by is not a map of objects to factors")
+    try:
+        shown = {o: {str(k): float(x) for k, x in v.items()} for o, v in by.items()}
+    except (TypeError, ValueError) as exc:
+        raise _BadEvent(i + 1, str(e.get("event")), f"moved_by: {exc}") from None
+    return {"seq": e.get("seq", i), "by": shown, "note": record.get("moved_by_note")}
 
 
 def _apply(e: Mapping[str, Any], i: int, look: dict, pose: list, locations: dict, states: dict,

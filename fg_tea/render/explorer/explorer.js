@@ -256,6 +256,7 @@
     buildPlan(pane, colPlan);
     pane.historyHost = colPlan;
     buildCandidates(pane, colInfo);
+    buildMoved(pane, colInfo);
     buildStates(pane, colInfo);
     const wide = h('div', {class: 'col-wide'}, body);
     buildTasks(pane, wide);
@@ -288,6 +289,7 @@
     pane.caption.where.textContent = 'step ' + (k + 1) + ' of ' + pane.ep.steps.length + ' · event ' + st.seq;
     drawPlan(pane, st);
     drawCandidates(pane, pane.inForce[k]);
+    drawMoved(pane, k);
     drawStates(pane, k);
     drawTasks(pane, st);
     for (const c of pane.charts) c.move(k);
@@ -720,6 +722,55 @@
       th.setAttribute('aria-sort', i === j ? (dir > 0 ? 'ascending' : 'descending') : 'none');
     });
     for (const i of order) table.tbody.appendChild(table.trs[i]);
+  }
+
+  // ----------------------------------------------------------------- factors that moved a belief
+  /** The factors whose removal would move the selected object's location belief most (total
+   * variation), as the log records them at the latest belief step (docs/design.md §4.8). */
+  function buildMoved(pane, parent) {
+    h('h3', null, parent, 'What moved the belief');
+    const inf = pane.ep.inference;
+    const how = inf ? 'location queries: ' + inf.locations + ' · task states: ' + inf.states +
+      (inf.components ? ' · ' + inf.components.map((c) => c.variables.join(', ') + ' by ' + c.method).join('; ')
+        : '') : 'this log does not record the exact method of each query';
+    h('p', {class: 'note inference'}, parent, how);
+    const head = h('div', {class: 'moved-head'}, parent);
+    const tbody = h('tbody', null, h('table', {class: 'moved'}, h('div', {class: 'table-wrap moved-wrap'}, parent)));
+    pane.moved = {head, tbody, shown: null};
+  }
+
+  function drawMoved(pane, k) {
+    const ep = pane.ep;
+    const m = (ep.moved || [])[ep.steps[k].moved];
+    const key = (m ? m.seq : '-') + '|' + object;
+    if (pane.moved.shown === key) return;
+    pane.moved.shown = key;
+    const {head, tbody} = pane.moved;
+    tbody.textContent = '';
+    const att = ep.inference && ep.inference.attribution;
+    if (!att || !m) {
+      head.textContent = 'this log does not record which factors moved a belief';
+      return;
+    }
+    if (!att.factors.length) {
+      head.textContent = 'nothing to attribute: the model has no factor beyond each object\'s prior and the looks';
+      return;
+    }
+    const where = ' (belief at event ' + m.seq + ')';
+    if (m.note) { head.textContent = m.note + where; return; }
+    const by = m.by[object] || {};
+    const names = Object.keys(by);
+    head.textContent = names.length
+      ? 'without each factor, the ' + object + '\'s belief would differ by (total variation)' + where
+      : 'no factor moved the ' + object + '\'s belief by more than ' + att.threshold_tv +
+        ' (total variation) beyond its prior and the looks' + where;
+    for (const name of names) {
+      const tr = h('tr', {'data-factor': name}, tbody);
+      h('th', {scope: 'row'}, tr, name);
+      h('td', {class: 'tv'}, tr, fmtP(by[name]));
+      const fill = h('span', {class: 'fill'}, h('span', {class: 'bar'}, h('td', {class: 'bar-cell'}, tr)));
+      fill.style.width = clamp(by[name], 0, 1) * 100 + '%';
+    }
   }
 
   // ---------------------------------------------------------------------------- hidden states
