@@ -101,6 +101,15 @@ def test_a_factorised_page_and_an_older_log_say_what_they_lack(browser, logs, tm
     head, rows = _panel(page)
     assert rows == {} and "nothing to attribute" in head
     page.close()
+    noted = [json.loads(line) for line in (logs / "factorised" / "episode.jsonl").read_text().splitlines()]
+    noted[0]["inference"]["attribution"]["notes"] = ["nothing attributed: <i>a capacity</i> too large"]
+    (tmp_path / "noted.jsonl").write_text("".join(json.dumps(e) + "\n" for e in noted))
+    run_cli("explore", tmp_path / "noted.jsonl", "--out", tmp_path / "noted.html", cwd=tmp_path)
+    page, noted_problems = open_explorer(browser, tmp_path / "noted.html")
+    head, rows = _panel(page)
+    assert rows == {} and head == "nothing attributed: <i>a capacity</i> too large"
+    assert noted_problems == []
+    page.close()
     events = [json.loads(line) for line in (logs / "mine" / "episode.jsonl").read_text().splitlines()]
     events[0].pop("inference")
     old = tmp_path / "old.jsonl"

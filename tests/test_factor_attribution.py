@@ -152,6 +152,19 @@ def test_an_over_budget_step_is_skipped_with_a_note(setting, monkeypatch):
     assert fields["moved_by_note"].startswith("skipped: ") and "budget 100" in fields["moved_by_note"]
 
 
+def test_a_capacity_only_the_subset_program_holds_is_noted_not_attributed(tmp_path):
+    house = tmp_path / "five.json"
+    assert main(["house", "--rooms", "6", "--seed", "7", "--objects", "mug,kettle,teabag,milk,sugar",
+                 "--out", str(house)]) == 0
+    engine = BeliefEngine(fg.load_scenario(house), fg.load_model("joint"))
+    assert engine.graph.joint_size > 4_194_304 and engine.location_method == "structured"
+    attribution = FactorAttribution(engine)
+    assert attribution.factors == () and attribution.fields(engine) == {}
+    [note] = attribution.record()["notes"]
+    assert note.startswith("nothing attributed: the capacity factor over 5 objects x 27 sites is held only by "
+                           "the subset program (14,348,907 joint states")
+
+
 @pytest.mark.parametrize("solver, method", [("numpy", "dense"), ("gtsam", "gtsam"), ("compiled", "compiled")])
 def test_the_log_records_the_method_and_the_factors(setting, tmp_path, solver, method):
     scenario, model, _ = setting

@@ -29,7 +29,7 @@ import numpy as np
 from fg_tea.beliefs.compiled import CompiledModel, compile_factors
 from fg_tea.beliefs.coupling import MESSAGE_LABEL
 from fg_tea.beliefs.factors import Evidence, location_var
-from fg_tea.beliefs.graph import _summed_out  # the graph's own sum over a program's own variables
+from fg_tea.beliefs.graph import DENSE_LIMIT, _summed_out  # _summed_out: the graph's own sum of own variables
 from fg_tea.common.errors import ContradictionError, InputError
 
 #: Total variation above which a factor is said to have moved an object's belief.
@@ -124,9 +124,12 @@ class FactorAttribution:
         held = True
         try:
             relational = list(engine.graph.relational)
-        except ValueError as exc:  # a capacity factor only the subset program holds
+        except ValueError:  # a capacity factor only the subset program holds
             relational, held = [], False
-            self.notes.append(f"nothing attributed: {exc}")
+            graph = engine.graph
+            self.notes.append(f"nothing attributed: the capacity factor over {len(graph.objects)} objects x "
+                              f"{len(graph.sites)} sites is held only by the subset program ({graph.joint_size:,} "
+                              f"joint states, above the dense limit {DENSE_LIMIT:,} of an exact solve by tables)")
         coupling = engine._coupling
         baseline = {label for o in engine.objects for label in _baseline(o)}
         added = [label for parts in self._parts.values() for label, _ in parts if label not in baseline]

@@ -753,7 +753,8 @@
       return;
     }
     if (!att.factors.length) {
-      head.textContent = 'nothing to attribute: the model has no factor beyond each object\'s prior and the looks';
+      head.textContent = att.notes && att.notes.length ? att.notes.join('; ')
+        : 'nothing to attribute: the model has no factor beyond each object\'s prior and the looks';
       return;
     }
     const where = ' (belief at event ' + m.seq + ')';
