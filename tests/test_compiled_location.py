@@ -36,6 +36,13 @@ def _events(args: list[str], out: Path) -> list[dict]:
 def _same_but_the_solver(expected: list[dict], actual: list[dict], where: str) -> None:
     assert actual[0]["parameters"]["run"]["belief_backend"] == "compiled"
     actual[0]["parameters"]["run"]["belief_backend"] = expected[0]["parameters"]["run"]["belief_backend"]
+    # The log names the method each query used (docs/log-format.md): the compiled block's (or its
+    # subset program), with its components; the factor attribution must be the same.
+    mine, theirs = actual[0]["inference"], expected[0]["inference"]
+    assert mine["solver"] == "compiled" and mine["locations"] in ("compiled", "structured")
+    assert ("components" in mine) == (mine["locations"] == "compiled")
+    assert mine["attribution"] == theirs["attribution"] and mine["states"] == theirs["states"]
+    actual[0]["inference"] = theirs
     found = list(event_differences(expected, actual))
     assert not found, report(where, found)
 
