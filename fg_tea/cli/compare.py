@@ -71,6 +71,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
         return _compare_lifelong(args)
     if args.forgetting is not None:
         raise InputError("<command line>", "--forgetting", "applies only with --lifelong K")
+    if getattr(args, "learn_transitions", False):
+        raise InputError("<command line>", "--learn-transitions", "applies only with --lifelong K")
     n_worlds = args.worlds if args.worlds is not None else (10 if args.quick else 200)
     planners = args.planners or list(COMPARE_QUICK_PLANNERS if args.quick else COMPARE_PLANNERS)
     out = Path(args.out) if args.out else Path("runs") / safe_name(f"compare-{Path(args.world).stem}")
@@ -272,7 +274,8 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
     remove_outputs(out, OUTPUTS)
     pairs = relation_pairs(models)
     specs = [HouseholdSpec(str(world_path(args.world)), False, str(model_path(ref)), h, k, args.env,
-                           planners[0], (args.forgetting,), None, "mug", pairs)
+                           planners[0], (args.forgetting,), None, "mug", pairs,
+                           learn_transitions=getattr(args, "learn_transitions", False))
              for ref in args.models for h in range(args.first_seed, args.first_seed + households)]
     workers = 1 if args.executor == "serial" else (args.workers or os.cpu_count() or 1)
     rows = run_lifelong(specs, workers)
@@ -281,6 +284,7 @@ def _compare_lifelong(args: argparse.Namespace) -> int:
                           "--worlds", str(households), "--models", *args.models, "--planners",
                           *planners, "--first-seed", str(args.first_seed), "--env", args.env,
                           *(["--forgetting", str(args.forgetting)] if args.forgetting is not None else []),
+                          *(["--learn-transitions"] if getattr(args, "learn_transitions", False) else []),
                           "--out", shown])
     files = write_outputs(rows, out, f"Lifelong learning on `{args.world}`: {households} households "
                           f"x {k} episodes, {args.env} house", command)
@@ -349,6 +353,11 @@ def add_compare_arguments(p: argparse.ArgumentParser, out: str | None = None) ->
                    "the model learned from the household's episodes before k, beside the hand-set "
                    "model on the same placements; one planner (default efe); episodes are run afresh "
                    "(--resume does not apply)")
+    p.add_argument("--learn-transitions", action="store_true",
+                   help="with --lifelong: a TOML model's learned arm also uses the transition successes "
+                   "learned from its episodes (docs/design.md §12.5, eq. 63); without it they are counted "
+                   "but the declared successes kept, as in earlier results. A model program's learned arm "
+                   "always uses those of the transitions it marks learnable (m.learnable_transition)")
     p.add_argument("--forgetting", type=float, default=None, metavar="GAMMA",
                    help="with --lifelong: forgetting factor gamma in (0, 1] of the learned arms "
                    "(default 1: never forget)")

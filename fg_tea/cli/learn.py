@@ -47,8 +47,9 @@ def _learn_program(args: argparse.Namespace) -> int:
         if value is not None:
             raise InputError("<command line>", flag, "applies to TOML models; a learned program keeps "
                              "every count and is named by its file")
-    out, counts = learn_program(args.logs, args.base, args.out, args.scenario, args.prior_strength)
-    told = "; ".join(f"{name}: {int(n.sum())} episode(s) counted" for name, n in counts.items())
+    out, counts, rows = learn_program(args.logs, args.base, args.out, args.scenario, args.prior_strength)
+    told = "; ".join([f"{name}: {int(n.sum())} episode(s) counted" for name, n in counts.items()]
+                     + [f"{key} ({row['state']}): {len(row['terms'])} likelihood term(s)" for key, row in rows.items()])
     print(f"learned: {out} ({len(args.logs)} new log(s); {told})")
     return 0
 
@@ -77,7 +78,9 @@ def add_parser(sub) -> None:
                    "(my_model.py, module:attr), whose tables marked learnable are counted from what "
                    "the agent observed: a location where its first confirm_search found the object, a "
                    "state where its first readings agree; a table over several variables counts an "
-                   "episode only when all of them were observed (docs/design.md §12.6); logs must come "
+                   "episode only when all of them were observed (docs/design.md §12.6); the effects of "
+                   "transitions it marks learnable (m.learnable_transition) get the likelihood terms of "
+                   "their success from the state readings (§12.5); logs must come "
                    "from that program (episode_start.program.sha256) (default: %(default)s)")
     p.add_argument("--out", required=True, type=out_path,
                    help="the learned model file to write (.toml; .py for a program's, a program itself)")

@@ -205,6 +205,48 @@ def apply_to_transitions(counts: Mapping[str, Mapping[str, Any]], strength: floa
     return MappingProxyType(out)
 
 
+def _is_term(t: Any) -> bool:
+    """[successes >= 0, failures >= 0, log weight <= 0], finite numbers."""
+    return (isinstance(t, (list, tuple)) and len(t) == 3
+            and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in t)
+            and t[0] >= 0 and t[1] >= 0 and t[2] <= 0)
+
+
+def with_transition_terms(model: Any, rows: Any, strength: Any, source: str = "<learned>") -> Any:
+    """`model` with eq. (63) as the success of every effect in `rows` (docs/design.md §12.5): a
+    learned program's ``transition_terms`` (``{"boil.effect0": {"state": template, "terms":
+    [[successes, failures, log weight], ...]}}``), applied by
+    :func:`fg_tea.model.learned_transitions.apply_to_transitions`; the declared transitions are kept
+    in ``declared_transitions``.
+
+    Raises:
+        InputError: a malformed row, a strength that is not positive, or a row naming a transition
+            or effect the model does not declare (one line naming `source` and the row).
+    """
+    from types import SimpleNamespace
+
+    if isinstance(strength, bool) or not isinstance(strength, (int, float)) or not (
+            math.isfinite(strength) and strength > 0):
+        raise InputError(source, "transition_strength", f"expected a positive number, got {strength!r}")
+    if not isinstance(rows, Mapping):
+        raise InputError(source, "transition_terms",
+                         "expected a mapping of effect rows (boil.effect0 = {state, terms})")
+    counts = {}
+    for key, row in rows.items():
+        name, dot, effect = str(key).rpartition(".effect")
+        terms = row.get("terms") if isinstance(row, Mapping) else None
+        if not (dot and name and effect.isdigit() and isinstance(row.get("state"), str)
+                and isinstance(terms, (list, tuple)) and all(map(_is_term, terms))):
+            raise InputError(source, f"transition_terms[{key!r}]", "expected <transition>.effect<k> = {state: "
+                             "the effect's template, terms: [[successes >= 0, failures >= 0, log weight <= 0], "
+                             "...]}")
+        counts[key] = {"state": row["state"],
+                       "terms": normalised([(float(t[0]), float(t[1]), float(t[2])) for t in terms])}
+    declared = model.declared_transitions if model.declared_transitions is not None else model.transitions
+    learned = apply_to_transitions(counts, float(strength), declared, SimpleNamespace(file=source, path="$"))
+    return replace(model, transitions=learned, declared_transitions=declared)
+
+
 __all__ = ["DEFAULT_TRANSITION_STRENGTH", "apply_to_transitions", "combine", "expected_counts",
            "interval", "is_constant", "normalised", "posterior_mean", "read_transition_counts",
-           "row_key", "scaled"]
+           "row_key", "scaled", "with_transition_terms"]

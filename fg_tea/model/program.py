@@ -12,6 +12,7 @@ A :class:`Program` is the model a user would write on a whiteboard (docs/design.
         return 5.0 if dirty and mug.furniture == "sink" else 1.0
 
     m.table(["weather"], [0.7, 0.3], name="weather prior", learnable=True)
+    m.learnable_transition("boil")                      # learn how often boiling really heats
     belief = fg.compile_program(m)                              # exact inference (fg_tea.beliefs.compiled)
 
 Every factor is stored as a table over its scope's assignments; a function is evaluated once per
@@ -146,7 +147,8 @@ class Program:
     ``fg.program_from_model(scenario, model)`` (a bundled model's factors, to edit), or directly
     with ``Program(sites=scenario.sites)``. Then declare variables with :meth:`location`,
     :meth:`state` and :meth:`variable`, and factors with :meth:`factor` (a function) or
-    :meth:`table`; :meth:`remove` and :meth:`replace` edit it. ``fg.compile_program(program)`` turns it
+    :meth:`table`; :meth:`remove` and :meth:`replace` edit it; :meth:`learnable_transition` marks a
+    transition of the model for learning. ``fg.compile_program(program)`` turns it
     into an exact belief (marginals, joints, hypothetical posteriors, K best arrangements) and
     ``fg.compile_program(program).plan()`` prints how each query will be answered.
 
@@ -167,6 +169,7 @@ class Program:
         self.objects = None if objects is None else tuple(objects)
         self._variables: dict[str, Variable] = {}
         self._factors: dict[str, ProgramFactor] = {}
+        self._learnable_transitions: list[str] = []
         #: The model whose other settings (planning, detection, sensors, transitions) go with
         #: these starting factors: set by ``program_from_model``; None = the default model's.
         self.model: Any = None
@@ -366,6 +369,35 @@ class Program:
     def learnable(self) -> tuple[str, ...]:
         """Names of the factors marked learnable."""
         return tuple(f.name for f in self._factors.values() if f.learnable)
+
+    def learnable_transition(self, name: str) -> str:
+        """Mark the model's transition `name` (``"boil"``) learnable: ``fg-tea learn`` counts the
+        success of each of its effects from the program's episodes (docs/design.md §12.5, eqs.
+        61-63) and the learned program uses the learned successes; so does ``compare --lifelong``.
+
+        The transitions are the base model's (the module's ``base``); a name it does not declare
+        is refused in one line when the program is built.
+
+        Args:
+            name: the transition's name, as the model's ``[transitions]`` table names it.
+
+        Returns:
+            `name`.
+        """
+        if not isinstance(name, str) or not name:
+            raise InputError(self.source, "learnable_transition", "needs a transition's name (a string)")
+        known = getattr(self.model, "transitions", None)
+        if known is not None and name not in known:
+            raise InputError(self.source, f"learnable_transition {name!r}",
+                             f"unknown transition (known: {', '.join(sorted(known))})")
+        if name not in self._learnable_transitions:
+            self._learnable_transitions.append(name)
+        return name
+
+    @property
+    def learnable_transitions(self) -> tuple[str, ...]:
+        """Names of the model's transitions marked learnable (:meth:`learnable_transition`)."""
+        return tuple(self._learnable_transitions)
 
     def factor_named(self, name: str) -> ProgramFactor:
         """The factor called `name` (InputError naming the known factors otherwise)."""

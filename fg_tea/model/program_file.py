@@ -73,6 +73,10 @@ class ProgramSource:
         base: the base model's name or file (the module's ``base``).
         learned_from: for a program written by ``fg-tea learn``, the SHA-256 of the program it
             learned from (the module's ``learned_from``), so its logs can be learned from again.
+        transition_terms: for a learned program, the eq. (61) terms of its learnable transitions'
+            effects (the module's ``transition_terms``: ``{"boil.effect0": {"state", "terms"}}``),
+            applied to the base model's transitions when it is loaded (docs/design.md §12.5).
+        transition_strength: S_t of those terms (the module's ``transition_strength``).
     """
 
     spec: str
@@ -81,6 +85,8 @@ class ProgramSource:
     function: Callable[[Any], Any]
     base: str
     learned_from: str = ""
+    transition_terms: Any = None
+    transition_strength: float = 0.0
 
 
 class _Timeout(BaseException):
@@ -217,8 +223,11 @@ def load_program_source(ref: str | Path) -> ProgramSource:
         digest = ""
     label = spec if spec.endswith(".py") else _module_file(module, path)
     learned_from = getattr(module, "learned_from", "")
+    terms = getattr(module, "transition_terms", None)
+    strength = getattr(module, "transition_strength", 0.0)
     return ProgramSource(spec, label, digest, target, str(base),
-                         learned_from if isinstance(learned_from, str) else "")
+                         learned_from if isinstance(learned_from, str) else "",
+                         terms, strength if isinstance(strength, (int, float)) else float("nan"))
 
 
 def _module_file(module: Any, path: Path) -> str:
@@ -242,6 +251,10 @@ def load_program_model(ref: str | Path, load_model: Callable[[str], Any]) -> Any
     if is_program_ref(source.base):
         raise InputError(source.spec, "base", "must name a TOML model, not another program")
     base = load_model(source.base)
+    if source.transition_terms is not None:
+        from fg_tea.model.learned_transitions import with_transition_terms
+
+        base = with_transition_terms(base, source.transition_terms, source.transition_strength, source.spec)
     name = Path(source.spec).stem if source.spec.endswith(".py") else source.spec
     return replace(base, name=name, description=f"model program {source.spec} (base {base.name})",
                    source=source.spec, program=source)
@@ -282,6 +295,14 @@ def program_for(scenario: Any, model: Any) -> Any:
         raise InputError(source.spec, "base", f"the program builds on model {program.model.name!r} but the "
                          f"module's base is {source.base!r}; set base = {program.model.name!r} so planning, "
                          "detection and transitions match")
+    if program.learnable_transitions and getattr(model, "transition_form", "full") != "full":
+        raise InputError(source.spec, f"learnable_transition {program.learnable_transitions[0]!r}",
+                         f"the base model {source.base!r} uses the direct form of transitions; learning "
+                         "them (docs/design.md §12.5) needs the full form of eq. 27")
+    for name in program.learnable_transitions:
+        if name not in model.transitions:
+            raise InputError(source.spec, f"learnable_transition {name!r}", "unknown transition (the base "
+                             f"model {source.base!r} declares: {', '.join(sorted(model.transitions))})")
     program.source = source.spec
     _BUILT.append((source, scenario, program))
     del _BUILT[:-4]
@@ -289,7 +310,11 @@ def program_for(scenario: Any, model: Any) -> Any:
 
 
 def _same_settings(a: Any, b: Any) -> bool:
-    blank = {"name": "", "description": "", "source": "", "program": None}
+    """Same settings apart from the names, and apart from transitions learned from episodes (eq. 63):
+    each is compared by its declared transitions."""
+    blank = {"name": "", "description": "", "source": "", "program": None, "declared_transitions": None}
+    a, b = (replace(m, transitions=m.declared_transitions) if getattr(m, "declared_transitions", None) is not None
+            else m for m in (a, b))
     try:
         return bool(replace(a, **blank) == replace(b, **blank))
     except (TypeError, ValueError):  # a field that does not compare as a whole (an array): by text

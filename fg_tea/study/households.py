@@ -84,8 +84,10 @@ class HouseholdSpec:
         log_dir: when given, every learned arm's episode log is written to
             ``log_dir/MODEL/ARM/householdH/episodeKK.jsonl`` and named (with its sha256) as the
             source of the counts, so ``fg-tea learn`` on those files rebuilds the arm's model.
-        learn_transitions: the learned arms apply learned transition successes too (eq. 63); off,
-            transition counts are gathered but the declared successes are kept.
+        learn_transitions: the learned arms of a TOML model apply learned transition successes
+            too (eq. 63); off, transition counts are gathered but the declared successes are kept.
+            A model program's learned arm applies the successes of the transitions it marks
+            learnable (``Program.learnable_transition``) whatever this says: the mark is the opt-in.
         effect_success: environment only, (truth effect, P(it happens)) pairs
             (:attr:`fg_tea.env.base.EnvConfig.effect_success`); never given to the agent.
     """
@@ -234,12 +236,13 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
     for label, kind, gamma in arms_of(base, spec.forgetting):
         learning = None
         tables: dict | None = None  # a program's learnable tables: counts so far (design §12.6)
+        moves: dict = {}  # a program's learnable transitions: eq. (61) terms so far (design §12.5)
         for k in range(spec.episodes):
             scenario, seed = _placements(spec, k)
             model = base
             if base.program is not None:
                 if tables is not None:
-                    model = _program_counts(base, tables)
+                    model = _program_counts(base, tables, moves)
             elif learning is not None:
                 applied = learning if kind == LEARNED_CORRELATIONS else replace(
                     learning, counts=learning.counts.without_relations())
@@ -277,6 +280,7 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
                 "_calibration": scores["calibration"]})
             if kind != HAND_SET and base.program is not None:
                 tables = _add_tables(tables, base, scenario, events)
+                moves = _add_transitions(moves, base, scenario, events, gamma)
             elif kind != HAND_SET:
                 # in memory the source is named by household and episode, and its "sha256" is the
                 # episode seed (there is no file); with log_dir, the written file and its hash
@@ -287,10 +291,30 @@ def run_household(spec: HouseholdSpec) -> list[dict]:
     return rows
 
 
-def _program_counts(base: Any, tables: Mapping[str, Any]) -> Any:
+def _program_counts(base: Any, tables: Mapping[str, Any], moves: Mapping[str, Any] | None = None) -> Any:
+    from fg_tea.model.learned_transitions import DEFAULT_TRANSITION_STRENGTH, with_transition_terms
     from fg_tea.model.program_learned import with_counts
 
-    return with_counts(base, tables)
+    model = with_counts(base, tables)
+    if moves:  # the learned successes of the transitions the program marks learnable (eq. 63)
+        model = with_transition_terms(model, moves, DEFAULT_TRANSITION_STRENGTH, base.source)
+    return model
+
+
+def _add_transitions(moves: Mapping[str, Any], base: Any, scenario: Any, events: Sequence[Mapping],
+                     gamma: float | None) -> dict:
+    """`moves` (eq. 61's terms of the program's learnable transitions so far, forgotten by gamma,
+    eq. 53) times one episode's (design §12.5; :func:`fg_tea.study.program_learning.count_transitions`)."""
+    from fg_tea.model.learned_transitions import scaled
+    from fg_tea.model.program_file import program_for
+    from fg_tea.study.program_learning import count_transitions
+
+    program = program_for(scenario, base)
+    if not program.learnable_transitions:
+        return {}
+    g = 1.0 if gamma is None else gamma
+    kept = {k: {"state": r["state"], "terms": scaled(r["terms"], g)} for k, r in moves.items()}
+    return count_transitions(program, base, [("<lifelong episode>", events)], kept)
 
 
 def _add_tables(tables: dict | None, base: Any, scenario: Any, events: Sequence[Mapping]) -> dict:

@@ -117,8 +117,34 @@ def _index(variable: Any, value: Any) -> int | None:
     return labels.index(value) if value in labels else None
 
 
+def count_transitions(program: Any, model: Any, read: Sequence[tuple[str, Sequence[Mapping]]],
+                      previous: Mapping[str, Any] | None = None) -> dict[str, dict[str, Any]]:
+    """Eq. (61)'s terms of every effect of the transitions `program` marks learnable, over the logs
+    `read` ((file, events) pairs), by rule 5 of docs/design.md §12.2
+    (:func:`fg_tea.study.transition_counts.transition_terms`; the terms of several episodes
+    multiply, :func:`fg_tea.model.learned_transitions.combine`), added to `previous` (a learned
+    program's ``transition_terms``). Returns ``{"boil.effect0": {"state": template, "terms": ...}}``.
+    """
+    from fg_tea.model.learned_transitions import combine, normalised
+    from fg_tea.study.transition_counts import transition_terms
+
+    marked = set(program.learnable_transitions)
+    declared = model.declared_transitions if model.declared_transitions is not None else model.transitions
+    out = {key: {"state": row["state"], "terms": normalised([tuple(t) for t in row["terms"]])}
+           for key, row in (previous or {}).items()}
+    for log, events in read:
+        for key, terms in transition_terms(events, log).items():
+            name, _, k = key.rpartition(".effect")
+            if name not in marked:
+                continue
+            row = out.setdefault(key, {"state": declared[name].effects[int(k)].state, "terms": ()})
+            row["terms"] = combine(row["terms"], terms)
+    return dict(sorted(out.items()))
+
+
 def learned_text(source: str, sha256: str, counts: Mapping[str, np.ndarray], logs: Sequence[str],
-                 prior_strength: float) -> str:
+                 prior_strength: float, transitions: Mapping[str, Mapping[str, Any]] | None = None,
+                 transition_strength: float = 0.0) -> str:
     """The learned program file (docs/design.md §12.6): it names its source and holds the counts."""
     lines = [
         f'"""Written by `fg-tea learn`: {source} with its learnable tables learned from '
@@ -136,6 +162,12 @@ def learned_text(source: str, sha256: str, counts: Mapping[str, np.ndarray], log
         f"PRIOR_STRENGTH = {prior_strength!r}",
         f"LOGS = {json.dumps(list(logs), indent=4)}",
         f"COUNTS = {json.dumps({k: n.tolist() for k, n in counts.items()})}",
+        *([f"# eq. (61) terms [successes, failures, log weight] of each learnable transition's effect "
+           "(docs/design.md §12.5);",
+           "# the model's transitions use eq. (63)'s success with transition_strength (S_t) pseudo-trials",
+           f"transition_strength = {transition_strength!r}",
+           "transition_terms = " + json.dumps({k: {"state": r["state"], "terms": [list(t) for t in r["terms"]]}
+                                               for k, r in transitions.items()})] if transitions else []),
         "",
         "base, model = learned_model(SOURCE, learned_from, COUNTS, PRIOR_STRENGTH, here=__file__)",
         "",
@@ -144,9 +176,11 @@ def learned_text(source: str, sha256: str, counts: Mapping[str, np.ndarray], log
 
 
 def learn_program(logs: Sequence[str | Path], base: str, out: str | Path, scenario_ref: str | None = None,
-                  prior_strength: float | None = None) -> tuple[Path, dict[str, np.ndarray]]:
-    """``fg-tea learn --base PROGRAM``: count the program's learnable tables over `logs` and write
-    the learned program file `out` (atomically, after it loads and builds).
+                  prior_strength: float | None = None
+                  ) -> tuple[Path, dict[str, np.ndarray], dict[str, dict[str, Any]]]:
+    """``fg-tea learn --base PROGRAM``: count the program's learnable tables and the terms of its
+    learnable transitions (:func:`count_transitions`) over `logs` and write the learned program
+    file `out` (atomically, after it loads and builds). Returns (out, table counts, transition rows).
 
     Raises:
         InputError: a bad log, base, out path or option (one line: file, field, fault).
@@ -174,13 +208,20 @@ def learn_program(logs: Sequence[str | Path], base: str, out: str | Path, scenar
         scenario_ref = str(start.get("scenario_file") or start.get("scenario"))
     scenario = load_scenario(scenario_ref)
     program = program_for(scenario, model)
-    if not program.learnable:
-        raise InputError(str(base), "factors", "the program marks no table learnable (learnable=True)")
+    if not program.learnable and not program.learnable_transitions:
+        raise InputError(str(base), "factors", "the program marks no table learnable (learnable=True) "
+                         "and no transition (learnable_transition)")
     episodes = []
     for log, events in read:
         check_log(events, log, root, scenario.site_names)
         episodes.append(observed_values(events, log))
     counts = count_tables(program, episodes, declared_states(scenario))
+    from fg_tea.model.learned_transitions import DEFAULT_TRANSITION_STRENGTH
+
+    previous_rows = _module_value(base, "transition_terms", {}) if source.learned_from else {}
+    rows = count_transitions(program, model, read, previous_rows) if program.learnable_transitions else {}
+    t_strength = (_module_value(base, "transition_strength", DEFAULT_TRANSITION_STRENGTH) if source.learned_from
+                  else DEFAULT_TRANSITION_STRENGTH)
     if source.learned_from:  # learning on from a learned program: its counts add up
         previous = _counts_of(base)
         counts = {k: v + np.asarray(previous.get(k, 0.0)) for k, v in counts.items()}
@@ -192,19 +233,24 @@ def learn_program(logs: Sequence[str | Path], base: str, out: str | Path, scenar
         origin, all_logs = source.spec, [str(p) for p in logs]
     if origin.endswith(".py"):  # named from the learned file's folder, wherever it is run from
         origin = os.path.relpath(Path(origin).resolve(), out.resolve().parent)
-    text = learned_text(origin, root, counts, all_logs, strength)
+    text = learned_text(origin, root, counts, all_logs, strength, rows, t_strength)
     atomic_write_text(out, text)
     load_model(str(out))  # it loads: every check a run makes of a program
-    return out, counts
+    return out, counts, rows
 
 
-def _module_value(path: str, name: str) -> Any:
+_MISSING = object()
+
+
+def _module_value(path: str, name: str, default: Any = _MISSING) -> Any:
     import ast
 
     tree = ast.parse(Path(path).read_text())
     for node in tree.body:
         if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == name for t in node.targets):
             return ast.literal_eval(node.value)
+    if default is not _MISSING:
+        return default
     raise InputError(path, name, "not a learned program file (no such assignment)")
 
 
@@ -220,4 +266,5 @@ def _logs_of(path: str) -> list[str]:
     return list(_module_value(path, "LOGS"))
 
 
-__all__ = ["observed_values", "check_log", "count_tables", "declared_states", "learned_text", "learn_program"]
+__all__ = ["observed_values", "check_log", "count_tables", "count_transitions", "declared_states", "learned_text",
+           "learn_program"]
