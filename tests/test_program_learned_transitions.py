@@ -142,3 +142,12 @@ def test_compare_lifelong_refuses_a_program_marking_an_unknown_transition_before
     err = capsys.readouterr().err.strip()
     assert status == 2 and len(err.splitlines()) == 1 and "'boill'" in err, err
     assert not (tmp_path / "o" / "episodes.csv").exists()
+
+
+def test_a_learnable_transition_on_a_direct_form_base_is_refused_in_one_line(tmp_path, capsys):
+    path = tmp_path / "direct.py"
+    path.write_text(PROGRAM.replace(repr(str(CHECKER)), repr(str(HERE.parent / "models" / "ablations"
+                                                                 / "direct_effects.toml"))).format(name="boil"))
+    status = main(["beliefs", "--model", str(path)])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and len(err.splitlines()) == 1 and "direct form" in err and "'boil'" in err, err
