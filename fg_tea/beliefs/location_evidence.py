@@ -196,7 +196,13 @@ class LocationEvidence:
             # elsewhere after many misses elsewhere) is taken from the exact log belief, so the
             # ratio t / q keeps eq. 4's floor at every site.
             exact = None if current.min() >= np.finfo(float).tiny else self._log_location(obj)
-            return collapse_factor(obj, j, current, self.model.prior_floor, log_current=exact)
+            try:
+                return collapse_factor(obj, j, current, self.model.prior_floor, log_current=exact)
+            except ContradictionError:
+                raise ContradictionError(f"the model rules out what the agent saw: the {obj} at "
+                                         f"{self.sites[j]}, where the model gives it probability zero "
+                                         "(evidence cannot overturn a factor's zero; give it a small "
+                                         "positive weight)") from None
         return detection_factor(obj, j, len(self.sites),
                                 self.model.miss_likelihood if miss is None else miss,
                                 self.model.false_positive_rate)

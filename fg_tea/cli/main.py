@@ -24,7 +24,7 @@ import fg_tea.cli.list as listing
 import fg_tea.cli.run as run
 import fg_tea.cli.validate as validate
 from fg_tea.cli.common import COMMANDS, Failed, Parser
-from fg_tea.common.errors import InputError
+from fg_tea.common.errors import ContradictionError, InputError
 from fg_tea.common.options import DeprecatedAlias, check_aliases
 
 
@@ -86,6 +86,10 @@ def main(argv: Sequence[str] | None = None,
     except Failed as exc:
         _error(str(exc) + "".join(f" (note: {n})" for n in notes))
         return 1
+    except ContradictionError as exc:  # the model (the user's input) contradicted by the world
+        model = getattr(args, "model", None)
+        _error(f"{model or '<model>'}: {exc}")
+        return 2
     except BrokenPipeError:
         # The reader of our output went away (``fg-tea ... | head``): end quietly.
         _silence_stdout()
