@@ -156,7 +156,7 @@ def _in_view(views, house, camera) -> list[int]:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     from fg_tea.env.pybullet_quiet import pybullet
-    from fg_tea.env.house import _sub_projection
+    from fg_tea.env.house import sub_projection
     from fg_tea.render.video import plan_frames
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -226,7 +226,7 @@ def main(argv: list[str] | None = None) -> int:
     window = (300, 150, 340, 180)
     painted.set_scene_state(*frames[len(frames) // 2])
     camera = painted.chase_camera(*CHASE, *chase)
-    small = (camera[0], _sub_projection(camera[1], *CHASE, window))
+    small = (camera[0], sub_projection(camera[1], *CHASE, window))
     call = _ms(lambda: painted.chase_house._render(small, 40, 30, segmentation=False), 50)
     totals = {"painted chase": 0.0, "painted inset": 0.0, "alone chase": 0.0, "alone inset": 0.0}
     differ = {"chase": 0, "inset": 0}

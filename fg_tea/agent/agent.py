@@ -28,9 +28,11 @@ import numpy as np
 
 from fg_tea.agent import records as _records
 from fg_tea.agent.give_up import probability_rule, sweep_length, weigh
+from fg_tea.beliefs.attribution import FactorAttribution
 from fg_tea.beliefs.detection import PixelTable, ViewModel
 from fg_tea.beliefs.engine import BeliefEngine, LookUpdate
 from fg_tea.beliefs.occlusion import CompanyTable
+from fg_tea.model.program_file import program_for
 from fg_tea.model.spec import Model
 from fg_tea.planning import Decision, DistanceModel, distances_for, make_planner
 from fg_tea.planning.base import Planner, accept_decision, call_planner
@@ -96,6 +98,7 @@ class Agent:
                  expected_pixels: PixelTable | None = None,
                  company: CompanyTable | None = None) -> None:
         self.scenario, self.model = scenario, model
+        self._attribution: FactorAttribution | None = None
         self.belief = BeliefEngine(scenario, model, backend=solver)
         self.graph = load_task(task, model, scenario, preparation_site)
         self.executor = TaskExecutor(self.graph, self.belief, scenario, model,
@@ -194,8 +197,16 @@ class Agent:
                 "gtsam_agreement": _records.gtsam_agreement(self) if gtsam_check else None}
 
     def snapshot(self) -> dict:
-        """The belief as one JSON record (a ``belief`` event's fields)."""
-        return self.belief.snapshot()
+        """The belief as one JSON record (a ``belief`` event's fields), with the factors that
+        moved each object's belief (``moved_by``, :meth:`attribution`)."""
+        return {**self.belief.snapshot(), **self.attribution().fields(self.belief)}
+
+    def attribution(self) -> FactorAttribution:
+        """Which factors move each object's belief (docs/design.md §4.8), built at the first
+        call from the belief's factors and the model's program."""
+        if self._attribution is None:
+            self._attribution = FactorAttribution(self.belief, program_for(self.scenario, self.model))
+        return self._attribution
 
     def progress(self) -> tuple[int, int]:
         """(task actions finished, task actions in all)."""

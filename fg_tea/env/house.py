@@ -211,7 +211,7 @@ class PyBulletHouse(TruthBackedAdapter):
             if window is None:
                 return {label: 0 for label in bodies}
             c0, r0, c1, r1 = window
-            proj = _sub_projection(proj, width, height, window)
+            proj = sub_projection(proj, width, height, window)
             width, height = c1 - c0, r1 - r0
         seg = self._render((view, proj), width, height, segmentation=True)[2]
         return {label: int(np.count_nonzero(seg == body)) for label, (body, _) in bodies.items()}
@@ -555,7 +555,7 @@ def _view(eye: Sequence[float], yaw: float, pitch: float) -> list:
     return pybullet.computeViewMatrix(list(eye), target, up)
 
 
-def _sub_projection(proj: Sequence[float], width: int, height: int, window: tuple[int, int, int, int]) -> list:
+def sub_projection(proj: Sequence[float], width: int, height: int, window: tuple[int, int, int, int]) -> list:
     """Projection matrix that renders pixel window (col0, row0, col1, row1) of the full image.
 
     Clip coordinates are scaled and shifted so the window's NDC range maps to [-1, 1]; integer

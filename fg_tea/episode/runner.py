@@ -35,7 +35,6 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from fg_tea.agent.agent import Agent
-from fg_tea.beliefs.attribution import FactorAttribution
 from fg_tea.beliefs.query_methods import inference_record
 from fg_tea.common.errors import PlannerFault
 from fg_tea.env.base import EnvAdapter, EnvConfig
@@ -45,7 +44,6 @@ from fg_tea.episode.config import RunConfig, logged_run
 from fg_tea.episode.log import EventLog
 from fg_tea.episode.metrics import score
 from fg_tea.episode.provenance import episode_provenance, portable_ref, program_record
-from fg_tea.model.program_file import program_for
 from fg_tea.model.spec import Model
 from fg_tea.tasks.records import PreconditionError
 from fg_tea.world.interface import ActionRequest, Pose
@@ -189,10 +187,8 @@ class EpisodeRunner:
         self._started = True
         self.agent.view_geometry_from(self.env)
         self._yardstick_start = start_truth(self.env, pose)
-        self._attribution = FactorAttribution(self.agent.belief, program_for(self.scenario, self.model))
         event = self._write(start_event(self.scenario, self.model, self.env, self.config, self.agent,
-                                        pose, world=self.world, render=self.render,
-                                        attribution=self._attribution))
+                                        pose, world=self.world, render=self.render))
         return event
 
     def step(self) -> list[dict]:
@@ -230,8 +226,7 @@ class EpisodeRunner:
         else:
             self._practical(action)
         if self.config.snapshot_every_event:
-            self._write({"event": "belief", **self.agent.snapshot(),
-                         **self._attribution.fields(self.agent.belief)})
+            self._write({"event": "belief", **self.agent.snapshot()})
         return self.log.events[first:]
 
     def run(self, progress: Callable[["EpisodeRunner"], None] | None = None) -> dict:
@@ -341,13 +336,12 @@ class EpisodeRunner:
 
 
 def start_event(scenario: Scenario, model: Model, env: EnvAdapter, config: RunConfig, agent: Agent,
-                pose: Pose, *, world: str | Path | None = None, render: Any = None,
-                attribution: FactorAttribution | None = None) -> dict:
+                pose: Pose, *, world: str | Path | None = None, render: Any = None) -> dict:
     """The ``episode_start`` record (before its ``seq`` and ``frame``) of an episode whose
     environment was just reset to `pose` and whose agent has its view geometry: the inputs and
     their provenance, every parameter, the house as the agent may know it, the task and the prior.
-    `world` and `render` as for :class:`EpisodeRunner`; `attribution` adds the factors that moved
-    the prior to its ``belief`` (``moved_by``) and its plan to ``inference``."""
+    `world` and `render` as for :class:`EpisodeRunner`; the agent's factor attribution adds the
+    factors that moved the prior to its ``belief`` (``moved_by``) and its plan to ``inference``."""
     looks_from = set(agent.viewpoints())
     # JSON records of the log (mixed value types); the yardstick reads them back.
     viewpoints: list[dict[str, Any]] = [
@@ -368,7 +362,7 @@ def start_event(scenario: Scenario, model: Model, env: EnvAdapter, config: RunCo
         "model": model.name, "model_file": portable_ref(model.source) if model.source else None,
         "structure": model.structure,
         # The exact method of each query (docs/design.md §4.8), chosen when the belief was built.
-        "inference": inference_record(agent.belief, attribution),
+        "inference": inference_record(agent.belief, agent.attribution()),
         # A model program (docs/design.md §4.8): its file, hash and factors; absent for TOML models.
         **({"program": program_record(scenario, model)} if model.program is not None else {}),
         "task": mine["task"], "planner": config.planner, "seed": config.seed,
@@ -400,7 +394,7 @@ def start_event(scenario: Scenario, model: Model, env: EnvAdapter, config: RunCo
         "searched": mine["searched"], "graph": mine["graph"], "tasks": mine["tasks"],
         "pose": pose.as_list(),
         "world": {"placements": {k: list(v) for k, v in env.placements().items()}},
-        "belief": {**mine["belief"], **(attribution.fields(agent.belief) if attribution is not None else {})},
+        "belief": {**mine["belief"], **agent.attribution().fields(agent.belief)},
     }
 
 

@@ -19,7 +19,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from fg_tea.env.house import LIGHT_COEFFS, LIGHT_DIRECTION, _sub_projection
+from fg_tea.env.house import LIGHT_COEFFS, LIGHT_DIRECTION, sub_projection
 from fg_tea.env.pybullet_quiet import pybullet
 
 #: The edges of a box's corners as :func:`fg_tea.env.house._corners` orders them (x, then y, then z).
@@ -100,7 +100,7 @@ class BodyWindows:
                 continue
             c0, r0, c1, r1 = window
             pybullet.resetBasePositionAndOrientation(twin, pos, orn, physicsClientId=scene)
-            part, depth = tiny_render(scene, (view, _sub_projection(proj, width, height, window)), c1 - c0, r1 - r0)
+            part, depth = tiny_render(scene, (view, sub_projection(proj, width, height, window)), c1 - c0, r1 - r0)
             self.calls += 1
             if nearest is None:
                 nearest = np.ones((height, width), np.float32)
