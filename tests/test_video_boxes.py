@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from fg_tea.env.house import LIGHT_COEFFS, LIGHT_DIRECTION, _corners, _sub_projection
+from fg_tea.env.house import LIGHT_COEFFS, LIGHT_DIRECTION, _corners, sub_projection
 from fg_tea.env.pybullet_quiet import pybullet
 from fg_tea.env import assets
 from fg_tea.render.boxes import Box, BoxPainter, disjoint
@@ -164,7 +164,7 @@ def test_a_body_window_holds_every_pixel_of_the_body(client):
         outside[r0:r1, c0:c1] = False
         assert not outside.any()
         # and the window, rendered alone, gives the whole image's pixels there
-        part, _ = _tiny(client, view, _sub_projection(proj, width, height, window), c1 - c0, r1 - r0)
+        part, _ = _tiny(client, view, sub_projection(proj, width, height, window), c1 - c0, r1 - r0)
         whole, _ = _tiny(client, view, proj, width, height)
         assert (part != whole[r0:r1, c0:c1]).any(axis=2).sum() <= 2
 
