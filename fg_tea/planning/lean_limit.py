@@ -166,8 +166,8 @@ def solve_root(problem: SearchProblem, views: np.ndarray, sites: np.ndarray, q0:
             digits = layers.unrank(total, ranks)
             here = _masses(q, factor, seen_by, digits)
             mass[:, ranks] = here
-            q_best = _q_values(layers, total, digits, here, prev_mass, prev_values, found, look, finite)
             live = np.all((here > 0)[None] | found[:, :, None], axis=1)       # (F, n)
+            q_best = _q_values(layers, total, digits, here, prev_mass, prev_values, live, look, finite)
             best = np.where(live[:full, None, :], _nearest_plus(between, q_best[:full]), 0.0)
             if upper and total == layers.top:  # the fully capped state: the cyclic sweep
                 alive = [f for f in range(full) if live[f, 0]]
@@ -192,10 +192,10 @@ def _masses(q: np.ndarray, factor: np.ndarray, seen_by: list, digits: np.ndarray
 
 
 def _q_values(layers: Layers, total: int, digits: np.ndarray, here: np.ndarray, prev_mass: np.ndarray,
-              prev_values: np.ndarray, found: np.ndarray, look: np.ndarray, finite: bool) -> np.ndarray:
+              prev_values: np.ndarray, live: np.ndarray, look: np.ndarray, finite: bool) -> np.ndarray:
     """Q(F, n, w) = look(w) + E[V(F | S, w, n + e_w)] for every found set F, vector n (rows of
     `digits`) and look w, shape (F, n, A); inf where the cut forbids the look or n is impossible
-    under F."""
+    under F (`live`, shape (F, n), is False)."""
     n, a = digits.shape
     ok = digits < (layers.levels - 1)[None, :]
     nxt = np.where(ok, layers.successors(total, digits), 0)
@@ -208,7 +208,6 @@ def _q_values(layers: Layers, total: int, digits: np.ndarray, here: np.ndarray, 
     else:
         keep = np.ones((here.shape[0], n, a))
     expect = _expectation(later, keep, finite)
-    live = np.all((here > 0)[None] | found[:, :, None], axis=1)     # (F, n)
     return np.where(ok[None] & live[:, :, None], look[None, None, :] + expect, np.inf)
 
 
